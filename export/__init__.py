@@ -1,0 +1,1 @@
+"""svbrdf.export: trainer checkpoint -> ONNX generator with metadata and a parity check."""

@@ -1,0 +1,1 @@
+"""Packaged model files (ONNX generator, stage-one checkpoint, manifest). Data only."""

@@ -1,0 +1,1 @@
+"""svbrdf-bench: run time against error on ground-truth sets and real photos."""

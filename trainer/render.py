@@ -1,0 +1,77 @@
+"""Torch layout around the one renderer formula (:func:`svbrdf.runtime.render.shade`).
+
+Maps are packed channel-first ``(B, 8, H, W)`` in the order of :mod:`svbrdf.runtime.maps`; the view and light
+directions come from :func:`svbrdf.runtime.render.light_vectors`, computed once for the whole photo and cropped
+with each tile (:class:`FlashGeometry`).
+"""
+
+from __future__ import annotations
+
+from typing import Optional, Sequence, Tuple
+
+import torch
+
+from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.render import ZHAO, RenderConfig, light_vectors, shade
+
+
+def render_maps(
+    maps: torch.Tensor,
+    view: torch.Tensor,
+    light: torch.Tensor,
+    config: RenderConfig = ZHAO,
+    light_dist2: Optional[torch.Tensor] = None,
+) -> torch.Tensor:
+    """Differentiable flash rendering.
+
+    Args:
+        maps: (B, 8, H, W) packed maps: linear diffuse [0,1], specular [0,1], roughness [0,1], unit normals.
+        view: (B or 1, 3, H, W) unit directions surface -> camera.
+        light: (B or 1, 3, H, W) unit directions surface -> light.
+        config: renderer settings.
+        light_dist2: (B or 1, 1, H, W) squared light distance (needed if ``config.falloff``).
+
+    Returns:
+        (B, 3, H, W) linear radiance (unclamped).
+    """
+    n = maps[:, SLICES["normal"]]
+    dw, sr = shade(
+        (n[:, 0:1], n[:, 1:2], n[:, 2:3]),
+        (view[:, 0:1], view[:, 1:2], view[:, 2:3]),
+        (light[:, 0:1], light[:, 1:2], light[:, 2:3]),
+        maps[:, SLICES["specular"]],
+        maps[:, SLICES["roughness"]],
+        config,
+        light_dist2,
+    )
+    return dw * maps[:, SLICES["diffuse"]] + sr
+
+
+class FlashGeometry:
+    """View/light directions of a whole photo as torch tensors, cropped per tile.
+
+    Args:
+        height, width: whole-photo size in pixels.
+        config: renderer settings (field of view).
+        light_pos: (3,) light position, ``None`` = co-located flash.
+        device, dtype: where the tensors live.
+    """
+
+    def __init__(self, height: int, width: int, config: RenderConfig = ZHAO,
+                 light_pos: Optional[Sequence[float]] = None, device=None, dtype=torch.float32):
+        v, l, d2 = light_vectors(height, width, light_pos, config)
+        to = dict(device=device, dtype=dtype)
+        self.view = torch.as_tensor(v, **to).permute(2, 0, 1)[None].contiguous()
+        self.light = torch.as_tensor(l, **to).permute(2, 0, 1)[None].contiguous()
+        self.dist2 = torch.as_tensor(d2, **to).permute(2, 0, 1)[None].contiguous()
+        self.config = config
+        self.size = (height, width)
+
+    def crop(self, y0: int, x0: int, h: int, w: int) -> Tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+        sl = (slice(None), slice(None), slice(y0, y0 + h), slice(x0, x0 + w))
+        return self.view[sl], self.light[sl], self.dist2[sl]
+
+    def render(self, maps: torch.Tensor, y0: int = 0, x0: int = 0) -> torch.Tensor:
+        """Render (B, 8, h, w) maps that cover the tile at (y0, x0) of the photo."""
+        v, l, d2 = self.crop(y0, x0, maps.shape[-2], maps.shape[-1])
+        return render_maps(maps, v, l, self.config, d2)
