@@ -1,0 +1,246 @@
+"""Trainer checkpoint (or Generator module) -> one self-describing ONNX file, checked against torch.
+
+The graph (torch.onnx dynamo exporter, opset :data:`OPSET`, one file: ``external_data=False``):
+
+* input ``"image"``: (1, 3, H, W) float32, **linear** RGB photo (the runtime removes the sRGB curve first),
+  any H, W >= 8 (dynamic ``torch.export.Dim``; the Generator pads to a multiple of 4 and crops back inside
+  the graph, so odd sizes come back at input size);
+* output ``"maps"``: (1, 8, H, W) float32, packed maps in their final ranges (layout of
+  :mod:`svbrdf.runtime.maps`: diffuse 0:3 linear [0, 1], specular 3:4 linear [0, 1], roughness 4:5 [0, 1],
+  normal 5:8 unit OpenGL).
+
+Provenance goes twice: into the ONNX ``metadata_props`` (every manifest key except ``file``/``sha256``, values
+JSON-encoded) and into a manifest ``NAME.json`` beside ``NAME.onnx`` (schema
+:data:`svbrdf.runtime.models.MANIFEST_SCHEMA`, with the file's sha256 and the parity result), which the
+runtime verifies at load. Both files are written atomically and only after the checks pass.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import json
+import os
+import secrets
+import time
+from pathlib import Path
+from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
+
+import numpy as np
+import onnx
+import torch
+from torch import nn
+
+from svbrdf.runtime.errors import ModelError, SvbrdfError
+from svbrdf.runtime.models import (
+    INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, input_contract, map_layout, sha256_file,
+)
+from svbrdf.runtime.render import ZHAO, RenderConfig
+
+#: ONNX opset written. 18 is torchlib's native opset in torch 2.13
+#: (``torch.onnx._internal.exporter._constants.TORCHLIB_OPSET``): no version-conversion pass is involved.
+OPSET = 18
+#: Largest accepted |onnxruntime - torch| on the parity sizes (float32).
+PARITY_ATOL = 1e-4
+#: Parity sizes (H, W): square, odd and non-square, wide.
+DEFAULT_SIZES: Tuple[Tuple[int, int], ...] = ((64, 64), (75, 101), (96, 160))
+
+PathLike = Union[str, os.PathLike]
+
+
+class _Graph(nn.Module):
+    """Fixes the graph signature: one input named ``image``, the Generator's packed maps out."""
+
+    def __init__(self, generator: nn.Module):
+        super().__init__()
+        self.generator = generator
+
+    def forward(self, image: torch.Tensor) -> torch.Tensor:
+        return self.generator(image)
+
+
+def _versions() -> Dict[str, str]:
+    import onnxscript
+
+    try:
+        from importlib.metadata import version
+
+        svbrdf_version = version("svbrdf")
+    except Exception:  # source tree without an install
+        svbrdf_version = "0.0.0+local"
+    return {"svbrdf": svbrdf_version, "torch": str(torch.__version__), "onnx": onnx.__version__,
+            "onnxscript": onnxscript.__version__, "exporter": "torch.onnx.export(dynamo=True)"}
+
+
+def _provenance(meta: Mapping[str, Any], generator: nn.Module) -> Dict[str, Any]:
+    """Manifest keys that come from the checkpoint metadata (or defaults for a bare module)."""
+    train = dict(meta.get("train_config") or {})
+    render = RenderConfig(**train["render"]) if "render" in train else ZHAO
+    cfg = getattr(generator, "cfg", None)
+    photo = dict(meta.get("photo") or {})
+    return {
+        "render_config": render.to_dict(),
+        "training": {
+            "preset": train.get("preset"),
+            "stage": meta.get("stage"),
+            "step": meta.get("step"),
+            "iters": meta.get("iters"),
+            "generator_config": meta.get("generator_config") or (cfg.to_dict() if cfg is not None else None),
+            "train_config": train or None,
+            "date": meta.get("date"),
+        },
+        "photo": {"name": photo.get("name"), "sha256": photo.get("sha256"),
+                  "height": photo.get("height"), "width": photo.get("width")},
+    }
+
+
+def _write_text_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    finally:
+        tmp.unlink(missing_ok=True)
+
+
+def _parity(path: Path, generator: nn.Module, sizes: Sequence[Tuple[int, int]]) -> list:
+    import onnxruntime as ort
+
+    so = ort.SessionOptions()
+    so.enable_cpu_mem_arena = False
+    sess = ort.InferenceSession(str(path), so, providers=["CPUExecutionProvider"])
+    rng = np.random.default_rng(0)
+    out = []
+    for h, w in sizes:
+        x = rng.random((1, 3, h, w), dtype=np.float32)
+        with torch.inference_mode():
+            ref = generator(torch.from_numpy(x)).numpy()
+        got = sess.run([OUTPUT_NAME], {INPUT_NAME: x})[0]
+        if got.shape != (1, 8, h, w):
+            raise ModelError(f"{path}: exported graph returns {got.shape} for a {h}x{w} input, expected (1, 8, {h}, {w})")
+        out.append({"size": [h, w], "max_abs_diff": float(np.abs(got - ref).max())})
+    return out
+
+
+def export_generator(
+    source: Union[PathLike, nn.Module],
+    out_path: PathLike,
+    *,
+    opset: int = OPSET,
+    check: bool = True,
+    sizes: Sequence[Tuple[int, int]] = DEFAULT_SIZES,
+    force: bool = False,
+    meta: Optional[Mapping[str, Any]] = None,
+) -> Dict[str, Any]:
+    """Export a generator to ``out_path`` (one ``.onnx`` file) plus its manifest ``out_path.with_suffix('.json')``.
+
+    Args:
+        source: a training checkpoint path (read with :func:`svbrdf.trainer.checkpoint.load_generator`) or a
+            :class:`~svbrdf.trainer.models.Generator` module.
+        out_path: the ``.onnx`` file to write.
+        opset: ONNX opset (default :data:`OPSET`).
+        check: run ``onnx.checker.check_model(full_check=True)`` and the onnxruntime-vs-torch parity check on
+            ``sizes``; the export fails if any |difference| exceeds :data:`PARITY_ATOL`.
+        sizes: (H, W) input sizes of the parity check, each >= 8.
+        force: replace existing output files.
+        meta: checkpoint-style metadata for a module ``source`` (keys ``train_config``, ``stage``, ``step``,
+            ``photo``, ...); ignored for a checkpoint path, whose own metadata is used.
+
+    Returns:
+        Report: ``path``, ``manifest_path``, ``sha256``, ``bytes``, ``opset``, ``parity`` (list of
+        ``{"size", "max_abs_diff"}``, empty without ``check``), ``max_abs_diff`` (or None), ``seconds``.
+
+    Raises:
+        SvbrdfError: an output exists and not ``force``.
+        ModelError: unreadable checkpoint, export failure, checker failure or parity above tolerance.
+    """
+    start = time.perf_counter()
+    out = Path(out_path)
+    manifest_path = out.with_suffix(".json")
+    if out.suffix != ".onnx":
+        raise SvbrdfError(f"{out}: the output file name must end in .onnx")
+    if not force:
+        for p in (out, manifest_path):
+            if p.exists():
+                raise SvbrdfError(f"{p}: exists (use --force to overwrite)")
+    if any(min(s) < MIN_SIZE for s in sizes):
+        raise ValueError(f"parity sizes must be >= {MIN_SIZE}, got {list(sizes)}")
+
+    if isinstance(source, nn.Module):
+        generator, meta = source, dict(meta or {})
+    else:
+        from svbrdf.trainer.checkpoint import load_generator
+
+        generator, meta = load_generator(source)
+    generator = generator.eval()
+    graph = _Graph(generator).eval()
+
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = out.with_name(f".{out.name}.{secrets.token_hex(4)}.tmp")
+    try:
+        dim = torch.export.Dim
+        example = torch.rand(1, 3, 64, 64)
+        try:
+            torch.onnx.export(
+                graph, (example,), str(tmp), input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
+                dynamic_shapes={"image": {2: dim("H", min=MIN_SIZE), 3: dim("W", min=MIN_SIZE)}},
+                opset_version=opset, dynamo=True, external_data=False, verbose=False,
+            )
+        except Exception as exc:
+            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+            raise ModelError(f"{source}: ONNX export failed ({first[:200]})") from exc
+
+        model = onnx.load(str(tmp))
+        # The exporter names the output sizes after its symbolic padding arithmetic (Min(H, 4*...)); they
+        # equal the input's, so say so.
+        for axis, name in ((2, "H"), (3, "W")):
+            model.graph.output[0].type.tensor_type.shape.dim[axis].dim_param = name
+        manifest: Dict[str, Any] = {
+            "schema": MANIFEST_SCHEMA,
+            "file": out.name,
+            "sha256": "",
+            "maps": map_layout(),
+            "input": input_contract(),
+            **_provenance(meta, generator),
+            "opset": opset,
+            "exporter": _versions(),
+            "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        }
+        onnx.helper.set_model_props(
+            model, {k: json.dumps(v) for k, v in manifest.items() if k not in ("file", "sha256")}
+        )
+        onnx.save(model, str(tmp))
+
+        parity: list = []
+        if check:
+            try:
+                onnx.checker.check_model(str(tmp), full_check=True)
+            except onnx.checker.ValidationError as exc:
+                first = (str(exc).strip().splitlines() or ["invalid model"])[0]
+                raise ModelError(f"{out}: exported graph fails onnx.checker ({first[:200]})") from None
+            parity = _parity(tmp, generator, sizes)
+            worst = max(parity, key=lambda p: p["max_abs_diff"])
+            if not worst["max_abs_diff"] <= PARITY_ATOL:
+                raise ModelError(
+                    f"{out}: onnxruntime and torch differ by {worst['max_abs_diff']:.2e} at "
+                    f"{worst['size'][0]}x{worst['size'][1]} (tolerance {PARITY_ATOL:g})"
+                )
+        manifest["sha256"] = sha256_file(tmp)
+        manifest["parity"] = {"atol": PARITY_ATOL, "results": parity}
+        size = tmp.stat().st_size
+        os.replace(tmp, out)
+    finally:
+        tmp.unlink(missing_ok=True)
+    _write_text_atomic(manifest_path, json.dumps(manifest, indent=2) + "\n")
+    return {
+        "path": out,
+        "manifest_path": manifest_path,
+        "sha256": manifest["sha256"],
+        "bytes": size,
+        "opset": opset,
+        "parity": parity,
+        "max_abs_diff": max((p["max_abs_diff"] for p in parity), default=None),
+        "seconds": time.perf_counter() - start,
+    }
+
+
+__all__ = ["export_generator", "OPSET", "PARITY_ATOL", "DEFAULT_SIZES"]

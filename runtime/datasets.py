@@ -1,0 +1,269 @@
+"""Readers for third-party ground-truth SVBRDF sets and a folder walker that finds test cases.
+
+Three panel layouts exist in the public data (square panels of side H placed side by side, width = k H):
+
+==========  ==========================================================  ======================
+format      panels, left to right                                       aspect (width : height)
+==========  ==========================================================  ======================
+``des18``   input photo, normal, diffuse, roughness, specular           5 : 1
+``des19``   normal, diffuse, roughness, specular                        4 : 1
+``xuejiao`` diffuse, specular, roughness, normal                        4 : 1
+==========  ==========================================================  ======================
+
+Decoding (the evidence is in ``docs/conventions.md``; the defaults follow it):
+
+* normals are stored as ``(n + 1) / 2``; they are decoded to unit vectors and converted to the project's
+  OpenGL frame (:mod:`svbrdf.runtime.maps`). ``normal_y="up"`` means the file already stores +y up the image
+  (green up, OpenGL); ``"down"`` flips y (DirectX files).
+* diffuse and specular panels are used as stored (``maps_encoding="linear"``, what the authors' renderers do;
+  dielectric specular sits at 10/255 ~ 0.04, a linear F0) or decoded with the sRGB curve (``"srgb"``).
+* roughness and specular panels are stored as RGB; the reader takes the **mean of the three channels**
+  (they are grey in Des18/Des19; the Xuejiao specular panel is tinted and the project's specular is grey).
+  Roughness is kept in [0, 1]; roughness 0 (two Des19 files) is valid, the renderer clamps alpha = r^2.
+* the Des18 input panel is a gamma-encoded rendering; it is returned decoded to linear with the project's sRGB
+  curve (:func:`svbrdf.runtime.colour.srgb_to_linear`).
+
+Format detection (:func:`detect_format`), in this order:
+
+1. an explicit ``format=`` argument wins (the file's size must fit it);
+2. width = 5 x height -> ``des18``;
+3. width = 4 x height -> ``des19`` or ``xuejiao``. The two differ by where the normal panel is, so the content
+   decides first: a panel counts as a normal map when at least 90 % of its pixels decode to a vector of length
+   1 +- 0.1 with z > 0 (a colour map almost never does). If exactly one of the first and last panels is a normal
+   map, that settles it. Otherwise the naming convention of the Xuejiao et al. repository decides: a file
+   whose stem ends with ``_gt`` or that lives in a folder whose name contains ``xuejiao`` is ``xuejiao``;
+   anything else is ``des19``;
+4. any other size -> ``photo`` (a real photo, no ground truth).
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import List, Optional, Tuple, Union
+
+import numpy as np
+import OpenImageIO as oiio
+
+from .colour import srgb_to_linear
+from .errors import ImageError
+from .imageio import image_info, read_image
+from .maps import Maps, decode_normal, normal_dx_to_gl
+
+PathLike = Union[str, os.PathLike]
+
+#: Panel order of each ground-truth layout.
+LAYOUTS = {
+    "des18": ("input", "normal", "diffuse", "roughness", "specular"),
+    "des19": ("normal", "diffuse", "roughness", "specular"),
+    "xuejiao": ("diffuse", "specular", "roughness", "normal"),
+}
+#: Every value :func:`detect_format` can return.
+FORMATS = tuple(LAYOUTS) + ("photo",)
+
+# OpenImageIO's readable extensions, minus its pseudo-formats (null, term).
+IMAGE_EXTENSIONS = frozenset(
+    "." + ext
+    for entry in oiio.get_string_attribute("extension_list").split(";")
+    if entry.split(":")[0] not in ("null", "term")
+    for ext in entry.split(":")[1].split(",")
+)
+
+_NORMAL_LIKE_FRACTION = 0.9
+
+
+@dataclass(frozen=True)
+class Case:
+    """One test case found on disk.
+
+    Attributes:
+        name: path relative to the searched root, without extension, "/"-separated (unique within a search).
+        path: the image file.
+        kind: ``"gt"`` (a ground-truth panel set) or ``"photo"`` (a real photo, no ground truth).
+        format: one of :data:`FORMATS` (``"photo"`` for photos).
+    """
+
+    name: str
+    path: Path
+    kind: str
+    format: str
+
+
+def _check_options(normal_y: str, maps_encoding: str) -> None:
+    if normal_y not in ("up", "down"):
+        raise ValueError(f"normal_y must be 'up' or 'down', got {normal_y!r}")
+    if maps_encoding not in ("linear", "srgb"):
+        raise ValueError(f"maps_encoding must be 'linear' or 'srgb', got {maps_encoding!r}")
+
+
+def _size(path: Path) -> Tuple[int, int]:
+    """(height, width) as displayed (EXIF orientations 5-8 swap the stored axes)."""
+    info = image_info(path)
+    h, w = info["height"], info["width"]
+    return (w, h) if info["orientation"] >= 5 else (h, w)
+
+
+def _fits(fmt: str, height: int, width: int) -> bool:
+    return fmt == "photo" or width == len(LAYOUTS[fmt]) * height
+
+
+def _is_normal_panel(panel: np.ndarray) -> bool:
+    n = panel.astype(np.float32) * 2.0 - 1.0
+    length = np.sqrt(np.sum(n * n, axis=-1))
+    ok = (np.abs(length - 1.0) < 0.1) & (n[..., 2] > 0.0)
+    return float(np.mean(ok)) >= _NORMAL_LIKE_FRACTION
+
+
+def _xuejiao_by_name(path: Path) -> bool:
+    return path.stem.lower().endswith("_gt") or any("xuejiao" in part.lower() for part in path.parent.parts)
+
+
+def detect_format(path: PathLike, format: Optional[str] = None) -> str:
+    """Which layout a file has (see the module docstring for the rule).
+
+    Args:
+        path: an image file.
+        format: explicit override, one of :data:`FORMATS`; the file's size must fit it.
+
+    Returns:
+        ``"des18"``, ``"des19"``, ``"xuejiao"`` or ``"photo"``.
+
+    Raises:
+        ImageError: unreadable file, or its size does not fit the given ``format``.
+        ValueError: unknown ``format``.
+    """
+    path = Path(path)
+    if format is not None and format not in FORMATS:
+        raise ValueError(f"format must be one of {', '.join(FORMATS)}, got {format!r}")
+    h, w = _size(path)
+    if format is not None:
+        if not _fits(format, h, w):
+            k = len(LAYOUTS[format])
+            raise ImageError(f"{path}: {w}x{h} does not fit the {format} layout ({k} square panels, width = {k} x height)")
+        return format
+    if w == 5 * h:
+        return "des18"
+    if w != 4 * h:
+        return "photo"
+    raw = read_image(path, raw=True)
+    first, last = _is_normal_panel(raw[:, :h]), _is_normal_panel(raw[:, 3 * h:])
+    if first != last:
+        return "des19" if first else "xuejiao"
+    return "xuejiao" if _xuejiao_by_name(path) else "des19"
+
+
+def _read_panels(path: PathLike, fmt: str, normal_y: str, maps_encoding: str) -> Tuple[Maps, Optional[np.ndarray]]:
+    _check_options(normal_y, maps_encoding)
+    path = Path(path)
+    raw = read_image(path, raw=True)
+    h, w = raw.shape[:2]
+    names = LAYOUTS[fmt]
+    if not _fits(fmt, h, w):
+        raise ImageError(f"{path}: {w}x{h} does not fit the {fmt} layout "
+                         f"({len(names)} square panels, width = {len(names)} x height)")
+    panel = {name: raw[:, i * h:(i + 1) * h] for i, name in enumerate(names)}
+
+    normal = decode_normal(panel["normal"])
+    if normal_y == "down":
+        normal = normal_dx_to_gl(normal)
+    colour = srgb_to_linear if maps_encoding == "srgb" else np.asarray
+    maps = Maps(
+        diffuse=colour(panel["diffuse"]),
+        specular=np.mean(colour(panel["specular"]), axis=-1, keepdims=True),
+        roughness=np.clip(np.mean(panel["roughness"], axis=-1, keepdims=True), 0.0, 1.0),
+        normal=normal,
+        meta={"source": str(path), "format": fmt, "normal_y": normal_y, "maps_encoding": maps_encoding},
+    )
+    photo = srgb_to_linear(panel["input"]) if "input" in panel else None
+    return maps, photo
+
+
+def read_des18(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "linear") -> Tuple[Maps, np.ndarray]:
+    """Read a Deschaintre 2018 test file (5 panels: input, normal, diffuse, roughness, specular).
+
+    Args:
+        path: the (5H x H) image.
+        normal_y: ``"up"`` (the file stores +y up, OpenGL) or ``"down"`` (DirectX; y is flipped on read).
+        maps_encoding: diffuse/specular panels are ``"linear"`` (used as stored) or ``"srgb"`` (decoded).
+
+    Returns:
+        ``(maps, photo)``: :class:`~svbrdf.runtime.maps.Maps` of (H, H) maps, and the input panel as an
+        (H, H, 3) float32 linear image (sRGB-decoded).
+
+    Raises:
+        ImageError: unreadable file, or width != 5 x height.
+    """
+    return _read_panels(path, "des18", normal_y, maps_encoding)
+
+
+def read_des19(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "linear") -> Maps:
+    """Read a Deschaintre 2019 map set (4 panels: normal, diffuse, roughness, specular).
+
+    Same options and errors as :func:`read_des18` (width must be 4 x height); returns the maps only.
+    """
+    return _read_panels(path, "des19", normal_y, maps_encoding)[0]
+
+
+def read_xuejiao(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "linear") -> Maps:
+    """Read a Xuejiao et al. map set (4 panels: diffuse, specular, roughness, normal).
+
+    Same options and errors as :func:`read_des18` (width must be 4 x height); returns the maps only.
+    """
+    return _read_panels(path, "xuejiao", normal_y, maps_encoding)[0]
+
+
+def read_gt(
+    path: PathLike, format: Optional[str] = None, *, normal_y: str = "up", maps_encoding: str = "linear"
+) -> Tuple[Maps, Optional[np.ndarray]]:
+    """Read any ground-truth panel set; the format is detected unless given.
+
+    Returns:
+        ``(maps, photo)``; ``photo`` is the linear input panel for ``des18`` and ``None`` otherwise.
+
+    Raises:
+        ImageError: unreadable file, size that fits no panel layout (a photo), or does not fit ``format``.
+    """
+    fmt = detect_format(path, format)
+    if fmt == "photo":
+        raise ImageError(f"{Path(path)}: not a ground-truth panel set (width is not 4 or 5 x height)")
+    return _read_panels(path, fmt, normal_y, maps_encoding)
+
+
+def find_cases(root: PathLike, format: Optional[str] = None) -> List[Case]:
+    """Every image under ``root`` (recursively), as ground-truth sets or real photos.
+
+    Hidden files and folders (name starting with ".") and files whose extension OpenImageIO does not read
+    (licences, JSON, ...) are skipped. The result is sorted by name.
+
+    Args:
+        root: a folder (any folder, not only the project's shared data) or a single image file.
+        format: force this format for every image found (see :func:`detect_format`).
+
+    Returns:
+        list of :class:`Case`.
+
+    Raises:
+        ImageError: ``root`` does not exist, an image is unreadable, or does not fit ``format``.
+    """
+    root = Path(root)
+    if root.is_file():
+        files, base = [root], root.parent
+    elif root.is_dir():
+        files, base = [], root
+        for folder, dirs, names in os.walk(root):
+            dirs[:] = sorted(d for d in dirs if not d.startswith("."))
+            files += [Path(folder) / n for n in sorted(names)
+                      if not n.startswith(".") and Path(n).suffix.lower() in IMAGE_EXTENSIONS]
+    else:
+        raise ImageError(f"{root}: no such file or folder")
+    cases = []
+    for path in files:
+        fmt = detect_format(path, format)
+        name = path.relative_to(base).with_suffix("").as_posix()
+        cases.append(Case(name=name, path=path, kind="photo" if fmt == "photo" else "gt", format=fmt))
+    return sorted(cases, key=lambda c: c.name)
+
+
+__all__ = ["Case", "FORMATS", "LAYOUTS", "IMAGE_EXTENSIONS", "detect_format", "find_cases", "read_des18",
+           "read_des19", "read_xuejiao", "read_gt"]

@@ -1,0 +1,280 @@
+"""Image files in and out (OpenImageIO), with the project's colour convention and safety rules.
+
+Reading (:func:`read_image`): any format OpenImageIO reads (PNG 8/16-bit, JPEG, TIFF, OpenEXR half/float,
+...) becomes an (H, W, 3) float32 array, oriented as displayed (EXIF ``Orientation`` applied).
+
+* integer files (8/16-bit PNG, JPEG, TIFF) are taken as sRGB-encoded: values are divided by the type's
+  maximum and decoded to linear with :func:`svbrdf.runtime.colour.srgb_to_linear` (unless ``raw=True``,
+  which keeps the stored values, e.g. for roughness or normal maps);
+* float files (EXR, float TIFF, HDR) are taken as linear, ``raw`` or not. NaN/Inf pixels are refused,
+  negative values are clamped to 0 with a warning.
+* grayscale becomes RGB; alpha (read unassociated, so colour is not premultiplied) and any channel after
+  the third are dropped with an :class:`ImageWarning`.
+
+Writing (:func:`write_image`): PNG (8/16-bit), OpenEXR (half/float) or TIFF (8/16/32-bit), atomically (temp
+file in the same folder, then ``os.replace``), never over an existing file unless ``force=True``.
+
+OpenImageIO never raises on a bad file; every call here is checked and turned into an
+:class:`~svbrdf.runtime.errors.ImageError` with a one-line message ``"<path>: <problem>"``.
+"""
+
+from __future__ import annotations
+
+import os
+import secrets
+import warnings
+from pathlib import Path
+from typing import Union
+
+import numpy as np
+import OpenImageIO as oiio
+
+from .colour import linear_to_srgb, srgb_to_linear
+from .errors import ImageError
+
+PathLike = Union[str, os.PathLike]
+
+_FLOAT_TYPES = (oiio.HALF, oiio.FLOAT, oiio.DOUBLE)
+#: Writable extensions -> allowed ``bits`` -> OpenImageIO pixel type. For EXR, 16 = half, 32 = float.
+_WRITE_TYPES = {
+    ".png": {8: oiio.UINT8, 16: oiio.UINT16},
+    ".exr": {16: oiio.HALF, 32: oiio.FLOAT},
+    ".tif": {8: oiio.UINT8, 16: oiio.UINT16, 32: oiio.FLOAT},
+    ".tiff": {8: oiio.UINT8, 16: oiio.UINT16, 32: oiio.FLOAT},
+}
+WRITE_EXTENSIONS = tuple(_WRITE_TYPES)
+
+
+class ImageWarning(UserWarning):
+    """Something about an input image was changed on read (alpha dropped, negatives clamped, ...)."""
+
+
+def _one_line(msg: str) -> str:
+    lines = [ln.strip() for ln in str(msg).splitlines() if ln.strip()]
+    return lines[0] if lines else "unknown error"
+
+
+def _open(path: Path) -> "oiio.ImageInput":
+    """Open ``path`` for reading with unassociated alpha; raise ImageError with a classified reason."""
+    if not path.exists():
+        raise ImageError(f"{path}: no such file")
+    if path.is_dir():
+        raise ImageError(f"{path}: is a directory, not an image")
+    if path.stat().st_size == 0:
+        raise ImageError(f"{path}: empty file (0 bytes)")
+    cfg = oiio.ImageSpec()
+    cfg.attribute("oiio:UnassociatedAlpha", 1)  # PNG alpha would otherwise premultiply the colour
+    inp = oiio.ImageInput.open(str(path), cfg)
+    if inp is None:
+        err = oiio.geterror()
+        if "could not find a format reader" in err:
+            raise ImageError(f"{path}: unsupported or unrecognised image format")
+        raise ImageError(f"{path}: unreadable or corrupt image ({_one_line(err)})")
+    return inp
+
+
+def image_info(path: PathLike) -> dict:
+    """Header facts of an image file without decoding its pixels.
+
+    Returns:
+        dict with ``width``, ``height`` (as stored, before orientation), ``channels``, ``channel_names``,
+        ``format`` (OpenImageIO format name, e.g. "png", "openexr"), ``dtype`` (e.g. "uint8", "half"),
+        ``is_float`` and ``orientation`` (EXIF 1..8).
+    """
+    path = Path(path)
+    inp = _open(path)
+    try:
+        spec = inp.spec()
+        return {
+            "width": spec.width,
+            "height": spec.height,
+            "channels": spec.nchannels,
+            "channel_names": list(spec.channelnames),
+            "format": inp.format_name(),
+            "dtype": str(spec.format),
+            "is_float": spec.format.basetype in _FLOAT_TYPES,
+            "orientation": spec.get_int_attribute("Orientation", 1),
+        }
+    finally:
+        inp.close()
+
+
+def _reorient(arr: np.ndarray, orientation: int) -> np.ndarray:
+    """Apply an EXIF orientation (1..8) so the array is as displayed (OpenImageIO's reorient)."""
+    if orientation == 1:
+        return arr
+    h, w, c = arr.shape
+    buf = oiio.ImageBuf(oiio.ImageSpec(w, h, c, oiio.FLOAT))
+    buf.set_pixels(oiio.ROI(), np.ascontiguousarray(arr))
+    buf.specmod().attribute("Orientation", int(orientation))
+    out = oiio.ImageBufAlgo.reorient(buf)
+    if out.has_error:
+        raise RuntimeError(f"OpenImageIO reorient failed: {out.geterror()}")
+    return out.get_pixels(oiio.FLOAT)
+
+
+def read_image(path: PathLike, *, raw: bool = False) -> np.ndarray:
+    """Read an image file as an (H, W, 3) float32 array, as displayed (EXIF orientation applied).
+
+    Args:
+        path: image file (anything OpenImageIO reads: PNG, JPEG, TIFF, OpenEXR, ...).
+        raw: keep the stored values of integer files (``value / max`` in [0, 1]) instead of decoding sRGB to
+            linear; use it for data maps (roughness, normals). Float files are linear either way.
+
+    Returns:
+        (H, W, 3) float32: linear RGB in [0, 1] for integer files (sRGB-encoded [0, 1] if ``raw``); linear
+        RGB >= 0 for float files (may exceed 1).
+
+    Raises:
+        ImageError: missing, empty, unsupported, unreadable/corrupt/truncated file, 0-pixel image, or NaN/Inf
+            pixels in a float file.
+
+    Warns:
+        ImageWarning: alpha or extra channels dropped; negative float values clamped to 0.
+    """
+    path = Path(path)
+    inp = _open(path)
+    try:
+        spec = inp.spec()
+        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
+            raise ImageError(f"{path}: empty image ({spec.width}x{spec.height}, {spec.nchannels} channels)")
+        is_float = spec.format.basetype in _FLOAT_TYPES
+        orientation = spec.get_int_attribute("Orientation", 1)
+        alpha = spec.alpha_channel
+        names = list(spec.channelnames)
+        arr = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+        if arr is None:
+            raise ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
+    finally:
+        inp.close()
+    arr = np.asarray(arr, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+
+    nch = arr.shape[-1]
+    keep = 1 if nch <= 2 else 3
+    if nch > keep:
+        what = "alpha channel" if alpha >= keep else "extra channel(s)"
+        warnings.warn(ImageWarning(f"{path}: {what} dropped ({', '.join(names[keep:])})"), stacklevel=2)
+        arr = arr[..., :keep]
+    if keep == 1:
+        arr = np.repeat(arr, 3, axis=-1)
+
+    if is_float:
+        bad = int(np.count_nonzero(~np.isfinite(arr)))
+        if bad:
+            raise ImageError(f"{path}: {bad} NaN/Inf pixel values")
+        neg = int(np.count_nonzero(arr < 0))
+        if neg:
+            warnings.warn(ImageWarning(f"{path}: {neg} negative values clamped to 0"), stacklevel=2)
+            arr = np.maximum(arr, 0.0)
+    else:
+        # Signed integer types map to [-1, 1] in OpenImageIO; photos are non-negative.
+        arr = np.clip(arr, 0.0, 1.0)
+        if not raw:
+            arr = srgb_to_linear(arr)
+    arr = _reorient(arr, orientation)
+    return np.ascontiguousarray(arr, dtype=np.float32)
+
+
+def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
+    a = np.asarray(arr)
+    if a.ndim == 2:
+        a = a[..., None]
+    if a.ndim != 3 or a.shape[-1] not in (1, 3) or a.shape[0] < 1 or a.shape[1] < 1:
+        raise ImageError(f"{path}: cannot write an array of shape {np.shape(arr)} (expected (H, W), (H, W, 1) "
+                         f"or (H, W, 3))")
+    a = a.astype(np.float32)
+    if not np.all(np.isfinite(a)):
+        raise ImageError(f"{path}: refusing to write NaN/Inf values")
+    return a
+
+
+def write_image(
+    path: PathLike,
+    arr: np.ndarray,
+    *,
+    bits: int = 16,
+    srgb_encode: bool = False,
+    force: bool = False,
+) -> Path:
+    """Write a float image atomically as PNG, OpenEXR or TIFF (format from the extension).
+
+    Args:
+        path: target file; its folder must exist. Extension ``.png``, ``.exr``, ``.tif`` or ``.tiff``.
+        arr: (H, W), (H, W, 1) or (H, W, 3) float array. Integer formats clip it to [0, 1] and round to the
+            nearest code; float formats store it as is.
+        bits: 8 or 16 for PNG; 16 (half) or 32 (float) for EXR; 8, 16 or 32 (float) for TIFF.
+        srgb_encode: ``arr`` is linear colour: encode it with the sRGB curve before quantising and tag the file
+            sRGB (integer formats only). Otherwise values are stored as given and integer files are written
+            untagged (no sRGB/gAMA chunk: the usual convention for data maps).
+        force: overwrite an existing file.
+
+    Returns:
+        The written path.
+
+    Raises:
+        ImageError: target exists (and not ``force``), unsupported extension, missing folder, bad array
+            (shape, NaN/Inf), or OpenImageIO failed to write. No partial file is ever left behind.
+        ValueError: ``bits`` not valid for the format, or ``srgb_encode`` with a float format.
+    """
+    path = Path(path)
+    if path.exists() and not force:
+        raise ImageError(f"{path}: exists (use --force to overwrite)")
+    ext = path.suffix.lower()
+    if ext not in _WRITE_TYPES:
+        raise ImageError(f"{path}: unsupported output format {ext or '(none)'!r} (use {', '.join(WRITE_EXTENSIONS)})")
+    if bits not in _WRITE_TYPES[ext]:
+        raise ValueError(f"bits={bits!r} is not valid for {ext} (allowed: {sorted(_WRITE_TYPES[ext])})")
+    pixel_type = _WRITE_TYPES[ext][bits]
+    is_float = pixel_type in (oiio.HALF, oiio.FLOAT)
+    if srgb_encode and is_float:
+        raise ValueError(f"srgb_encode is for integer formats; {ext} with bits={bits} stores linear floats")
+    if path.is_dir():
+        raise ImageError(f"{path}: is a directory")
+    if not path.parent.is_dir():
+        raise ImageError(f"{path}: folder {path.parent} does not exist")
+
+    a = _as_hwc(path, arr)
+    if srgb_encode:
+        a = linear_to_srgb(np.clip(a, 0.0, 1.0))
+    if not is_float:
+        a = np.clip(a, 0.0, 1.0)
+    h, w, c = a.shape
+
+    spec = oiio.ImageSpec(w, h, c, pixel_type)
+    if not is_float:
+        spec.attribute("oiio:ColorSpace", "sRGB" if srgb_encode else "Raw")
+    # Same folder (so os.replace is atomic) and the real extension (so OpenImageIO picks the format).
+    # The name is reserved with O_EXCL; mode 0o666 lets the umask give the usual permissions.
+    tmp = None
+    for _ in range(100):
+        cand = path.with_name(f".{path.stem}.tmp-{secrets.token_hex(4)}{path.suffix}")
+        try:
+            os.close(os.open(cand, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise ImageError(f"{path}: cannot create a file in {path.parent} ({exc.strerror})") from None
+        tmp = cand
+        break
+    if tmp is None:
+        raise ImageError(f"{path}: cannot create a temporary file in {path.parent}")
+    try:
+        out = oiio.ImageOutput.create(str(tmp))
+        if out is None:
+            raise ImageError(f"{path}: cannot write ({_one_line(oiio.geterror())})")
+        ok = out.open(str(tmp), spec) and out.write_image(np.ascontiguousarray(a))
+        err = "" if ok else out.geterror()
+        ok = out.close() and ok
+        if not ok:
+            raise ImageError(f"{path}: write failed ({_one_line(err or out.geterror())})")
+        try:
+            os.replace(tmp, path)
+        except OSError as exc:
+            raise ImageError(f"{path}: cannot replace the file ({exc.strerror})") from None
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    return path
+
+
+__all__ = ["ImageWarning", "read_image", "write_image", "image_info", "WRITE_EXTENSIONS"]

@@ -1,0 +1,190 @@
+"""Finding a preview model and checking it against its manifest (no onnxruntime, no torch).
+
+Lookup order (:func:`find_model`):
+
+1. an explicit path (``--model PATH`` / ``load_session(model=...)``);
+2. the ``SVBRDF_MODEL`` environment variable;
+3. the packaged model: ``svbrdf.models/manifest.json`` names the default ``.onnx`` file next to it.
+
+A manifest is a JSON object (schema :data:`MANIFEST_SCHEMA`, written by ``svbrdf-export``) that holds the
+model file name, its sha256, the map layout and input contract, the render configuration and the training
+provenance. The same keys except ``file`` and ``sha256`` are embedded in the ONNX ``metadata_props``
+(each value JSON-encoded). The manifest of ``NAME.onnx`` is, in this order:
+
+* ``NAME.json`` beside it (the file :func:`svbrdf.export.onnx.export_generator` writes), or
+* ``manifest.json`` in the same folder, if its ``"file"`` is ``NAME.onnx``.
+
+When a manifest is found, the sha256 of the model file must match it and its map layout must equal this
+runtime's (:func:`map_layout`), else :class:`ModelError`. A model found through a path or the environment
+variable may come without a manifest: it is loaded unverified and :attr:`ModelInfo.note` says so (the
+session then reads the layout from the embedded metadata). The packaged model always needs its manifest.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+from typing import Optional, Union
+
+from .errors import ModelError
+from .maps import MAP_COLOUR_SPACES, MAP_NAMES, MAP_RANGES, NORMAL_CONVENTION, SLICES
+
+#: Manifest schema tag (bump when keys change meaning).
+MANIFEST_SCHEMA = "svbrdf-model/1"
+#: Environment variable naming a model file (step 2 of the lookup).
+MODEL_ENV = "SVBRDF_MODEL"
+#: Input contract of every exported generator: graph input/output names and the smallest side.
+INPUT_NAME = "image"
+OUTPUT_NAME = "maps"
+MIN_SIZE = 8
+
+__all__ = [
+    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "ModelInfo", "find_model",
+    "manifest_path_for", "read_manifest", "sha256_file", "map_layout", "input_contract", "check_layout",
+]
+
+
+@dataclass(frozen=True)
+class ModelInfo:
+    """A located model file and what is known about it.
+
+    Attributes:
+        path: the ``.onnx`` file.
+        source: ``"argument"``, ``"env"`` or ``"packaged"``.
+        sha256: hex digest of the file (always computed).
+        manifest: the parsed manifest, or None when the model has none.
+        manifest_path: where the manifest was read from, or None.
+        note: empty when verified against a manifest; otherwise why not (shown by the CLI with --verbose).
+    """
+
+    path: Path
+    source: str
+    sha256: str
+    manifest: Optional[dict]
+    manifest_path: Optional[Path]
+    note: str = ""
+
+    @property
+    def verified(self) -> bool:
+        """True when the file's sha256 matched a manifest."""
+        return self.manifest is not None
+
+
+def map_layout() -> list:
+    """This runtime's packed map layout as manifest data: one entry per map, in packing order."""
+    return [
+        {
+            "name": name,
+            "channels": [SLICES[name].start, SLICES[name].stop],
+            "range": list(MAP_RANGES[name]),
+            "colour_space": MAP_COLOUR_SPACES[name],
+            **({"convention": NORMAL_CONVENTION} if name == "normal" else {}),
+        }
+        for name in MAP_NAMES
+    ]
+
+
+def input_contract() -> dict:
+    """The graph's input/output contract as manifest data."""
+    return {
+        "input": INPUT_NAME,
+        "output": OUTPUT_NAME,
+        "layout": "NCHW",
+        "batch": 1,
+        "dtype": "float32",
+        "colour_space": "linear Rec.709 (sRGB primaries, exact sRGB curve removed)",
+        "min_size": MIN_SIZE,
+        "any_size": True,
+    }
+
+
+def sha256_file(path: Union[str, Path], chunk: int = 1 << 20) -> str:
+    """Hex sha256 of a file, read in chunks."""
+    h = hashlib.sha256()
+    with open(path, "rb") as f:
+        for block in iter(lambda: f.read(chunk), b""):
+            h.update(block)
+    return h.hexdigest()
+
+
+def read_manifest(path: Union[str, Path]) -> dict:
+    """Parse a manifest file; :class:`ModelError` if it is unreadable or not a manifest."""
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise ModelError(f"{path}: cannot read model manifest: {exc}") from None
+    if not isinstance(data, dict) or data.get("schema") != MANIFEST_SCHEMA:
+        raise ModelError(f"{path}: not an svbrdf model manifest (expected schema {MANIFEST_SCHEMA!r})")
+    for key in ("file", "sha256"):
+        if not isinstance(data.get(key), str):
+            raise ModelError(f"{path}: model manifest has no {key!r}")
+    return data
+
+
+def check_layout(meta: dict, where: str) -> None:
+    """Raise :class:`ModelError` unless ``meta["maps"]`` equals this runtime's :func:`map_layout`."""
+    if meta.get("maps") != map_layout():
+        names = [m.get("name") for m in meta.get("maps") or [] if isinstance(m, dict)]
+        raise ModelError(
+            f"{where}: model map layout {names or 'missing'} does not match this runtime's {list(MAP_NAMES)}"
+        )
+
+
+def manifest_path_for(model_path: Path) -> Optional[Path]:
+    """The manifest that describes ``model_path`` (``NAME.json``, or a ``manifest.json`` naming it), or None."""
+    sidecar = model_path.with_suffix(".json")
+    if sidecar.is_file():
+        return sidecar
+    shared = model_path.parent / "manifest.json"
+    if shared.is_file() and read_manifest(shared)["file"] == model_path.name:
+        return shared
+    return None
+
+
+def _verify(path: Path, source: str, manifest_path: Optional[Path]) -> ModelInfo:
+    digest = sha256_file(path)
+    if manifest_path is None:
+        return ModelInfo(path, source, digest, None, None, note=f"no manifest beside {path.name}: sha256 not verified")
+    manifest = read_manifest(manifest_path)
+    if manifest["sha256"] != digest:
+        raise ModelError(
+            f"{path}: sha256 {digest[:12]}... does not match {manifest_path.name} ({manifest['sha256'][:12]}...);"
+            " the file is corrupt or not the model the manifest describes"
+        )
+    check_layout(manifest, str(manifest_path))
+    return ModelInfo(path, source, digest, manifest, manifest_path)
+
+
+def _user_model(value: Union[str, Path], source: str) -> ModelInfo:
+    path = Path(value).expanduser()
+    origin = f" (from {MODEL_ENV})" if source == "env" else ""
+    if not path.is_file():
+        raise ModelError(f"{path}: model file not found{origin}")
+    return _verify(path, source, manifest_path_for(path))
+
+
+def find_model(model: Union[str, Path, None] = None) -> ModelInfo:
+    """Locate and verify the model (order: ``model``, ``$SVBRDF_MODEL``, packaged; see the module docstring).
+
+    Raises:
+        ModelError: missing file, unreadable or mismatching manifest, or no model anywhere.
+    """
+    if model is not None:
+        return _user_model(model, "argument")
+    env = os.environ.get(MODEL_ENV)
+    if env:
+        return _user_model(env, "env")
+    package = resources.files("svbrdf.models")
+    manifest = package / "manifest.json"
+    if not manifest.is_file():
+        raise ModelError(f"no packaged model (svbrdf.models has no manifest.json); pass --model or set {MODEL_ENV}")
+    manifest_path = Path(str(manifest))
+    path = manifest_path.parent / read_manifest(manifest_path)["file"]
+    if not path.is_file():
+        raise ModelError(f"{path}: packaged model file listed in manifest.json is missing")
+    return _verify(path, "packaged", manifest_path)

@@ -1,0 +1,183 @@
+"""Texture-set writer (files, encodings, sidecar, all-or-nothing) and the relit preview panel."""
+
+import json
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.colour import linear_to_srgb
+from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.imageio import image_info, read_image
+from svbrdf.runtime.maps import Maps, normalize_normals
+from svbrdf.runtime.render import DESCHAINTRE, ZHAO, novel_lights, render
+from svbrdf.runtime.texture_set import relit_panel, write_texture_set
+
+H, W = 12, 16
+
+
+@pytest.fixture
+def maps():
+    rng = np.random.default_rng(0)
+    n = rng.normal(size=(H, W, 3)).astype(np.float32)
+    n[..., 2] = np.abs(n[..., 2]) + 1.0
+    return Maps(
+        diffuse=rng.uniform(0.05, 0.9, (H, W, 3)).astype(np.float32),
+        specular=rng.uniform(0.02, 0.6, (H, W, 1)).astype(np.float32),
+        roughness=rng.uniform(0.1, 0.9, (H, W, 1)).astype(np.float32),
+        normal=normalize_normals(n),
+        meta={"source": "photo.jpg", "timings": {"infer_s": np.float32(1.5)}},
+    )
+
+
+def _srgb_to_linear_ref(s):
+    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
+
+
+@pytest.mark.parametrize("fmt,tol", [("png", 2e-5), ("exr", 1e-6)])
+def test_files_and_values(tmp_path, maps, fmt, tol):
+    paths = write_texture_set(maps, tmp_path / "out" / "deep", "mat", fmt=fmt)  # creates parents
+    assert set(paths) == {"basecolor", "normal", "roughness", "specular", "sidecar"}
+    out = tmp_path / "out" / "deep"
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["mat_basecolor.png", f"mat_normal.{fmt}", f"mat_roughness.{fmt}", f"mat_specular.{fmt}", "mat.json"])
+    assert image_info(paths["basecolor"])["dtype"] == "uint8"
+    assert image_info(paths["roughness"])["channels"] == 1
+    # Base colour: sRGB-encoded 8-bit; a normal read decodes it back to the linear albedo.
+    np.testing.assert_allclose(read_image(paths["basecolor"]), maps.diffuse, atol=5e-3)
+    # Data maps: stored as is (raw read).
+    np.testing.assert_allclose(read_image(paths["roughness"], raw=True)[..., 0], maps.roughness[..., 0], atol=tol)
+    np.testing.assert_allclose(read_image(paths["specular"], raw=True)[..., 0], maps.specular[..., 0], atol=tol)
+    np.testing.assert_allclose(read_image(paths["normal"], raw=True), (maps.normal + 1) / 2, atol=tol)
+
+
+def test_dx_normal_flips_green(tmp_path, maps):
+    gl = write_texture_set(maps, tmp_path / "gl", "m")
+    dx = write_texture_set(maps, tmp_path / "dx", "m", normal="dx")
+    a, b = read_image(gl["normal"], raw=True), read_image(dx["normal"], raw=True)
+    np.testing.assert_allclose(b[..., 1], 1.0 - a[..., 1], atol=2e-5)
+    np.testing.assert_array_equal(b[..., [0, 2]], a[..., [0, 2]])
+    assert json.loads(dx["sidecar"].read_text())["normal_convention"]["name"] == "dx"
+
+
+def test_sidecar(tmp_path, maps):
+    maps.meta["render_config"] = DESCHAINTRE
+    paths = write_texture_set(maps, tmp_path, "m", extra_meta={"model_sha256": "ab" * 32, "source": "x.png"})
+    side = json.loads(paths["sidecar"].read_text())
+    assert side["size"] == {"width": W, "height": H}
+    brdf = side["brdf"]
+    assert brdf["distribution"] == "GGX" and brdf["alpha"] == "roughness ** 2"
+    assert "Smith-Schlick" in brdf["geometry"] and "Schlick" in brdf["fresnel"]
+    assert brdf["render_config"] == DESCHAINTRE.to_dict()
+    assert brdf["diffuse"].startswith("(1 - specular)")  # follows the config (diffuse conservation)
+    assert side["normal_convention"]["name"] == "opengl"
+    files = side["files"]
+    assert files["basecolor"] == {"file": "m_basecolor.png", "map": "diffuse", "colour_space": "sRGB", "bits": 8}
+    assert files["normal"]["encoding"] == "(n + 1) / 2" and files["normal"]["colour_space"] == "data"
+    assert files["specular"]["colour_space"] == "linear" and files["roughness"]["file"] == "m_roughness.png"
+    # maps.meta and extra_meta (which wins on clashes); numpy scalars serialised.
+    assert side["meta"] == {"source": "x.png", "timings": {"infer_s": 1.5}, "model_sha256": "ab" * 32}
+
+
+def test_default_render_config_in_sidecar(tmp_path, maps):
+    side = json.loads(write_texture_set(maps, tmp_path, "m")["sidecar"].read_text())
+    assert side["brdf"]["render_config"] == ZHAO.to_dict()
+    assert side["brdf"]["diffuse"] == "diffuse / pi"
+
+
+def test_refusal_writes_nothing(tmp_path, maps):
+    (tmp_path / "m_specular.png").write_bytes(b"user file")
+    with pytest.raises(ImageError, match=r"m_specular\.png: exists \(use --force"):
+        write_texture_set(maps, tmp_path, "m")
+    assert [p.name for p in tmp_path.iterdir()] == ["m_specular.png"]
+    assert (tmp_path / "m_specular.png").read_bytes() == b"user file"
+    # The relit target is checked too.
+    (tmp_path / "m_specular.png").unlink()
+    (tmp_path / "m_relit.png").write_bytes(b"x")
+    write_texture_set(maps, tmp_path, "m")  # no relit requested: fine
+    for p in list(tmp_path.iterdir()):
+        if p.name != "m_relit.png":
+            p.unlink()
+    with pytest.raises(ImageError, match="m_relit.png: exists"):
+        write_texture_set(maps, tmp_path, "m", relit=np.zeros((H, W, 3), np.float32))
+    assert [p.name for p in tmp_path.iterdir()] == ["m_relit.png"]
+
+
+def test_force_overwrites(tmp_path, maps):
+    write_texture_set(maps, tmp_path, "m")
+    maps2 = Maps(maps.diffuse * 0.5, maps.specular, maps.roughness * 0.0, maps.normal)
+    with pytest.raises(ImageError, match="exists \\(and 4 more\\)"):
+        write_texture_set(maps2, tmp_path, "m")
+    paths = write_texture_set(maps2, tmp_path, "m", force=True)
+    assert read_image(paths["roughness"], raw=True).max() == 0.0
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # staging folder removed
+
+
+def test_failure_midway_leaves_nothing(tmp_path, maps):
+    bad = Maps(maps.diffuse, maps.specular, maps.roughness, maps.normal, meta={"x": object()})
+    with pytest.raises(ValueError, match="not JSON-serialisable"):
+        write_texture_set(bad, tmp_path / "o", "m")
+    nan = Maps(maps.diffuse, maps.specular, np.full((H, W, 1), np.nan, np.float32), maps.normal)
+    with pytest.raises(ImageError, match="'roughness' has NaN/Inf"):
+        write_texture_set(nan, tmp_path, "m")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_failed_write_cleans_staging(tmp_path, maps, monkeypatch):
+    from svbrdf.runtime import imageio, texture_set
+
+    calls = []
+
+    def flaky(path, arr, **kw):  # the third file (roughness) fails, as on a full disk
+        calls.append(path)
+        if len(calls) == 3:
+            raise ImageError(f"{path}: write failed (disk full)")
+        return imageio.write_image(path, arr, **kw)
+
+    monkeypatch.setattr(texture_set, "write_image", flaky)
+    with pytest.raises(ImageError, match="write failed") as exc:
+        write_texture_set(maps, tmp_path, "m")
+    assert len(calls) == 3
+    assert str(exc.value).startswith(str(tmp_path / "m_roughness.png"))  # names the target, not the stage
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_argument_errors(tmp_path, maps):
+    with pytest.raises(ValueError, match="normal"):
+        write_texture_set(maps, tmp_path, "m", normal="directx")
+    with pytest.raises(ValueError, match="fmt"):
+        write_texture_set(maps, tmp_path, "m", fmt="tif")
+    with pytest.raises(ImageError, match="invalid texture-set name"):
+        write_texture_set(maps, tmp_path, "a/b")
+    with pytest.raises(ValueError, match="relit"):
+        write_texture_set(maps, tmp_path, "m", relit=np.zeros((H, W), np.float32))
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ImageError, match="not a folder"):
+        write_texture_set(maps, tmp_path / "file", "m")
+    assert [p.name for p in tmp_path.iterdir()] == ["file"]
+
+
+def test_relit_panel(maps):
+    panel = relit_panel(maps, exposure=1.0)
+    assert panel.shape == (H, 3 * W, 3) and panel.dtype == np.float32
+    assert panel.min() >= 0.0 and panel.max() <= 1.0
+    flash = render(maps, None, ZHAO)
+    np.testing.assert_allclose(_srgb_to_linear_ref(panel[:, :W].astype(np.float64)),
+                               np.clip(flash, 0, 1), atol=1e-4)
+    # Panels 2 and 3: upper-left and lower-right lights.
+    ul, lr = novel_lights(ZHAO)[0], novel_lights(ZHAO)[-1]
+    assert ul[0] < 0 < ul[1] and lr[0] > 0 > lr[1]
+    np.testing.assert_allclose(panel[:, W:2 * W], linear_to_srgb(np.clip(render(maps, ul, ZHAO), 0, 1)), atol=1e-5)
+    np.testing.assert_allclose(panel[:, 2 * W:], linear_to_srgb(np.clip(render(maps, lr, ZHAO), 0, 1)), atol=1e-5)
+
+
+def test_relit_panel_auto_exposure_and_writing(tmp_path, maps):
+    dark = Maps(maps.diffuse * 0.05, maps.specular * 0.05, maps.roughness, maps.normal)
+    panel = relit_panel(dark, lights=[None, (0.3, 0.0, 1.5)])
+    assert panel.shape == (H, 2 * W, 3)
+    flash = render(dark, None, ZHAO)
+    scale = 1.0 / np.percentile(flash, 99)
+    np.testing.assert_allclose(panel[:, :W], linear_to_srgb(np.clip(flash * scale, 0, 1)), atol=1e-5)
+    assert np.mean(panel[:, :W] >= 1.0 - 1e-6) <= 0.02  # about 1 % saturates
+    paths = write_texture_set(dark, tmp_path, "m", relit=panel)
+    assert paths["relit"].name == "m_relit.png"
+    np.testing.assert_allclose(read_image(paths["relit"], raw=True), panel, atol=0.5 / 255 + 1e-6)

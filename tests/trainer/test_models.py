@@ -1,0 +1,216 @@
+import pytest
+import torch
+import torch.nn.functional as F
+
+from svbrdf.runtime.maps import MAP_NAMES, N_CHANNELS, SLICES
+from svbrdf.trainer.models import (
+    DISC_PRESETS, MODEL_PRESETS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
+    count_parameters, height_to_normal, pack_maps,
+)
+
+
+def _conv(cin, cout, k):
+    return cin * cout * k * k
+
+
+def _inorm(c):
+    return 2 * c
+
+
+@pytest.fixture(scope="module")
+def tiny():
+    torch.manual_seed(0)
+    return Generator(MODEL_PRESETS["tiny"]).eval()
+
+
+# ---- parameter counts against the published layer tables (peers.md 1.2, 1.5) ----
+
+def test_paper_parameter_counts():
+    g = Generator(MODEL_PRESETS["paper"])
+    d = Discriminator(DISC_PRESETS["paper"])
+    enc = _conv(3, 9, 5) + _conv(9, 64, 3) + _conv(64, 128, 3) + _conv(128, 256, 3) + _inorm(64 + 128 + 256)
+    dec = (_conv(256, 512, 3) + _conv(512, 256, 4) + _conv(256, 256, 4) + _conv(256, 64, 4) + _conv(64, 64, 4)
+           + _inorm(512 + 256 + 64))
+    disc = (_conv(3, 64, 4) + _conv(64, 128, 4) + _conv(128, 256, 4) + _conv(256, 512, 4) + _conv(512, 1, 4)
+            + _inorm(128 + 256 + 512))
+    assert count_parameters(g.encoder) == enc
+    assert count_parameters(g.decoder_nr) == dec + _conv(64, 2, 3)
+    assert count_parameters(g.decoder_ds) == dec + _conv(64, 4, 3)
+    assert count_parameters(d) == disc
+    # the rounded figures quoted in peers.md (encoder 0.37 M is 0.375 M truncated)
+    assert count_parameters(g.encoder) == pytest.approx(0.375e6, rel=0.01)
+    assert count_parameters(g.decoder_nr) == pytest.approx(4.65e6, rel=0.01)
+    assert count_parameters(g.decoder_ds) == pytest.approx(4.65e6, rel=0.01)
+    assert count_parameters(d) == pytest.approx(2.76e6, rel=0.01)
+
+
+def test_frozen_encoder_flag():
+    g = Generator(MODEL_PRESETS["tiny"])
+    assert not any(p.requires_grad for p in g.encoder.parameters())
+    assert count_parameters(g, trainable_only=True) == count_parameters(g) - count_parameters(g.encoder)
+    g2 = Generator(GeneratorConfig(width=0.125, train_encoder=True))
+    assert all(p.requires_grad for p in g2.encoder.parameters())
+
+
+def test_presets_and_config_round_trip():
+    assert MODEL_PRESETS["paper"].width == 1.0 and DISC_PRESETS["paper"].width == 1.0
+    assert count_parameters(Generator(MODEL_PRESETS["fast"])) < count_parameters(Generator(MODEL_PRESETS["paper"]))
+    cfg = GeneratorConfig(width=0.5, height_scale=16.0, train_encoder=True)
+    assert GeneratorConfig.from_dict(cfg.to_dict()) == cfg
+    dcfg = DiscriminatorConfig(width=0.5, n_layers=3)
+    assert DiscriminatorConfig.from_dict(dcfg.to_dict()) == dcfg
+    with pytest.raises(ValueError, match="unknown"):
+        GeneratorConfig.from_dict({"width": 1.0, "depth": 3})
+    with pytest.raises(ValueError):
+        GeneratorConfig(width=0)
+    with pytest.raises(ValueError):
+        DiscriminatorConfig(n_layers=0)
+
+
+# ---- TF SAME padding parity (peers.md 6, item 2) ----
+
+def test_stride2_conv_pads_bottom_right_only():
+    g = Generator(MODEL_PRESETS["tiny"])
+    block = g.encoder[2]  # e3: lrelu -> conv3/2 -> IN
+    conv = [m for m in block if isinstance(m, torch.nn.Conv2d)][0]
+    x = torch.randn(1, conv.in_channels, 12, 10)
+    ref = F.conv2d(F.pad(x, (0, 1, 0, 1)), conv.weight, stride=2)
+    out = block[:-1](x)  # without the norm
+    assert out.shape == ref.shape == (1, conv.out_channels, 6, 5)
+    torch.testing.assert_close(out, F.conv2d(F.pad(F.leaky_relu(x, 0.2), (0, 1, 0, 1)), conv.weight, stride=2))
+    assert not torch.allclose(ref, F.conv2d(F.pad(x, (1, 0, 1, 0)), conv.weight, stride=2))
+
+
+def test_k4_stride1_conv_pads_one_before_two_after():
+    g = Generator(MODEL_PRESETS["tiny"])
+    block = g.decoder_nr[1][2]  # first 4x4 conv of the first upsampling block
+    conv = [m for m in block if isinstance(m, torch.nn.Conv2d)][0]
+    x = torch.randn(1, conv.in_channels, 8, 6)
+    torch.testing.assert_close(block(x), F.conv2d(F.pad(x, (1, 2, 1, 2)), conv.weight))
+
+
+# ---- generator outputs ----
+
+@pytest.mark.parametrize("hw", [(32, 32), (33, 45), (17, 64), (8, 8)])
+def test_output_size_and_ranges(tiny, hw):
+    x = torch.rand(2, 3, *hw)
+    with torch.no_grad():
+        y = tiny(x)
+    assert y.shape == (2, N_CHANNELS, *hw) and y.dtype == torch.float32
+    for name in ("diffuse", "specular", "roughness"):
+        m = y[:, SLICES[name]]
+        assert m.min() >= 0 and m.max() <= 1
+    n = y[:, SLICES["normal"]]
+    torch.testing.assert_close(n.norm(dim=1), torch.ones(2, *hw))
+    assert (n[:, 2] > 0).all()
+
+
+@pytest.mark.parametrize("blocks", [1, 3])
+def test_other_depths_keep_the_size(blocks):
+    g = Generator(GeneratorConfig(width=0.125, decoder_blocks=blocks))
+    with torch.no_grad():
+        assert g(torch.rand(1, 3, 19, 26)).shape == (1, 8, 19, 26)
+
+
+def test_odd_size_is_replicate_pad_then_crop(tiny):
+    x = torch.rand(1, 3, 33, 45)
+    xp = F.pad(x, (0, 3, 0, 3), mode="replicate")  # next multiple of 4: 36 x 48
+    with torch.no_grad():
+        y, yp = tiny(x), tiny(xp)[..., :33, :45]
+    for name in ("diffuse", "specular", "roughness"):
+        torch.testing.assert_close(y[:, SLICES[name]], yp[:, SLICES[name]])
+    # the normal is computed after cropping: equal except on the last row/column (zero difference there)
+    n, npad = y[:, SLICES["normal"]], yp[:, SLICES["normal"]]
+    torch.testing.assert_close(n[..., :-1, :-1], npad[..., :-1, :-1])
+    torch.testing.assert_close(n[:, :, -1, -1], torch.tensor([[0.0, 0.0, 1.0]]))
+
+
+def test_decode_subsets_run_only_the_needed_decoder(tiny):
+    x = torch.rand(1, 3, 24, 20)
+    calls = []
+    hooks = [getattr(tiny, n).register_forward_hook(lambda m, i, o, n=n: calls.append(n))
+             for n in ("decoder_nr", "decoder_ds")]
+    try:
+        with torch.no_grad():
+            full = tiny(x)
+            latent = tiny.forward_features(x)
+            calls.clear()
+            nr = tiny.decode(latent, maps=("normal",))
+            assert calls == ["decoder_nr"] and list(nr) == ["normal"]
+            calls.clear()
+            ds = tiny.decode(latent, maps=("specular", "diffuse"))
+            assert calls == ["decoder_ds"] and list(ds) == ["diffuse", "specular"]
+    finally:
+        for h in hooks:
+            h.remove()
+    torch.testing.assert_close(nr["normal"], full[:, SLICES["normal"]])
+    torch.testing.assert_close(ds["diffuse"], full[:, SLICES["diffuse"]])
+    torch.testing.assert_close(pack_maps(tiny.decode(latent)), full)
+    with pytest.raises(ValueError, match="unknown maps"):
+        tiny.decode(latent, maps=("albedo",))
+    with pytest.raises(ValueError, match="missing"):
+        pack_maps(nr)
+
+
+def test_bad_input_shape(tiny):
+    with pytest.raises(ValueError, match=r"\(B, 3, H, W\)"):
+        tiny(torch.rand(1, 4, 16, 16))
+
+
+def test_bf16_autocast_outputs_float32(tiny):
+    with torch.no_grad(), torch.autocast("cpu", dtype=torch.bfloat16):
+        y = tiny(torch.rand(1, 3, 32, 32))
+    assert y.dtype == torch.float32 and torch.isfinite(y).all()
+
+
+def test_gradients_reach_both_decoders_not_the_frozen_encoder():
+    g = Generator(MODEL_PRESETS["tiny"])
+    g(torch.rand(1, 3, 16, 16)).square().mean().backward()
+    assert all(p.grad is None for p in g.encoder.parameters())
+    for dec in (g.decoder_nr, g.decoder_ds):
+        assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in dec.parameters())
+
+
+# ---- normal from height ----
+
+def test_height_ramp_to_the_right_tilts_normal_to_minus_x():
+    h = torch.linspace(0, 1, 9).expand(1, 1, 5, 9).contiguous()  # slope 1/8 per column
+    n = height_to_normal(h, 32.0)
+    expected = torch.tensor([-4.0, 0.0, 1.0]) / 17 ** 0.5  # (-32 * 1/8, 0, 1) normalised
+    torch.testing.assert_close(n[0, :, 2, 3], expected)
+    torch.testing.assert_close(n[0, :, :, -1], torch.tensor([0.0, 0.0, 1.0])[:, None].expand(3, 5))  # last column
+
+
+def test_height_ramp_down_the_image_tilts_normal_up_the_image():
+    h = torch.linspace(0, 1, 9)[:, None].expand(1, 1, 9, 5).contiguous()  # rises towards larger row index
+    n = height_to_normal(h, 32.0)
+    expected = torch.tensor([0.0, 4.0, 1.0]) / 17 ** 0.5  # OpenGL +y = up the image
+    torch.testing.assert_close(n[0, :, 3, 2], expected)
+    torch.testing.assert_close(n[0, :, -1, :], torch.tensor([0.0, 0.0, 1.0])[:, None].expand(3, 5))  # last row
+
+
+def test_height_scale_is_used():
+    h = torch.linspace(0, 1, 9).expand(1, 1, 4, 9).contiguous()
+    n = height_to_normal(h, 8.0)
+    torch.testing.assert_close(n[0, :, 0, 0], torch.tensor([-1.0, 0.0, 1.0]) / 2 ** 0.5)
+
+
+# ---- discriminator ----
+
+@pytest.mark.parametrize("size,out", [(256, 16), (64, 4)])
+def test_discriminator_patch_shape(size, out):
+    d = Discriminator(DISC_PRESETS["tiny"])
+    assert d(torch.rand(2, 3, size, size)).shape == (2, 1, out, out)
+
+
+def test_discriminator_first_layer_has_no_norm_and_no_activation():
+    d = Discriminator(DISC_PRESETS["tiny"])
+    first = list(d.net[0])
+    assert [type(m) for m in first] == [torch.nn.Conv2d]
+    assert all(m.bias is None for m in d.modules() if isinstance(m, torch.nn.Conv2d))
+
+
+def test_map_names_are_the_project_layout(tiny):
+    with torch.no_grad():
+        maps = tiny.decode(tiny.forward_features(torch.rand(1, 3, 16, 16)))
+    assert tuple(maps) == MAP_NAMES

@@ -1,0 +1,248 @@
+"""Benchmark cases: ground-truth sets turned into synthetic flash photos, and real photos (numpy, no torch).
+
+Every image under the data folder is found by :func:`svbrdf.runtime.datasets.find_cases`:
+
+* a ground-truth panel set (Des18, Des19, Xuejiao layouts) becomes a **synthetic case**: its maps are
+  area-averaged to ``size x size`` (:func:`resize_maps`, normals renormalised) and the input photo is rendered
+  from them with a co-located flash above the centre, either by the project renderer
+  (:func:`svbrdf.runtime.render.render`, the benchmark's render configuration) or by Mitsuba 3
+  (:func:`render_mitsuba`). The photo is then clipped to [0, 1] (sensor saturation), optionally given
+  Gaussian sensor noise (``noise``, standard deviation in linear units, added before the clip) and optionally
+  quantised as an 8-bit sRGB file would be (``quantize``). The input panel of a Des18 file is not used (it was
+  rendered with unknown perturbations; see the data README).
+* any other image is a **real photo**: centre-cropped to a square, area-averaged to ``size x size`` (linear).
+
+Noise is seeded by the case name, so a case gets the same photo in every run.
+"""
+
+from __future__ import annotations
+
+import fnmatch
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import List, Optional, Sequence, Tuple
+
+import numpy as np
+import OpenImageIO as oiio
+
+from svbrdf.runtime.colour import linear_to_srgb, srgb_to_linear
+from svbrdf.runtime.datasets import Case, find_cases, read_gt
+from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.imageio import read_image
+from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
+from svbrdf.runtime.render import ALPHA_MIN, ZHAO, RenderConfig, render
+
+from .metrics import highlight_centre
+
+RENDERERS = ("ours", "mitsuba")
+#: Samples per pixel of the Mitsuba renders.
+MITSUBA_SPP = 32
+
+
+@dataclass
+class BenchCase:
+    """One prepared benchmark input.
+
+    Attributes:
+        name: the case name (path relative to the data folder, no extension).
+        source: the image file it came from.
+        kind: ``"synthetic"`` (rendered from ground truth) or ``"photo"`` (real, no ground truth).
+        format: the file layout (``des18``, ``des19``, ``xuejiao`` or ``photo``).
+        photo: (S, S, 3) float32 linear input photo in [0, 1].
+        gt: ground-truth maps (S, S) for synthetic cases, else None.
+        centre: (row, column) of the flash highlight in pixels, used by the burn-in score.
+    """
+
+    name: str
+    source: str
+    kind: str
+    format: str
+    photo: np.ndarray
+    gt: Optional[Maps]
+    centre: Tuple[float, float]
+
+
+def _resize(arr: np.ndarray, height: int, width: int) -> np.ndarray:
+    """Resize (h, w, c) float32 with OpenImageIO: box filter (exact area average) when shrinking."""
+    h, w, c = arr.shape
+    if (h, w) == (height, width):
+        return np.asarray(arr, dtype=np.float32)
+    buf = oiio.ImageBuf(oiio.ImageSpec(w, h, c, oiio.FLOAT))
+    buf.set_pixels(oiio.ROI(), np.ascontiguousarray(arr, dtype=np.float32))
+    filt = "box" if height <= h and width <= w else "triangle"
+    out = oiio.ImageBufAlgo.resize(buf, filtername=filt, roi=oiio.ROI(0, width, 0, height, 0, 1, 0, c))
+    if out.has_error:
+        raise SvbrdfError(f"OpenImageIO resize failed: {out.geterror()}")
+    return out.get_pixels(oiio.FLOAT).reshape(height, width, c)
+
+
+def resize_maps(maps: Maps, size: int) -> Maps:
+    """Area-average every map to ``size x size`` (OpenImageIO box filter) and renormalise the normals."""
+    out = {n: _resize(a, size, size) for n, a in maps.items()}
+    out["normal"] = normalize_normals(out["normal"])
+    return Maps(**out, meta=dict(maps.meta))
+
+
+def centre_square(image: np.ndarray) -> np.ndarray:
+    """The largest centred square crop of an (H, W, C) image."""
+    h, w = image.shape[:2]
+    s = min(h, w)
+    y0, x0 = (h - s) // 2, (w - s) // 2
+    return image[y0:y0 + s, x0:x0 + s]
+
+
+def _mitsuba():
+    try:
+        import mitsuba as mi
+    except ImportError:
+        return None
+    mi.set_variant("scalar_rgb")  # the LLVM variants abort with the system LLVM (platform notes)
+    return mi
+
+
+def mitsuba_available() -> bool:
+    """True when Mitsuba 3 can be imported."""
+    return _mitsuba() is not None
+
+
+def render_mitsuba(maps: Maps, light_pos: Optional[Sequence[float]] = None, config: RenderConfig = ZHAO,
+                   spp: int = MITSUBA_SPP, seed: int = 0) -> np.ndarray:
+    """Render a texture set with Mitsuba 3 (``scalar_rgb``), the same scene as :func:`svbrdf.runtime.render.render`.
+
+    Scene: the maps cover the plane z = 0 over x in [-1, 1]; a perspective camera at ``(0, 0, d)`` looks down
+    with ``config.fov_deg`` across the width (box pixel filter, ``spp`` samples); a point light at
+    ``light_pos`` (default: the camera). The material is ``normalmap`` (tangent space, (n+1)/2) around an equal
+    blend of ``diffuse`` (reflectance = diffuse map) and ``roughconductor`` (GGX, alpha = max(r^2, ALPHA_MIN),
+    ``material="none"`` so F = specular map), weighted x2 so the two lobes add. Mitsuba is physically based, so
+    regardless of ``config``: inverse-square fall-off (intensity ``I d^2``, so a surface point at the camera
+    distance gets ``I``), exact Smith GGX masking, F = F0, no (1 - rho_s) on the diffuse term. It matches
+    :func:`~svbrdf.runtime.render.render` with ``config.replace(falloff=True, geometry="smith",
+    fresnel="none")`` up to Monte Carlo noise and texture filtering, and differs from the ZHAO settings
+    the methods assume (an independent check of robustness to the image-formation model).
+
+    Args:
+        maps: texture set (H, W); textures are passed as raw data (no colour conversion).
+        light_pos: point light (3,) in scene units; None = co-located with the camera.
+        config: field of view and light intensity are used.
+        spp: samples per pixel.
+        seed: sampler seed.
+
+    Returns:
+        (H, W, 3) float32 linear radiance.
+
+    Raises:
+        SvbrdfError: Mitsuba 3 is not installed.
+    """
+    mi = _mitsuba()
+    if mi is None:
+        raise SvbrdfError("--renderer mitsuba needs Mitsuba 3 (pip install mitsuba)")
+    h, w = maps.shape
+    d = config.camera_distance
+
+    def tex(a: np.ndarray) -> dict:
+        # Mitsuba puts bitmap row 0 at v = 0, the bottom (-y) of the rectangle: flip rows to keep +y up.
+        return {"type": "bitmap", "bitmap": mi.Bitmap(np.ascontiguousarray(a[::-1], dtype=np.float32)),
+                "raw": True, "filter_type": "bilinear", "wrap_mode": "clamp"}
+
+    m = maps.clipped()
+    bsdf = {
+        "type": "normalmap",
+        "normalmap": tex(encode_normal(m.normal)),
+        "bsdf": {
+            "type": "blendbsdf", "weight": 0.5,
+            "bsdf_0": {"type": "diffuse", "reflectance": tex(m.diffuse)},
+            "bsdf_1": {"type": "roughconductor", "distribution": "ggx", "material": "none",
+                       "alpha": tex(np.maximum(m.roughness ** 2, ALPHA_MIN)),
+                       "specular_reflectance": tex(np.repeat(m.specular, 3, axis=-1))},
+        },
+    }
+    light = [0.0, 0.0, d] if light_pos is None else [float(c) for c in light_pos]
+    scene = mi.load_dict({
+        "type": "scene",
+        "integrator": {"type": "direct"},
+        "sensor": {
+            "type": "perspective", "fov": float(config.fov_deg), "fov_axis": "x",
+            "to_world": mi.ScalarTransform4f().look_at(origin=[0, 0, d], target=[0, 0, 0], up=[0, 1, 0]),
+            "film": {"type": "hdrfilm", "width": w, "height": h, "rfilter": {"type": "box"}, "pixel_format": "rgb"},
+            "sampler": {"type": "independent", "sample_count": int(spp)},
+        },
+        "plane": {"type": "rectangle", "to_world": mi.ScalarTransform4f().scale([1.0, h / w, 1.0]), "bsdf": bsdf},
+        # x2: the blend halves each lobe.
+        "light": {"type": "point", "position": light, "intensity": {"type": "rgb", "value": 2.0 * config.intensity * d * d}},
+    })
+    img = mi.render(scene, spp=int(spp), seed=int(seed))
+    return np.asarray(img, dtype=np.float32)[..., :3]
+
+
+def simulate_photo(maps: Maps, *, renderer: str = "ours", config: RenderConfig = ZHAO, noise: float = 0.0,
+                   quantize: bool = False, seed: int = 0) -> np.ndarray:
+    """The flash photo of a texture set: render, add noise, clip to [0, 1], optionally 8-bit sRGB quantise.
+
+    Args:
+        maps: texture set.
+        renderer: ``"ours"`` or ``"mitsuba"``.
+        config: renderer settings.
+        noise: standard deviation of additive Gaussian noise on the linear radiance (0 = none).
+        quantize: round to 8-bit sRGB codes and decode back, as a phone's JPEG/PNG would store it.
+        seed: noise (and Mitsuba sampler) seed.
+
+    Returns:
+        (H, W, 3) float32 linear photo in [0, 1].
+    """
+    if renderer not in RENDERERS:
+        raise ValueError(f"renderer must be one of {', '.join(RENDERERS)}, got {renderer!r}")
+    if noise < 0:
+        raise ValueError(f"noise must be >= 0, got {noise}")
+    img = render(maps, None, config) if renderer == "ours" else render_mitsuba(maps, None, config, seed=seed)
+    if noise > 0:
+        img = img + np.random.default_rng(seed).normal(0.0, noise, img.shape).astype(np.float32)
+    img = np.clip(img, 0.0, 1.0)
+    if quantize:
+        img = srgb_to_linear(np.round(linear_to_srgb(img) * 255.0) / 255.0)
+    return np.clip(img, 0.0, 1.0).astype(np.float32)
+
+
+def select_cases(cases: List[Case], spec: Optional[str]) -> List[Case]:
+    """Pick cases: ``None`` = all, a number N = the first N, anything else = a glob on the case name.
+
+    Raises:
+        SvbrdfError: the selection is empty.
+    """
+    if spec is None or spec == "":
+        picked = list(cases)
+    elif spec.isdigit():
+        picked = cases[: int(spec)]
+    else:
+        picked = [c for c in cases if fnmatch.fnmatchcase(c.name, spec) or fnmatch.fnmatchcase(c.path.name, spec)]
+    if not picked:
+        raise SvbrdfError(f"--cases {spec!r} selects no case (found {len(cases)})")
+    return picked
+
+
+def case_seed(name: str) -> int:
+    """Stable per-case seed (CRC32 of the name)."""
+    return zlib.crc32(name.encode("utf-8"))
+
+
+def prepare_case(case: Case, size: int, *, renderer: str = "ours", config: RenderConfig = ZHAO,
+                 noise: float = 0.0, quantize: bool = False) -> BenchCase:
+    """Load one found case and turn it into a :class:`BenchCase` of side ``size`` (see the module docstring)."""
+    if case.kind == "gt":
+        gt, _ = read_gt(case.path, case.format)
+        gt = resize_maps(gt, size)
+        photo = simulate_photo(gt, renderer=renderer, config=config, noise=noise, quantize=quantize,
+                               seed=case_seed(case.name))
+        return BenchCase(case.name, str(case.path), "synthetic", case.format, photo, gt, (size / 2.0, size / 2.0))
+    img = centre_square(read_image(case.path))
+    photo = np.clip(_resize(img, size, size), 0.0, 1.0)
+    return BenchCase(case.name, str(case.path), "photo", case.format, photo, None, highlight_centre(photo))
+
+
+def load_cases(root: Path, size: int, spec: Optional[str] = None, **kw) -> List[BenchCase]:
+    """Find, select (:func:`select_cases`) and prepare (:func:`prepare_case`) every case under ``root``."""
+    return [prepare_case(c, size, **kw) for c in select_cases(find_cases(root), spec)]
+
+
+__all__ = ["BenchCase", "RENDERERS", "MITSUBA_SPP", "resize_maps", "centre_square", "render_mitsuba",
+           "mitsuba_available", "simulate_photo", "select_cases", "case_seed", "prepare_case", "load_cases"]

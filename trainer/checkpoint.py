@@ -1,0 +1,211 @@
+"""Self-describing training checkpoints.
+
+A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only, so that
+``torch.load(path, weights_only=True)`` reads it (no pickled classes, no numpy arrays)::
+
+    format, format_version      "svbrdf-train-checkpoint", 1
+    generator_config            GeneratorConfig.to_dict()
+    discriminator_config        DiscriminatorConfig.to_dict()
+    train_config                TrainConfig.to_dict()
+    stage, step, iters          "pretrain" | "finetune" | "fit", iterations done, iterations planned
+    generator, discriminator    state dicts (discriminator may be None in a cleaned checkpoint)
+    optimizers                  {"nr", "ds", "d"}: Adam state dicts, or None (cleaned)
+    history                     one dict of loss terms per iteration (None for a non-finite value)
+    photo                       {"name", "sha256", "height", "width"} of the training photo
+    rng                         {"torch": ByteTensor, "tiles": ByteTensor, "cuda": [ByteTensor]} or None
+    counters                    {"nonfinite_skips", "rollbacks"}
+    init                        for a finetune: {"path", "stage", "step", "photo"} of the starting checkpoint
+    perceptual_backend, notes   what actually ran (backend name, fallbacks)
+    eval_maps                   maps of the fixed evaluation tiles at the last evaluation (for the map-change signal)
+    versions, date              library versions, ISO date (UTC)
+
+Files are written atomically (temp file in the same folder, then ``os.replace``).
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import secrets
+from pathlib import Path
+from typing import Any, Dict, Mapping, Optional, Tuple, Union
+
+import numpy as np
+import torch
+
+from svbrdf.runtime.errors import ModelError
+from svbrdf.trainer.models import Generator, GeneratorConfig
+
+FORMAT = "svbrdf-train-checkpoint"
+FORMAT_VERSION = 1
+#: Keys every checkpoint must have.
+REQUIRED_KEYS = ("format", "format_version", "generator_config", "train_config", "stage", "step", "generator")
+
+PathLike = Union[str, os.PathLike]
+
+
+def library_versions() -> Dict[str, str]:
+    try:
+        from importlib.metadata import version
+
+        svbrdf_version = version("svbrdf")
+    except Exception:  # running from a source tree without an install
+        svbrdf_version = "0.0.0+local"
+    return {"svbrdf": svbrdf_version, "torch": str(torch.__version__), "numpy": str(np.__version__),
+            "python": platform.python_version()}
+
+
+def build_checkpoint(
+    *,
+    generator: torch.nn.Module,
+    discriminator: Optional[torch.nn.Module],
+    train_config: Mapping[str, Any],
+    stage: str,
+    step: int,
+    iters: int,
+    optimizers: Optional[Mapping[str, torch.optim.Optimizer]] = None,
+    history=(),
+    photo: Optional[Mapping[str, Any]] = None,
+    rng: Optional[Mapping[str, Any]] = None,
+    counters: Optional[Mapping[str, int]] = None,
+    init: Optional[Mapping[str, Any]] = None,
+    perceptual_backend: Optional[str] = None,
+    notes=(),
+    eval_maps: Optional[torch.Tensor] = None,
+) -> Dict[str, Any]:
+    """Assemble the checkpoint dict (see the module docstring); tensors are moved to the CPU."""
+    def cpu(obj):
+        if isinstance(obj, torch.Tensor):
+            return obj.detach().to("cpu", copy=True)
+        if isinstance(obj, Mapping):
+            return {k: cpu(v) for k, v in obj.items()}
+        if isinstance(obj, (list, tuple)):
+            return type(obj)(cpu(v) for v in obj)
+        return obj
+
+    return {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "generator_config": generator.cfg.to_dict(),
+        "discriminator_config": None if discriminator is None else discriminator.cfg.to_dict(),
+        "train_config": dict(train_config),
+        "stage": str(stage),
+        "step": int(step),
+        "iters": int(iters),
+        "generator": cpu(generator.state_dict()),
+        "discriminator": None if discriminator is None else cpu(discriminator.state_dict()),
+        "optimizers": None if optimizers is None else {k: cpu(o.state_dict()) for k, o in optimizers.items()},
+        "history": [dict(h) for h in history],
+        "photo": dict(photo or {}),
+        "rng": None if rng is None else cpu(dict(rng)),
+        "counters": dict(counters or {}),
+        "init": None if init is None else dict(init),
+        "perceptual_backend": perceptual_backend,
+        "notes": list(notes),
+        "eval_maps": None if eval_maps is None else cpu(eval_maps),
+        "versions": library_versions(),
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+    }
+
+
+def _atomic_save(obj: Any, path: Path) -> Path:
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
+    try:
+        torch.save(obj, tmp)
+        os.replace(tmp, path)
+    finally:
+        if tmp.exists():
+            tmp.unlink()
+    return path
+
+
+def save_checkpoint(path: PathLike, checkpoint: Mapping[str, Any]) -> Path:
+    """Write ``checkpoint`` (from :func:`build_checkpoint`) atomically to ``path``, replacing it if present.
+
+    Raises:
+        ModelError: the dict is not a checkpoint, or the file cannot be written.
+    """
+    path = Path(path)
+    if checkpoint.get("format") != FORMAT:
+        raise ModelError(f"{path}: refusing to save a dict that is not an {FORMAT}")
+    try:
+        return _atomic_save(dict(checkpoint), path)
+    except OSError as e:
+        raise ModelError(f"{path}: cannot write checkpoint ({e.strerror or e})") from e
+
+
+def load_checkpoint(path: PathLike) -> Dict[str, Any]:
+    """Read and check a checkpoint (CPU tensors, ``weights_only=True``).
+
+    Raises:
+        ModelError: missing file, unreadable/corrupt file, not a checkpoint of this project, or a newer format.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise ModelError(f"{path}: no such checkpoint file")
+    try:
+        ckpt = torch.load(path, map_location="cpu", weights_only=True)
+    except Exception as e:  # zip, pickle, EOF and unpickler-policy errors all mean "not a usable checkpoint"
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ModelError(f"{path}: corrupt or unreadable checkpoint ({first[:160]})") from None
+    if not isinstance(ckpt, dict) or ckpt.get("format") != FORMAT:
+        raise ModelError(f"{path}: not an svbrdf training checkpoint")
+    missing = [k for k in REQUIRED_KEYS if k not in ckpt]
+    if missing:
+        raise ModelError(f"{path}: checkpoint lacks {', '.join(missing)}")
+    if not isinstance(ckpt["format_version"], int) or ckpt["format_version"] > FORMAT_VERSION:
+        raise ModelError(f"{path}: checkpoint format version {ckpt['format_version']!r} is newer than this "
+                         f"toolkit's ({FORMAT_VERSION}); upgrade svbrdf")
+    return ckpt
+
+
+def generator_from_checkpoint(ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> Generator:
+    """Build the generator of a loaded checkpoint dict (CPU, eval mode)."""
+    try:
+        gen = Generator(GeneratorConfig.from_dict(ckpt["generator_config"]))
+        gen.load_state_dict(ckpt["generator"])
+    except (ValueError, TypeError, KeyError, RuntimeError) as e:
+        first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
+        raise ModelError(f"{source}: generator weights do not match its configuration ({first[:160]})") from None
+    return gen.eval()
+
+
+def load_generator(path: PathLike) -> Tuple[Generator, Dict[str, Any]]:
+    """The trained generator of a checkpoint and its metadata (every key but the weights and optimiser states).
+
+    Returns:
+        ``(generator, meta)``: a CPU :class:`~svbrdf.trainer.models.Generator` in eval mode, and a dict with
+        ``generator_config``, ``train_config``, ``stage``, ``step``, ``photo``, ``history``, ``versions``, ...
+
+    Raises:
+        ModelError: see :func:`load_checkpoint`, or weights that do not fit the stored configuration.
+    """
+    ckpt = load_checkpoint(path)
+    gen = generator_from_checkpoint(ckpt, path)
+    meta = {k: v for k, v in ckpt.items() if k not in ("generator", "discriminator", "optimizers", "rng")}
+    return gen, meta
+
+
+def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool = False,
+                     force: bool = False) -> Path:
+    """Copy a checkpoint without optimiser states and RNG states (and the discriminator unless kept), for shipping.
+
+    Raises:
+        ModelError: unreadable ``src``, or ``dst`` exists and ``force`` is False.
+    """
+    dst = Path(dst)
+    if dst.exists() and not force:
+        raise ModelError(f"{dst}: already exists (use force=True to overwrite)")
+    ckpt = load_checkpoint(src)
+    ckpt["optimizers"] = None
+    ckpt["rng"] = None
+    ckpt["eval_maps"] = None
+    if not keep_discriminator:
+        ckpt["discriminator"] = None
+    return save_checkpoint(dst, ckpt)
+
+
+__all__ = ["FORMAT", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint", "load_generator",
+           "generator_from_checkpoint", "clean_checkpoint", "library_versions"]

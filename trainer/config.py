@@ -1,0 +1,227 @@
+"""Every training choice as one named setting: :class:`TrainConfig` and the presets :data:`TRAIN_PRESETS`.
+
+Presets (``resolve(name, **overrides)``):
+
+* ``"paper"``: the published schedule (Wen et al. 2022 on top of Zhao et al. 2020): paper-size generator and
+  PatchGAN, 256 px tiles, per iteration 5 updates of the normal/roughness decoder, 1 of the
+  diffuse/specular decoder and 1 of the discriminator, each on a fresh random tile; Adam lr 2e-5, betas
+  (0, 0.9); loss ``0.1 L_GAN + L_d + 0.1 L_F + 0.2 L_P``; 10k pretrain / 3k finetune / 20k from-scratch
+  iterations; seed 24.
+* ``"zhao"``: ``"paper"`` without the Fourier and perceptual losses (Zhao et al. 2020's objective).
+* ``"fast"``: the light generator/discriminator, 128 px tiles, schedule 1:1:1, lr 1e-4 (a first guess that
+  the benchmark tunes).
+* ``"tiny"``: a toy model for tests (32 px tiles, a few iterations, pyramid perceptual loss).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field, fields
+from typing import Any, Dict, Optional, Tuple
+
+from svbrdf.runtime.render import ZHAO, RenderConfig
+from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, DiscriminatorConfig, GeneratorConfig
+
+STAGES = ("pretrain", "finetune", "fit")
+FOURIER_MODES = ("complex", "magnitude")
+PERCEPTUAL_BACKENDS = ("auto", "vgg19", "vgg19-random", "pyramid")
+QUALITY_MODES = ("fixed", "auto")
+
+
+@dataclass
+class TrainConfig:
+    """Training settings (JSON-safe through :meth:`to_dict` / :meth:`from_dict`).
+
+    Attributes:
+        preset: name of the preset these settings started from (informative).
+        generator: generator architecture (``train_encoder`` lives there: a frozen random encoder by default).
+        discriminator: PatchGAN architecture.
+        tile: side of the random square training tiles, pixels (clipped to the photo).
+        nr_updates, ds_updates, d_updates: optimiser steps per iteration of the normal/roughness decoder,
+            the diffuse/specular decoder (plus the encoder if trained) and the discriminator, each on a
+            fresh random tile.
+        lr, betas: Adam settings shared by the three optimisers.
+        lambda_gan: weight of the generator GAN term in both decoder losses.
+        lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".
+        lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
+            ``vgg_weights``: optional VGG-19 state-dict file.
+        iters_pretrain, iters_finetune, iters_fit: iterations of each stage.
+        seed: seeds weights and the tile sequence.
+        bf16: bfloat16 autocast around the networks (falls back to fp32 where unsupported).
+        render: :class:`~svbrdf.runtime.render.RenderConfig` as a dict (see :attr:`render_config`).
+        checkpoint_every: iterations between checkpoints (0 = only at the end).
+        maps_every: iterations between full-photo map dumps by the CLI (0 = only at the end).
+        reset_optimizers: finetune with fresh Adam states instead of the pretrained ones.
+        eval_every, eval_tiles: cadence and number of fixed tiles of the label-free progress signal
+            (re-render L1 vs the photo, mean map change between evaluations); 0 = off.
+        quality: "fixed" (run all iterations) or "auto" (stop early on a plateau of both signals).
+        plateau_window: evaluations compared by the plateau test; ``plateau_render_tol``: minimum relative
+            drop of the re-render L1 over the window; ``plateau_change_tol``: minimum mean map change per
+            evaluation over the window. Training stops when both fall below their tolerance.
+        guard_rollback_after: consecutive non-finite optimiser steps before rolling back to the last good
+            in-memory snapshot; ``guard_snapshot_every``: iterations between snapshots.
+        predict_max_side: photos with a longer side are predicted in overlapping tiles of this size;
+            ``predict_overlap``: their overlap.
+    """
+
+    preset: str = "paper"
+    generator: GeneratorConfig = field(default_factory=lambda: dataclasses.replace(MODEL_PRESETS["paper"]))
+    discriminator: DiscriminatorConfig = field(default_factory=lambda: dataclasses.replace(DISC_PRESETS["paper"]))
+    tile: int = 256
+    nr_updates: int = 5
+    ds_updates: int = 1
+    d_updates: int = 1
+    lr: float = 2e-5
+    betas: Tuple[float, float] = (0.0, 0.9)
+    lambda_gan: float = 0.1
+    lambda_fourier: float = 0.1
+    fourier_mode: str = "complex"
+    lambda_perceptual: float = 0.2
+    perceptual: str = "auto"
+    vgg_weights: Optional[str] = None
+    iters_pretrain: int = 10000
+    iters_finetune: int = 3000
+    iters_fit: int = 20000
+    seed: int = 24
+    bf16: bool = False
+    render: Dict[str, Any] = field(default_factory=ZHAO.to_dict)
+    checkpoint_every: int = 500
+    maps_every: int = 500
+    reset_optimizers: bool = False
+    eval_every: int = 100
+    eval_tiles: int = 4
+    quality: str = "fixed"
+    plateau_window: int = 5
+    plateau_render_tol: float = 0.01
+    plateau_change_tol: float = 0.002
+    guard_rollback_after: int = 5
+    guard_snapshot_every: int = 50
+    predict_max_side: int = 1024
+    predict_overlap: int = 128
+
+    def __post_init__(self) -> None:
+        self.betas = tuple(float(b) for b in self.betas)
+        self.validate()
+
+    @property
+    def render_config(self) -> RenderConfig:
+        return RenderConfig(**self.render)
+
+    @property
+    def train_encoder(self) -> bool:
+        return bool(self.generator.train_encoder)
+
+    def iters(self, stage: str) -> int:
+        """Iterations of ``stage`` ("pretrain", "finetune" or "fit")."""
+        if stage not in STAGES:
+            raise ValueError(f"unknown stage {stage!r}; expected one of {', '.join(STAGES)}")
+        return getattr(self, f"iters_{stage}")
+
+    def validate(self) -> None:
+        """Raise ValueError on an inconsistent setting."""
+        def need(ok: bool, msg: str) -> None:
+            if not ok:
+                raise ValueError(msg)
+
+        need(self.tile >= 8, f"tile must be >= 8 px, got {self.tile}")
+        for name in ("nr_updates", "ds_updates", "d_updates", "iters_pretrain", "iters_finetune", "iters_fit",
+                     "checkpoint_every", "maps_every", "eval_every"):
+            need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
+        need(self.lr > 0, f"lr must be > 0, got {self.lr}")
+        need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "
+             f"got {self.betas}")
+        for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual"):
+            need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
+        need(self.fourier_mode in FOURIER_MODES, f"fourier_mode must be one of {FOURIER_MODES}, "
+             f"got {self.fourier_mode!r}")
+        need(self.perceptual in PERCEPTUAL_BACKENDS, f"perceptual must be one of {PERCEPTUAL_BACKENDS}, "
+             f"got {self.perceptual!r}")
+        need(self.quality in QUALITY_MODES, f"quality must be one of {QUALITY_MODES}, got {self.quality!r}")
+        need(self.eval_tiles >= 1 and self.plateau_window >= 1, "eval_tiles and plateau_window must be >= 1")
+        need(self.quality == "fixed" or self.eval_every > 0, "quality 'auto' needs eval_every > 0")
+        need(self.guard_rollback_after >= 1 and self.guard_snapshot_every >= 1,
+             "guard_rollback_after and guard_snapshot_every must be >= 1")
+        need(self.predict_max_side >= 8 and 0 <= 2 * self.predict_overlap <= self.predict_max_side,
+             "predict_max_side must be >= 8 and predict_overlap in [0, predict_max_side / 2]")
+        RenderConfig(**self.render)  # validates the renderer settings
+
+    def to_dict(self) -> Dict[str, Any]:
+        """JSON-safe dict (nested configs as dicts, tuples as lists)."""
+        out: Dict[str, Any] = {}
+        for f in fields(self):
+            v = getattr(self, f.name)
+            if isinstance(v, (GeneratorConfig, DiscriminatorConfig)):
+                v = v.to_dict()
+            elif isinstance(v, tuple):
+                v = list(v)
+            elif isinstance(v, dict):
+                v = dict(v)
+            out[f.name] = v
+        return out
+
+    @classmethod
+    def from_dict(cls, d: Dict[str, Any]) -> "TrainConfig":
+        """Inverse of :meth:`to_dict`; unknown keys raise ValueError, missing ones take the defaults."""
+        known = {f.name for f in fields(cls)}
+        unknown = sorted(set(d) - known)
+        if unknown:
+            raise ValueError(f"unknown training settings: {', '.join(unknown)}")
+        kw = dict(d)
+        if "generator" in kw and isinstance(kw["generator"], dict):
+            kw["generator"] = GeneratorConfig.from_dict(kw["generator"])
+        if "discriminator" in kw and isinstance(kw["discriminator"], dict):
+            kw["discriminator"] = DiscriminatorConfig.from_dict(kw["discriminator"])
+        if "render" in kw:
+            kw["render"] = RenderConfig(**kw["render"]).to_dict()
+        return cls(**kw)
+
+
+def _preset(name: str, model: str, **kw) -> TrainConfig:
+    return TrainConfig(preset=name, generator=dataclasses.replace(MODEL_PRESETS[model]),
+                       discriminator=dataclasses.replace(DISC_PRESETS[model]), **kw)
+
+
+def _presets() -> Dict[str, TrainConfig]:
+    return {
+        "paper": _preset("paper", "paper"),
+        "zhao": _preset("zhao", "paper", lambda_fourier=0.0, lambda_perceptual=0.0),
+        "fast": _preset("fast", "fast", tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4),
+        "tiny": _preset("tiny", "tiny", tile=32, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-3,
+                        perceptual="pyramid", iters_pretrain=20, iters_finetune=10, iters_fit=20,
+                        checkpoint_every=10, maps_every=0, eval_every=5, eval_tiles=2, plateau_window=3,
+                        guard_snapshot_every=5, predict_max_side=64, predict_overlap=8),
+    }
+
+
+#: The named starting points of :func:`resolve` (see the module docstring). Copies are handed out.
+TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
+
+
+def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
+    """A copy of preset ``preset`` with ``overrides`` applied.
+
+    Overrides are :class:`TrainConfig` field names; ``None`` values are ignored (convenient for CLI flags
+    left unset); ``train_encoder`` sets ``generator.train_encoder``; ``fov_deg`` sets ``render["fov_deg"]``.
+
+    Raises:
+        ValueError: unknown preset, unknown setting or invalid value.
+    """
+    if preset not in TRAIN_PRESETS:
+        raise ValueError(f"unknown preset {preset!r}; expected one of {', '.join(TRAIN_PRESETS)}")
+    d = TRAIN_PRESETS[preset].to_dict()
+    for key, value in overrides.items():
+        if value is None:
+            continue
+        if key == "train_encoder":
+            d["generator"]["train_encoder"] = bool(value)
+        elif key == "fov_deg":
+            d["render"]["fov_deg"] = float(value)
+        elif key in ("generator", "discriminator", "render") and not isinstance(value, dict):
+            d[key] = value.to_dict()
+        else:
+            d[key] = value
+    return TrainConfig.from_dict(d)
+
+
+__all__ = ["TrainConfig", "TRAIN_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
+           "QUALITY_MODES"]

@@ -1,0 +1,243 @@
+"""Losses of Wen et al. 2022 and the "guessed diffuse" target of Zhao et al. 2020 (peers.md 1.1, 1.6, 1.9, 6).
+
+Total generator loss per decoder: ``0.1 L_GAN + L_d + 0.1 L_F + 0.2 L_P`` (L_P is in
+:mod:`svbrdf.trainer.perceptual`). All images and maps are linear; maps are packed (B, 8, H, W) in the layout of
+:mod:`svbrdf.runtime.maps` with final ranges (diffuse/specular/roughness in [0, 1], unit normals).
+
+Every loss is computed in at least float32, also under bf16 autocast.
+"""
+
+from __future__ import annotations
+
+import torch
+import torch.nn.functional as F
+from kornia.filters import get_gaussian_kernel1d
+from torch import nn
+
+from svbrdf.runtime.maps import SLICES
+
+#: Added under the square root of a complex modulus so its gradient stays finite at 0.
+MODULUS_EPS = 1e-20
+
+
+def _f32(x: torch.Tensor) -> torch.Tensor:
+    """At least float32 (keeps float64 for gradcheck)."""
+    return x.to(torch.promote_types(x.dtype, torch.float32))
+
+
+def _fast_fft_size(n: int) -> int:
+    """Smallest 5-smooth integer >= n (pocketfft is several times slower on sizes with large prime factors)."""
+    while True:
+        m = n
+        for p in (2, 3, 5):
+            while m % p == 0:
+                m //= p
+        if m == 1:
+            return n
+        n += 1
+
+
+def _blur_fft(x: torch.Tensor, kernel: torch.Tensor, padding: str) -> torch.Tensor:
+    """'same' convolution of (B, C, H, W) with a centred odd (k, k) kernel by FFT, with zero or reflect padding.
+
+    The input is padded by p = k // 2 on each side; output rows/columns 2p .. 2p + H - 1 of the circular
+    convolution only read padded samples 0 .. H + 2p - 1, so they never see the wrap-around.
+    """
+    k = kernel.shape[-1]
+    p = k // 2
+    h, w = x.shape[-2:]
+    xp = F.pad(x, (p, p, p, p), mode="constant" if padding == "zeros" else "reflect")
+    size = (_fast_fft_size(h + 2 * p), _fast_fft_size(w + 2 * p))
+    spec = torch.fft.rfft2(xp, s=size) * torch.fft.rfft2(kernel, s=size)
+    # Output index i collects xp[i - k + 1 .. i], i.e. the window centred on photo pixel i - 2p.
+    return torch.fft.irfft2(spec, s=size)[..., 2 * p:2 * p + h, 2 * p:2 * p + w]
+
+
+def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 101.0, eps: float = 1e-4,
+                    padding: str = "zeros") -> torch.Tensor:
+    """Zhao et al.'s "guessed diffuse map": local mean/std normalisation of the photo, min-max rescaled.
+
+    Per channel: ``m = K * x``, ``s = sqrt(K * (x - m)^2)``, ``z = (x - m) / (s + eps)``, then
+    ``(z - min z) / (max z - min z + eps)`` over the whole image. ``K`` is a normalised
+    ``kernel_size x kernel_size`` Gaussian (sigma 101 over 101 px is nearly a box). With ``padding="zeros"``
+    (Zhao, TF SAME) the sums still divide by the full kernel weight, so a ``kernel_size // 2`` border is darkened;
+    ``"reflect"`` avoids that (needs H, W > kernel_size // 2). Computed by FFT: about 4 s for a 4096 x 4096 photo on 2 CPU cores.
+
+    Deviation: Zhao linearises with x^2.2; the project decodes sRGB exactly upstream, so ``photo`` is linear.
+
+    Args:
+        photo: (B, 3, H, W) linear RGB photo (whole image, before cropping).
+        kernel_size: odd Gaussian window size (Zhao: 101).
+        sigma: Gaussian standard deviation in pixels (Zhao: 101).
+        eps: added to the local std and to the min-max range (Zhao: 1e-4).
+        padding: "zeros" (Zhao) or "reflect".
+
+    Returns:
+        (B, 3, H, W) target for the linear diffuse albedo, in [0, 1], float32 (float64 for float64 input).
+    """
+    if kernel_size < 1 or kernel_size % 2 == 0:
+        raise ValueError(f"kernel_size must be a positive odd integer, got {kernel_size}")
+    if padding not in ("zeros", "reflect"):
+        raise ValueError(f"padding must be 'zeros' or 'reflect', got {padding!r}")
+    if photo.ndim != 4:
+        raise ValueError(f"photo must be (B, C, H, W), got {tuple(photo.shape)}")
+    if padding == "reflect" and min(photo.shape[-2:]) <= kernel_size // 2:
+        raise ValueError(f"reflect padding needs H, W > {kernel_size // 2}, got {tuple(photo.shape[-2:])}")
+    x = _f32(photo)
+    g = get_gaussian_kernel1d(kernel_size, sigma, device=x.device, dtype=x.dtype)[0]
+    kernel = g[:, None] * g[None, :]  # separable: the outer product of the normalised 1D kernel sums to 1
+    mean = _blur_fft(x, kernel, padding)
+    std = _blur_fft((x - mean) ** 2, kernel, padding).clamp_min(0.0).sqrt()  # FFT round-off can go below 0
+    z = (x - mean) / (std + eps)
+    lo = z.amin(dim=(-2, -1), keepdim=True)
+    hi = z.amax(dim=(-2, -1), keepdim=True)
+    return ((z - lo) / (hi - lo + eps)).clamp(0.0, 1.0)
+
+
+def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
+    """L_d: mean absolute error between the predicted diffuse albedo and the guessed diffuse map.
+
+    Args:
+        pred_diffuse: (B, 3, H, W) predicted linear diffuse albedo in [0, 1].
+        guess: (B, 3, H, W) guessed diffuse crop in [0, 1] (:func:`guessed_diffuse`).
+
+    Returns:
+        scalar.
+    """
+    return F.l1_loss(_f32(pred_diffuse), _f32(guess))
+
+
+class DiffuseLoss(nn.Module):
+    """Module form of :func:`diffuse_loss`."""
+
+    def forward(self, pred_diffuse: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
+        return diffuse_loss(pred_diffuse, guess)
+
+
+def gan_generator_loss(fake_logits: torch.Tensor) -> torch.Tensor:
+    """Non-saturating GAN loss of the generator: BCE-with-logits(D(fake), 1), mean over the patch map.
+
+    Args:
+        fake_logits: (B, 1, h, w) discriminator logits of rendered (fake) images.
+
+    Returns:
+        scalar.
+    """
+    x = _f32(fake_logits)
+    return F.binary_cross_entropy_with_logits(x, torch.ones_like(x))
+
+
+def gan_discriminator_loss(real_logits: torch.Tensor, fake_logits: torch.Tensor) -> torch.Tensor:
+    """Discriminator loss ``BCE(D(real), 1) + BCE(D(fake), 0)`` (Zhao: no 1/2 factor), each a patch mean.
+
+    Args:
+        real_logits: (B, 1, h, w) logits of real photo crops.
+        fake_logits: (B, 1, h, w) logits of renderings (detached from the generator by the caller).
+
+    Returns:
+        scalar.
+    """
+    r, f = _f32(real_logits), _f32(fake_logits)
+    return (F.binary_cross_entropy_with_logits(r, torch.ones_like(r))
+            + F.binary_cross_entropy_with_logits(f, torch.zeros_like(f)))
+
+
+class GANGeneratorLoss(nn.Module):
+    """Module form of :func:`gan_generator_loss`."""
+
+    def forward(self, fake_logits: torch.Tensor) -> torch.Tensor:
+        return gan_generator_loss(fake_logits)
+
+
+class GANDiscriminatorLoss(nn.Module):
+    """Module form of :func:`gan_discriminator_loss`."""
+
+    def forward(self, real_logits: torch.Tensor, fake_logits: torch.Tensor) -> torch.Tensor:
+        return gan_discriminator_loss(real_logits, fake_logits)
+
+
+def maps_for_loss(maps: torch.Tensor) -> torch.Tensor:
+    """The four maps as comparable 3-channel images in [0, 1], stacked for the Fourier loss.
+
+    Args:
+        maps: (B, 8, H, W) packed maps (:mod:`svbrdf.runtime.maps` layout, final ranges).
+
+    Returns:
+        (B, 4, 3, H, W): diffuse, specular (grey, broadcast to 3 channels), roughness (broadcast),
+        normal encoded as (n + 1) / 2.
+    """
+    b, _, h, w = maps.shape
+    spec = maps[:, SLICES["specular"]].expand(b, 3, h, w)
+    rough = maps[:, SLICES["roughness"]].expand(b, 3, h, w)
+    normal = (maps[:, SLICES["normal"]] + 1.0) * 0.5
+    return torch.stack([maps[:, SLICES["diffuse"]], spec, rough, normal], dim=1)
+
+
+def _modulus(z: torch.Tensor) -> torch.Tensor:
+    # |z| with a finite gradient at z = 0 (torch.abs of a complex zero has a NaN gradient)
+    return torch.sqrt(z.real * z.real + z.imag * z.imag + MODULUS_EPS)
+
+
+def fourier_loss(maps: torch.Tensor, guess: torch.Tensor, mode: str = "complex", eps: float = 1e-8,
+                 include_dc: bool = True) -> torch.Tensor:
+    """L_F (Wen et al. Eq. 4): log of the mean L1 distance between the spectra of the maps and the guessed diffuse.
+
+    For each map u of :func:`maps_for_loss` and the guess g, with 2D FFTs over (H, W) normalised "ortho"
+    (size-independent magnitudes):
+
+    * ``mode="complex"`` (literal Eq. 4): ``|FFT(u) - FFT(g)|``, the modulus of the complex difference;
+    * ``mode="magnitude"`` (translation-invariant, as Henzler et al. 2021): ``| |FFT(u)| - |FFT(g)| |``;
+
+    averaged over the frequencies (all, or all but DC if ``include_dc=False``), channels, maps and batch; the
+    loss is ``log(mean + eps)``. FFTs run in float32 (float64 for float64 input) even under autocast.
+
+    Args:
+        maps: (B, 8, H, W) packed predicted maps, final ranges.
+        guess: (B, 3, H, W) guessed diffuse crop in [0, 1].
+        mode: "complex" or "magnitude".
+        eps: added inside the log.
+        include_dc: keep the zero-frequency coefficient (the mean of the map).
+
+    Returns:
+        scalar (negative when the mean distance is below 1).
+    """
+    if mode not in ("complex", "magnitude"):
+        raise ValueError(f"mode must be 'complex' or 'magnitude', got {mode!r}")
+    h, w = maps.shape[-2:]
+    if not include_dc and h * w < 2:
+        raise ValueError("include_dc=False needs at least 2 pixels")
+    with torch.autocast(device_type=maps.device.type, enabled=False):
+        u = _f32(maps_for_loss(maps))
+        g = _f32(guess)[:, None]  # (B, 1, 3, H, W), broadcast over the four maps
+        if mode == "complex":
+            dist = _modulus(torch.fft.fft2(u - g, norm="ortho"))  # FFT is linear: FFT(u) - FFT(g) = FFT(u - g)
+        else:
+            dist = (_modulus(torch.fft.fft2(u, norm="ortho")) - _modulus(torch.fft.fft2(g, norm="ortho"))).abs()
+        if include_dc:
+            mean = dist.mean()
+        else:
+            per_image = (dist.sum(dim=(-2, -1)) - dist[..., 0, 0]) / (h * w - 1)
+            mean = per_image.mean()
+        return torch.log(mean + eps)
+
+
+class FourierLoss(nn.Module):
+    """Module form of :func:`fourier_loss` (mode, eps and include_dc fixed at construction)."""
+
+    def __init__(self, mode: str = "complex", eps: float = 1e-8, include_dc: bool = True):
+        super().__init__()
+        if mode not in ("complex", "magnitude"):
+            raise ValueError(f"mode must be 'complex' or 'magnitude', got {mode!r}")
+        self.mode, self.eps, self.include_dc = mode, eps, include_dc
+
+    def forward(self, maps: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
+        return fourier_loss(maps, guess, self.mode, self.eps, self.include_dc)
+
+    def extra_repr(self) -> str:
+        return f"mode={self.mode!r}, eps={self.eps}, include_dc={self.include_dc}"
+
+
+__all__ = [
+    "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "gan_generator_loss", "gan_discriminator_loss",
+    "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
+]

@@ -1,0 +1,314 @@
+"""Generator and discriminator of Wen et al. 2022 (Zhao et al. 2020 layers, decoder trimmed to output = input size).
+
+Layer tables: /work/shared/research/peers.md sections 1.2, 1.3, 1.5 and 6 (items 1-2). Every block uses the
+*pre-activation* order ``LeakyReLU(0.2) -> conv -> InstanceNorm``; convolutions have no bias and N(0, 0.02)
+weights; instance norms are affine (scale N(1, 0.02), offset 0, eps 1e-5). Padding reproduces TensorFlow's
+``SAME`` on the even sizes the networks see (the generator pads its input to a multiple of 4): stride-1 convs pad
+``(k - 1) // 2`` before and the rest after (1 / 2 for k = 4), stride-2 convs pad ``k - 2`` in total, after first
+((0, 1) for k = 3, (1, 1) for k = 4).
+
+Generator (paper widths, T = input size)::
+
+    encoder   e1 conv5 3->9 | e2 lrelu conv3 9->64 IN | e3 lrelu conv3/2 64->128 IN | e4 lrelu conv3/2 128->256 IN
+    decoder   d1 conv3 256->512 IN | lrelu up2 conv4 512->256 conv4 256->256 IN
+              | lrelu up2 conv4 256->64 conv4 64->64 IN | lrelu conv3 64->outc | tanh
+
+with two decoders: ``decoder_nr`` (height, roughness) and ``decoder_ds`` (diffuse RGB, specular).
+"""
+
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
+
+import torch
+import torch.nn.functional as F
+from torch import nn
+
+from svbrdf.runtime.maps import MAP_NAMES
+
+LRELU_SLOPE = 0.2
+IN_EPS = 1e-5
+INIT_STD = 0.02
+#: Maps produced by each decoder.
+DECODER_MAPS: Mapping[str, Tuple[str, ...]] = {"decoder_nr": ("normal", "roughness"),
+                                                "decoder_ds": ("diffuse", "specular")}
+
+
+def _from_dict(cls, d: Mapping):
+    names = {f.name for f in fields(cls)}
+    unknown = set(d) - names
+    if unknown:
+        raise ValueError(f"unknown {cls.__name__} keys: {', '.join(sorted(unknown))}")
+    return cls(**d)
+
+
+@dataclass
+class GeneratorConfig:
+    """Generator hyper-parameters.
+
+    Attributes:
+        width: multiplier of every channel count (paper: 1.0). The 9-channel first conv is not narrowed: it is
+            cheap, and fewer than 3 channels would drop colour information before the (frozen) encoder.
+        decoder_blocks: upsampling blocks per decoder (paper: 2). The encoder gets as many stride-2 convs, so the
+            output always has the input size; 2 reproduces the published tables exactly.
+        height_scale: slope factor of the height -> normal conversion (Zhao: 32 per pixel step).
+        train_encoder: if False (Zhao's released code), the encoder keeps its random initialisation and its
+            parameters have ``requires_grad = False``.
+    """
+
+    width: float = 1.0
+    decoder_blocks: int = 2
+    height_scale: float = 32.0
+    train_encoder: bool = False
+
+    def __post_init__(self) -> None:
+        if not self.width > 0:
+            raise ValueError(f"width must be > 0, got {self.width}")
+        if int(self.decoder_blocks) != self.decoder_blocks or self.decoder_blocks < 1:
+            raise ValueError(f"decoder_blocks must be an integer >= 1, got {self.decoder_blocks}")
+        if not self.height_scale > 0:
+            raise ValueError(f"height_scale must be > 0, got {self.height_scale}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "GeneratorConfig":
+        return _from_dict(cls, d)
+
+
+@dataclass
+class DiscriminatorConfig:
+    """PatchGAN discriminator hyper-parameters.
+
+    Attributes:
+        width: multiplier of every channel count (paper: 1.0 -> 64, 128, 256, 512).
+        n_layers: number of 4x4 stride-2 convs (paper: 4; channels double from 64 up to 512).
+    """
+
+    width: float = 1.0
+    n_layers: int = 4
+
+    def __post_init__(self) -> None:
+        if not self.width > 0:
+            raise ValueError(f"width must be > 0, got {self.width}")
+        if int(self.n_layers) != self.n_layers or self.n_layers < 1:
+            raise ValueError(f"n_layers must be an integer >= 1, got {self.n_layers}")
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+    @classmethod
+    def from_dict(cls, d: Mapping) -> "DiscriminatorConfig":
+        return _from_dict(cls, d)
+
+
+MODEL_PRESETS: Dict[str, GeneratorConfig] = {
+    "paper": GeneratorConfig(width=1.0),
+    "fast": GeneratorConfig(width=0.25),
+    "tiny": GeneratorConfig(width=0.125),
+}
+DISC_PRESETS: Dict[str, DiscriminatorConfig] = {
+    "paper": DiscriminatorConfig(width=1.0),
+    "fast": DiscriminatorConfig(width=0.25),
+    "tiny": DiscriminatorConfig(width=0.125),
+}
+
+
+def _ch(channels: int, width: float) -> int:
+    return max(1, int(round(channels * width)))
+
+
+def _conv(cin: int, cout: int, k: int, stride: int = 1, pre_act: bool = False, norm: bool = False) -> nn.Sequential:
+    """[lrelu] -> TF-SAME conv (no bias) -> [InstanceNorm], for inputs whose size is a multiple of ``stride``."""
+    total = k - stride
+    before, after = total // 2, total - total // 2
+    layers: List[nn.Module] = [nn.LeakyReLU(LRELU_SLOPE)] if pre_act else []
+    if before != after:
+        layers.append(nn.ZeroPad2d((before, after, before, after)))
+        before = 0
+    layers.append(nn.Conv2d(cin, cout, k, stride=stride, padding=before, bias=False))
+    if norm:
+        layers.append(nn.InstanceNorm2d(cout, eps=IN_EPS, affine=True))
+    return nn.Sequential(*layers)
+
+
+def _up_block(cin: int, cout: int) -> nn.Sequential:
+    """lrelu -> nearest x2 -> conv4 cin->cout -> conv4 cout->cout -> IN (Zhao's "deconv")."""
+    return nn.Sequential(
+        nn.LeakyReLU(LRELU_SLOPE),  # elementwise, so applying it before the upsample is the same and cheaper
+        nn.Upsample(scale_factor=2, mode="nearest"),
+        _conv(cin, cout, 4),
+        _conv(cout, cout, 4, norm=True),
+    )
+
+
+def _init_weights(module: nn.Module) -> None:
+    for m in module.modules():
+        if isinstance(m, nn.Conv2d):
+            nn.init.normal_(m.weight, 0.0, INIT_STD)
+        elif isinstance(m, nn.InstanceNorm2d):
+            nn.init.normal_(m.weight, 1.0, INIT_STD)
+            nn.init.zeros_(m.bias)
+
+
+def height_to_normal(height: torch.Tensor, scale: float = 32.0) -> torch.Tensor:
+    """Unit normals from a height field by forward differences (Zhao's ``height_to_normal``), OpenGL frame.
+
+    ``d_row = h[i+1, j] - h[i, j]`` and ``d_col = h[i, j+1] - h[i, j]`` (0 on the last row / column). Zhao's
+    y-down normal is ``normalize(-s d_col, -s d_row, 1)``; flipping y to the project's +y-up frame gives
+    ``normalize(-s d_col, +s d_row, 1)``: a height rising to the right tilts the normal to -x, a height rising
+    down the image tilts it up the image (+y).
+
+    Args:
+        height: (B, 1, H, W) height in [0, 1] (one unit per ``scale`` pixel steps of slope 1).
+        scale: slope factor ``s``.
+
+    Returns:
+        (B, 3, H, W) unit normals, components in [-1, 1], z > 0.
+    """
+    hp = F.pad(height, (0, 1, 0, 1), mode="replicate")  # replicated edge -> zero difference on the last row/col
+    d_row = hp[..., 1:, :-1] - height
+    d_col = hp[..., :-1, 1:] - height
+    nx, ny = -scale * d_col, scale * d_row
+    inv = torch.rsqrt(nx * nx + ny * ny + 1.0)
+    return torch.cat([nx * inv, ny * inv, inv], dim=1)
+
+
+def pack_maps(maps: Mapping[str, torch.Tensor]) -> torch.Tensor:
+    """Concatenate ``{name: (B, C, H, W)}`` into the packed (B, 8, H, W) layout of :mod:`svbrdf.runtime.maps`."""
+    missing = [n for n in MAP_NAMES if n not in maps]
+    if missing:
+        raise ValueError(f"cannot pack maps: missing {', '.join(missing)}")
+    return torch.cat([maps[n] for n in MAP_NAMES], dim=1)
+
+
+class Generator(nn.Module):
+    """Encoder + two decoders; linear photo -> SVBRDF maps of the same size.
+
+    Args:
+        cfg: hyper-parameters (default: the paper's).
+
+    Attributes:
+        encoder: shared encoder, (B, 3, H, W) -> latent (B, 4*64*width, H/4, W/4) for the paper depth.
+        decoder_nr: latent -> (height, roughness) pre-tanh.
+        decoder_ds: latent -> (diffuse RGB, specular) pre-tanh.
+    """
+
+    def __init__(self, cfg: Optional[GeneratorConfig] = None):
+        super().__init__()
+        self.cfg = cfg = cfg or GeneratorConfig()
+        n, w = cfg.decoder_blocks, cfg.width
+        self.multiple = 2 ** n
+        enc = [9, _ch(64, w)] + [_ch(min(64 * 2 ** i, 512), w) for i in range(1, n + 1)]
+        layers = [_conv(3, enc[0], 5), _conv(enc[0], enc[1], 3, pre_act=True, norm=True)]
+        layers += [_conv(enc[i], enc[i + 1], 3, stride=2, pre_act=True, norm=True) for i in range(1, n + 1)]
+        self.encoder = nn.Sequential(*layers)
+        # d1 doubles the latent (256 -> 512); block j outputs the encoder width one level up, the last one 64.
+        dec = [_ch(min(2 * 64 * 2 ** n, 512), w)] + enc[n + 1:2:-1] + [enc[1]]
+        self.decoder_nr = self._decoder(enc[-1], dec, 2)
+        self.decoder_ds = self._decoder(enc[-1], dec, 4)
+        _init_weights(self)
+        self.encoder.requires_grad_(cfg.train_encoder)
+
+    @staticmethod
+    def _decoder(cin: int, dec: Sequence[int], outc: int) -> nn.Sequential:
+        layers = [_conv(cin, dec[0], 3, norm=True)]
+        layers += [_up_block(dec[i], dec[i + 1]) for i in range(len(dec) - 1)]
+        layers.append(_conv(dec[-1], outc, 3, pre_act=True))  # Wen's trimmed last block: no upsampling
+        return nn.Sequential(*layers)
+
+    def forward_features(self, x: torch.Tensor) -> torch.Tensor:
+        """Encoder latent of a linear photo.
+
+        Args:
+            x: (B, 3, H, W) linear RGB photo (values >= 0, typically [0, 1]); any H, W >= 8. It is padded
+                (replicate, bottom/right) to a multiple of 4 (``2 ** decoder_blocks``) before encoding.
+
+        Returns:
+            (B, C, ceil(H/4), ceil(W/4)) latent.
+        """
+        if x.ndim != 4 or x.shape[1] != 3:
+            raise ValueError(f"Generator expects (B, 3, H, W), got {tuple(x.shape)}")
+        m = self.multiple
+        x = F.pad(x, (0, (-x.shape[-1]) % m, 0, (-x.shape[-2]) % m), mode="replicate")
+        return self.encoder(x)
+
+    @staticmethod
+    def _unit(y: torch.Tensor) -> torch.Tensor:
+        # tanh output -> [0, 1]; at least float32 (bf16 forward differences of the height would be too coarse)
+        y = y.to(torch.promote_types(y.dtype, torch.float32))
+        return (torch.tanh(y) + 1.0) * 0.5
+
+    def decode(self, latent: torch.Tensor, maps: Iterable[str] = MAP_NAMES,
+               size: Optional[Tuple[int, int]] = None) -> Dict[str, torch.Tensor]:
+        """Run only the decoders needed for ``maps``.
+
+        Args:
+            latent: output of :meth:`forward_features`.
+            maps: names among ``diffuse, specular, roughness, normal``; ``normal``/``roughness`` run
+                ``decoder_nr``, ``diffuse``/``specular`` run ``decoder_ds``.
+            size: (H, W) of the original photo to crop to (default: the padded size, 4x the latent).
+
+        Returns:
+            ``{name: tensor}`` in :data:`~svbrdf.runtime.maps.MAP_NAMES` order, float32 (float64 for float64
+            input): diffuse (B, 3, H, W) linear [0, 1], specular (B, 1, H, W) linear [0, 1], roughness
+            (B, 1, H, W) [0, 1], normal (B, 3, H, W) unit vectors, OpenGL frame.
+        """
+        want = set(maps)
+        unknown = want - set(MAP_NAMES)
+        if unknown:
+            raise ValueError(f"unknown maps {sorted(unknown)}; expected some of {', '.join(MAP_NAMES)}")
+        h, w = size if size is not None else (latent.shape[-2] * self.multiple, latent.shape[-1] * self.multiple)
+        out: Dict[str, torch.Tensor] = {}
+        if want & set(DECODER_MAPS["decoder_nr"]):
+            y = self._unit(self.decoder_nr(latent))[..., :h, :w]
+            out["normal"] = height_to_normal(y[:, 0:1], self.cfg.height_scale)
+            out["roughness"] = y[:, 1:2]
+        if want & set(DECODER_MAPS["decoder_ds"]):
+            y = self._unit(self.decoder_ds(latent))[..., :h, :w]
+            out["diffuse"] = y[:, 0:3]
+            out["specular"] = y[:, 3:4]
+        return {n: out[n] for n in MAP_NAMES if n in want}
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        """(B, 3, H, W) linear photo -> (B, 8, H, W) packed maps (layout and ranges of :meth:`decode`)."""
+        return pack_maps(self.decode(self.forward_features(x), size=(x.shape[-2], x.shape[-1])))
+
+
+class Discriminator(nn.Module):
+    """PatchGAN discriminator (Zhao's ``Discriminator_patch``).
+
+    ``conv4/2 3->64 | (lrelu conv4/2 IN) x (n_layers - 1), channels doubling up to 512 | lrelu conv4/1 -> 1``.
+
+    Args:
+        cfg: hyper-parameters (default: the paper's).
+
+    Input (B, 3, H, W) linear RGB image; output (B, 1, H / 2**n_layers, W / 2**n_layers) real/fake logits
+    (16 x 16 for a 256 px tile).
+    """
+
+    def __init__(self, cfg: Optional[DiscriminatorConfig] = None):
+        super().__init__()
+        self.cfg = cfg = cfg or DiscriminatorConfig()
+        ch = [_ch(min(64 * 2 ** i, 512), cfg.width) for i in range(cfg.n_layers)]
+        layers = [_conv(3, ch[0], 4, stride=2)]
+        layers += [_conv(ch[i], ch[i + 1], 4, stride=2, pre_act=True, norm=True) for i in range(cfg.n_layers - 1)]
+        layers.append(_conv(ch[-1], 1, 4, pre_act=True))
+        self.net = nn.Sequential(*layers)
+        _init_weights(self)
+
+    def forward(self, x: torch.Tensor) -> torch.Tensor:
+        return self.net(x)
+
+
+def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
+    """Number of parameters of ``module`` (only those with ``requires_grad`` if ``trainable_only``)."""
+    return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)
+
+
+__all__ = [
+    "GeneratorConfig", "DiscriminatorConfig", "MODEL_PRESETS", "DISC_PRESETS", "DECODER_MAPS", "Generator",
+    "Discriminator", "height_to_normal", "pack_maps", "count_parameters",
+]

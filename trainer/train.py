@@ -1,0 +1,630 @@
+"""The per-photo GAN training of Wen et al. 2022 (Zhao et al. 2020's schedule): pretrain, finetune, fit.
+
+One :class:`Trainer` owns a photo, the generator G (frozen random encoder + two decoders), the PatchGAN D
+and three Adam optimisers. Before the first iteration it computes, once for the whole photo, the guessed
+diffuse map (:func:`svbrdf.trainer.losses.guessed_diffuse`) and the per-pixel view/light directions
+(:class:`svbrdf.trainer.render.FlashGeometry`); every tile crops both, so a corner tile is lit obliquely as in
+the photo. One iteration is, each sub-step on a fresh random tile:
+
+* ``nr_updates`` x normal/roughness decoder: ``lambda_gan L_GAN + lambda_F L_F + lambda_P L_P``;
+* ``ds_updates`` x diffuse/specular decoder (+ encoder if trained): ``lambda_gan L_GAN + L_d + lambda_F L_F
+  + lambda_P L_P``;
+* ``d_updates`` x discriminator: BCE on the photo tile (real) vs the rendering of G's maps (fake, detached).
+
+Numerical guard: a step whose loss or gradient is not finite is skipped (and counted); after
+``guard_rollback_after`` such steps in a row, G, D and the optimisers return to the last good in-memory
+snapshot. Runs are deterministic on the CPU for a given seed, including across checkpoint + resume.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+import math
+import os
+import time
+from collections import defaultdict
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
+
+import numpy as np
+import torch
+
+from svbrdf.runtime.errors import ImageError, ModelError
+from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
+from svbrdf.runtime.tiling import tile_boxes, tile_weights
+from svbrdf.trainer import checkpoint as ckpt_io
+from svbrdf.trainer.config import STAGES, TrainConfig
+from svbrdf.trainer.losses import (diffuse_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
+                                   guessed_diffuse)
+from svbrdf.trainer.models import DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig, pack_maps
+from svbrdf.trainer.perceptual import PerceptualLoss
+from svbrdf.trainer.render import FlashGeometry
+
+PathLike = Union[str, os.PathLike]
+#: ``callback(trainer, record)`` after every iteration; returning True stops the run (after this iteration).
+Callback = Callable[["Trainer", Dict[str, Any]], Optional[bool]]
+
+
+# ----------------------------------------------------------------------------------------------- photo / device
+def photo_to_tensor(image: np.ndarray) -> torch.Tensor:
+    """(H, W, 3) linear float image (e.g. from :func:`svbrdf.runtime.imageio.read_image`) -> (1, 3, H, W) float32."""
+    arr = np.asarray(image, dtype=np.float32)
+    if arr.ndim != 3 or arr.shape[-1] != 3:
+        raise ImageError(f"photo must be an (H, W, 3) array, got shape {arr.shape}")
+    return torch.from_numpy(np.ascontiguousarray(arr)).permute(2, 0, 1)[None].contiguous()
+
+
+def load_photo(path: PathLike) -> Tuple[torch.Tensor, Dict[str, Any]]:
+    """Read a photo file as a linear (1, 3, H, W) tensor and its identity ``{name, sha256, height, width}``.
+
+    Raises:
+        ImageError: unreadable file (see :func:`svbrdf.runtime.imageio.read_image`).
+    """
+    from svbrdf.runtime.imageio import read_image
+
+    path = Path(path)
+    photo = photo_to_tensor(read_image(path))
+    digest = hashlib.sha256(path.read_bytes()).hexdigest()
+    return photo, {"name": path.name, "sha256": digest, "height": photo.shape[-2], "width": photo.shape[-1]}
+
+
+def tensor_photo_info(photo: torch.Tensor, name: str = "<tensor>") -> Dict[str, Any]:
+    """Identity of an in-memory photo (sha256 of its float32 pixels)."""
+    data = photo.detach().to("cpu", torch.float32).contiguous().numpy().tobytes()
+    return {"name": name, "sha256": hashlib.sha256(data).hexdigest(), "height": photo.shape[-2],
+            "width": photo.shape[-1]}
+
+
+def pick_device(device: Optional[str] = None) -> torch.device:
+    """``device`` if given, else CUDA when available, else the CPU."""
+    if device:
+        try:
+            dev = torch.device(device)
+        except RuntimeError as e:
+            raise ValueError(f"unknown device {device!r}") from e
+        if dev.type == "cuda" and not torch.cuda.is_available():
+            raise ValueError(f"device {device!r} requested but CUDA is not available")
+        return dev
+    return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+
+
+def bf16_support(device: torch.device) -> Tuple[bool, Optional[str]]:
+    """Whether bfloat16 autocast is worth running on ``device``, and a note when it is not."""
+    if device.type == "cpu":
+        if torch.ops.mkldnn._is_mkldnn_bf16_supported():
+            return True, None
+        return False, "bf16 requested but this CPU has no fast bfloat16 (AVX512-BF16/AMX): running fp32"
+    if device.type == "cuda" and not torch.cuda.is_bf16_supported():
+        return False, "bf16 requested but this GPU does not support bfloat16: running fp32"
+    return True, None
+
+
+def set_threads(threads: Optional[int] = None) -> int:
+    """Use ``threads`` CPU threads (default: every core this process may run on); returns the count."""
+    if threads is None:
+        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if threads < 1:
+        raise ValueError(f"threads must be >= 1, got {threads}")
+    torch.set_num_threads(int(threads))
+    return int(threads)
+
+
+# ----------------------------------------------------------------------------------------------- inference
+@torch.no_grad()
+def predict_full(generator: Generator, photo: torch.Tensor, *, max_side: int = 1024,
+                 overlap: int = 128) -> torch.Tensor:
+    """Maps of a whole photo: one pass, or overlapping tiles blended smoothly when a side exceeds ``max_side``.
+
+    Args:
+        generator: the trained generator (any device; run in float32).
+        photo: (1, 3, H, W) linear RGB photo, H, W >= 8.
+        max_side: largest side predicted in one pass; larger photos use ``max_side`` tiles.
+        overlap: overlap between tiles, pixels (raised-cosine blend, :mod:`svbrdf.runtime.tiling`).
+
+    Returns:
+        (1, 8, H, W) float32 packed maps on the photo's device (unit normals after blending).
+    """
+    h, w = photo.shape[-2:]
+    boxes = tile_boxes(h, w, max_side, overlap) if max(h, w) > max_side else [(0, 0, h, w)]
+    if len(boxes) == 1:
+        return generator(photo).float()
+    acc = torch.zeros((1, 8, h, w), dtype=torch.float32, device=photo.device)
+    wsum = torch.zeros((1, 1, h, w), dtype=torch.float32, device=photo.device)
+    for box in boxes:
+        y0, x0, th, tw = box
+        wt = torch.from_numpy(tile_weights(box, h, w, overlap)).to(photo.device)[None, None]
+        acc[..., y0:y0 + th, x0:x0 + tw] += generator(photo[..., y0:y0 + th, x0:x0 + tw]).float() * wt
+        wsum[..., y0:y0 + th, x0:x0 + tw] += wt
+    acc /= wsum
+    n = acc[:, SLICES["normal"]]
+    acc[:, SLICES["normal"]] = n / n.norm(dim=1, keepdim=True).clamp_min(1e-8)
+    return acc
+
+
+def to_maps(packed: torch.Tensor, meta: Optional[dict] = None) -> Maps:
+    """(1, 8, H, W) packed maps -> :class:`~svbrdf.runtime.maps.Maps` (numpy, clipped to the valid ranges)."""
+    arr = packed[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
+    return Maps.unpack(arr, meta).clipped()
+
+
+# ----------------------------------------------------------------------------------------------- trainer
+def _finite_or_none(x: float) -> Optional[float]:
+    return float(x) if math.isfinite(x) else None
+
+
+class Trainer:
+    """Train G and D on one photo.
+
+    Args:
+        photo: (1, 3, H, W) linear RGB photo (values >= 0), H, W >= the discriminator's minimum (16 px).
+        config: training settings.
+        stage: "pretrain", "finetune" or "fit" (names the run; sets the default iteration count).
+        iters: iterations to reach (default: ``config.iters(stage)``).
+        device: torch device name (default CUDA if available, else CPU).
+        threads: CPU threads (default: all cores).
+        photo_info: ``{name, sha256, height, width}`` (default: computed from the pixels).
+        checkpoint_path: where :meth:`run` saves checkpoints (None = never); a copy of the latest checkpoint
+            written while no non-finite step occurred is kept next to it (``*_last_good.pt``, hard link).
+        log_path: JSONL file, one line per iteration (None = no log).
+        callback: see :data:`Callback`.
+
+    Attributes:
+        generator, discriminator, optimizers (``{"nr", "ds", "d"}``), history (one dict per iteration),
+        step, iters, counters (``nonfinite_skips``, ``rollbacks``), notes (fallbacks), perceptual_backend,
+        stopped_early (plateau), interrupted (callback asked to stop).
+    """
+
+    def __init__(self, photo: torch.Tensor, config: TrainConfig, *, stage: str = "fit",
+                 iters: Optional[int] = None, device: Optional[str] = None, threads: Optional[int] = None,
+                 photo_info: Optional[Mapping[str, Any]] = None, checkpoint_path: Optional[PathLike] = None,
+                 log_path: Optional[PathLike] = None, callback: Optional[Callback] = None):
+        if stage not in STAGES:
+            raise ValueError(f"unknown stage {stage!r}; expected one of {', '.join(STAGES)}")
+        config.validate()
+        self.config, self.stage = config, stage
+        self.iters = config.iters(stage) if iters is None else int(iters)
+        self.device = pick_device(device)
+        if self.device.type == "cpu":
+            set_threads(threads)
+        self.notes: List[str] = []
+        self.checkpoint_path = None if checkpoint_path is None else Path(checkpoint_path)
+        self.log_path = None if log_path is None else Path(log_path)
+        self.callback = callback
+
+        photo = self._check_photo(photo, photo_info)
+        self.photo_info = dict(photo_info) if photo_info else tensor_photo_info(photo)
+        self.photo = photo.to(self.device, torch.float32)
+        h, w = self.photo.shape[-2:]
+        self.tile = min(config.tile, h, w)
+        if self.tile < config.tile:
+            self.notes.append(f"tile {config.tile} px clipped to the photo: {self.tile} px")
+
+        self.bf16 = False
+        if config.bf16:
+            self.bf16, note = bf16_support(self.device)
+            if note:
+                self.notes.append(note)
+
+        torch.manual_seed(config.seed)  # weights (and a random-VGG perceptual net) depend on the seed only
+        self.generator = Generator(config.generator).to(self.device)
+        self.discriminator = Discriminator(config.discriminator).to(self.device)
+        self.perceptual: Optional[PerceptualLoss] = None
+        self.perceptual_backend: Optional[str] = None
+        if config.lambda_perceptual > 0:
+            self.perceptual = PerceptualLoss(config.perceptual, weights_path=config.vgg_weights,
+                                             seed=config.seed).to(self.device)
+            self.perceptual.requires_grad_(False)
+            self.perceptual_backend = self.perceptual.backend_name
+            if config.perceptual == "auto" or self.perceptual_backend != config.perceptual:
+                self.notes.append(f"perceptual loss backend: {self.perceptual_backend}")
+        self.params = {
+            "nr": list(self.generator.decoder_nr.parameters()),
+            "ds": list(self.generator.decoder_ds.parameters())
+            + (list(self.generator.encoder.parameters()) if config.train_encoder else []),
+            "d": list(self.discriminator.parameters()),
+        }
+        self.optimizers = {k: self._adam(p) for k, p in self.params.items()}
+
+        with torch.no_grad():
+            self.guess = guessed_diffuse(self.photo).float()
+        self.geometry = FlashGeometry(h, w, config.render_config, device=self.device)
+        self.tile_rng = torch.Generator().manual_seed(config.seed)
+        # Fixed tiles of the label-free progress signal: their own RNG, so they never shift the training tiles.
+        eval_rng = torch.Generator().manual_seed(config.seed + 1)
+        self.eval_boxes = [self._draw_tile(eval_rng) for _ in range(config.eval_tiles)]
+        self.eval_maps: Optional[torch.Tensor] = None
+
+        self.step = 0
+        self.history: List[Dict[str, Any]] = []
+        self.counters = {"nonfinite_skips": 0, "rollbacks": 0}
+        self.init: Optional[Dict[str, Any]] = None
+        self.stopped_early = False
+        self.interrupted = False
+        self._consecutive_bad = 0
+        self._skips_at_last_save = 0
+        self._snapshot: Optional[Dict[str, Any]] = None
+
+    # ------------------------------------------------------------------ setup helpers
+    def _check_photo(self, photo: torch.Tensor, info: Optional[Mapping[str, Any]]) -> torch.Tensor:
+        name = (info or {}).get("name", "photo")
+        if not isinstance(photo, torch.Tensor) or photo.ndim != 4 or photo.shape[:2] != (1, 3):
+            raise ImageError(f"{name}: photo must be a (1, 3, H, W) tensor, got "
+                             f"{tuple(photo.shape) if isinstance(photo, torch.Tensor) else type(photo).__name__}")
+        need = max(16, 2 ** self.config.discriminator.n_layers)
+        h, w = photo.shape[-2:]
+        if min(h, w) < need:
+            raise ImageError(f"{name}: photo is {w}x{h} px; training needs at least {need} px per side")
+        if not torch.isfinite(photo).all():
+            raise ImageError(f"{name}: photo has NaN/Inf values")
+        if (photo < 0).any():
+            raise ImageError(f"{name}: photo has negative values (expected linear RGB >= 0)")
+        return photo
+
+    def _adam(self, params) -> torch.optim.Adam:
+        return torch.optim.Adam(params, lr=self.config.lr, betas=tuple(self.config.betas), eps=1e-8)
+
+    def _amp(self):
+        return torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.bf16)
+
+    def _draw_tile(self, rng: torch.Generator) -> Tuple[int, int]:
+        h, w = self.photo.shape[-2:]
+        y0 = int(torch.randint(h - self.tile + 1, (1,), generator=rng))
+        x0 = int(torch.randint(w - self.tile + 1, (1,), generator=rng))
+        return y0, x0
+
+    def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
+        return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
+
+    # ------------------------------------------------------------------ loading
+    def load_init(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
+        """Start from a pretrained checkpoint (finetune): G, D and, unless ``reset_optimizers``, the Adam states.
+
+        The generator/discriminator configuration must match ``config`` (use :func:`finetune`, which takes
+        them from the checkpoint).
+        """
+        self._load_models(ckpt, source)
+        if ckpt.get("discriminator") is None:
+            self.notes.append(f"{Path(source).name}: no discriminator weights; D starts from scratch")
+        if self.config.reset_optimizers:
+            self.notes.append("optimiser states reset")
+        elif not ckpt.get("optimizers"):
+            self.notes.append(f"{Path(source).name}: no optimiser states; Adam starts fresh")
+        else:
+            for key, opt in self.optimizers.items():
+                try:
+                    opt.load_state_dict(ckpt["optimizers"][key])
+                except (KeyError, ValueError) as e:
+                    self.optimizers[key] = self._adam(self.params[key])
+                    self.notes.append(f"optimiser {key!r} state not reusable ({str(e)[:80]}); started fresh")
+                else:
+                    for group in opt.param_groups:  # the new run's learning rate and betas win
+                        group["lr"], group["betas"] = self.config.lr, tuple(self.config.betas)
+        self.init = {"path": str(source), "stage": ckpt.get("stage"), "step": ckpt.get("step"),
+                     "photo": dict(ckpt.get("photo") or {})}
+
+    def load_resume(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
+        """Continue exactly where ``ckpt`` stood: weights, Adam states, step, history, counters and RNG states."""
+        if ckpt.get("photo", {}).get("sha256") != self.photo_info.get("sha256"):
+            raise ModelError(f"{source}: was trained on {ckpt.get('photo', {}).get('name')!r}, not on this photo "
+                             f"{self.photo_info.get('name')!r}")
+        if not ckpt.get("optimizers") or not ckpt.get("rng") or ckpt.get("discriminator") is None:
+            raise ModelError(f"{source}: cleaned checkpoint (no optimiser/RNG/discriminator state); cannot resume")
+        self._load_models(ckpt, source)
+        try:
+            for key, opt in self.optimizers.items():
+                opt.load_state_dict(ckpt["optimizers"][key])
+        except (KeyError, ValueError) as e:
+            raise ModelError(f"{source}: optimiser states do not match the model ({str(e)[:120]})") from None
+        self.step = int(ckpt["step"])
+        self.history = [dict(h) for h in ckpt.get("history", [])]
+        self.counters.update({k: int(v) for k, v in (ckpt.get("counters") or {}).items()})
+        self._skips_at_last_save = self.counters["nonfinite_skips"]
+        self.init = ckpt.get("init")
+        self.notes.extend(n for n in ckpt.get("notes", []) if n not in self.notes)
+        rng = ckpt["rng"]
+        torch.set_rng_state(rng["torch"])
+        self.tile_rng.set_state(rng["tiles"])
+        if rng.get("cuda") and torch.cuda.is_available():
+            torch.cuda.set_rng_state_all(rng["cuda"])
+        eval_maps = ckpt.get("eval_maps")
+        self.eval_maps = None if eval_maps is None else eval_maps.to(self.device)
+
+    def _load_models(self, ckpt: Mapping[str, Any], source: PathLike) -> None:
+        for key, cfg, net in (("generator", self.config.generator, self.generator),
+                              ("discriminator", self.config.discriminator, self.discriminator)):
+            state = ckpt.get(key)
+            if state is None:
+                continue
+            stored = ckpt.get(f"{key}_config") or {}
+            mine = {k: v for k, v in cfg.to_dict().items() if k != "train_encoder"}
+            theirs = {k: v for k, v in stored.items() if k != "train_encoder"}
+            if mine != theirs:
+                raise ModelError(f"{source}: {key} configuration {theirs} differs from the run's {mine}")
+            try:
+                net.load_state_dict(state)
+            except RuntimeError as e:
+                raise ModelError(f"{source}: {key} weights do not fit ({str(e).splitlines()[0][:120]})") from None
+
+    # ------------------------------------------------------------------ checkpoints
+    def checkpoint(self) -> Dict[str, Any]:
+        """The current state as a checkpoint dict (:mod:`svbrdf.trainer.checkpoint`)."""
+        rng = {"torch": torch.get_rng_state(), "tiles": self.tile_rng.get_state(),
+               "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else []}
+        return ckpt_io.build_checkpoint(
+            generator=self.generator, discriminator=self.discriminator, train_config=self.config.to_dict(),
+            stage=self.stage, step=self.step, iters=self.iters, optimizers=self.optimizers, history=self.history,
+            photo=self.photo_info, rng=rng, counters=self.counters, init=self.init,
+            perceptual_backend=self.perceptual_backend, notes=self.notes, eval_maps=self.eval_maps)
+
+    def save(self, path: Optional[PathLike] = None) -> Path:
+        """Write a checkpoint to ``path`` (default ``checkpoint_path``) and refresh the last-good copy."""
+        path = Path(path) if path is not None else self.checkpoint_path
+        if path is None:
+            raise ValueError("no checkpoint path")
+        ckpt_io.save_checkpoint(path, self.checkpoint())
+        if self.counters["nonfinite_skips"] == self._skips_at_last_save:
+            good = last_good_path(path)
+            tmp = good.with_name(f".{good.name}.tmp")
+            try:
+                tmp.unlink(missing_ok=True)
+                try:
+                    os.link(path, tmp)  # no copy: the next checkpoint is a new file (os.replace), this one stays
+                except OSError:
+                    import shutil
+
+                    shutil.copyfile(path, tmp)
+                os.replace(tmp, good)
+            finally:
+                tmp.unlink(missing_ok=True)
+        self._skips_at_last_save = self.counters["nonfinite_skips"]
+        return path
+
+    # ------------------------------------------------------------------ guard
+    def _take_snapshot(self) -> None:
+        self._snapshot = copy.deepcopy({
+            "generator": self.generator.state_dict(), "discriminator": self.discriminator.state_dict(),
+            "optimizers": {k: o.state_dict() for k, o in self.optimizers.items()}})
+
+    def _rollback(self) -> None:
+        snap = copy.deepcopy(self._snapshot)  # optimisers would otherwise update the snapshot's tensors in place
+        self.generator.load_state_dict(snap["generator"])
+        self.discriminator.load_state_dict(snap["discriminator"])
+        for k, o in self.optimizers.items():
+            o.load_state_dict(snap["optimizers"][k])
+        self.counters["rollbacks"] += 1
+
+    def _apply(self, key: str, loss: torch.Tensor) -> bool:
+        """Backward + step of optimiser ``key`` unless the loss or a gradient is non-finite. True = stepped."""
+        opt, params = self.optimizers[key], self.params[key]
+        opt.zero_grad(set_to_none=True)
+        ok = bool(torch.isfinite(loss))
+        if ok:
+            # `inputs` limits the backward pass to this optimiser's parameters (no stray grads in the others).
+            loss.backward(inputs=params)
+            grads = [p.grad for p in params if p.grad is not None]
+            ok = bool(torch.stack([torch.isfinite(g).all() for g in grads]).all()) if grads else True
+        if ok:
+            opt.step()
+            self._consecutive_bad = 0
+            return True
+        opt.zero_grad(set_to_none=True)
+        self.counters["nonfinite_skips"] += 1
+        self._consecutive_bad += 1
+        if self._consecutive_bad >= self.config.guard_rollback_after and self._snapshot is not None:
+            self._rollback()
+            self._consecutive_bad = 0
+        return False
+
+    # ------------------------------------------------------------------ one iteration
+    def _g_step(self, key: str, terms: Dict[str, List[torch.Tensor]]) -> None:
+        cfg = self.config
+        y0, x0 = self._draw_tile(self.tile_rng)
+        x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
+        trained = DECODER_MAPS["decoder_nr" if key == "nr" else "decoder_ds"]
+        frozen = tuple(n for n in MAP_NAMES if n not in trained)
+        size = (x.shape[-2], x.shape[-1])
+        with self._amp():
+            latent = self.generator.forward_features(x)
+            out = self.generator.decode(latent, trained, size)
+            with torch.no_grad():
+                out.update(self.generator.decode(latent, frozen, size))
+        maps = pack_maps(out).float()
+        rendering = self.geometry.render(maps, y0, x0)
+        with self._amp():
+            fake_logits = self.discriminator(rendering)
+        gan = gan_generator_loss(fake_logits.float())
+        total = cfg.lambda_gan * gan
+        terms[f"{key}/gan"].append(gan.detach())
+        if key == "ds":
+            ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess)
+            total = total + ld
+            terms["ds/diffuse"].append(ld.detach())
+        if cfg.lambda_fourier > 0:
+            lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
+            total = total + cfg.lambda_fourier * lf
+            terms[f"{key}/fourier"].append(lf.detach())
+        if self.perceptual is not None:
+            with self._amp():
+                lp = self.perceptual(x, rendering).float()
+            total = total + cfg.lambda_perceptual * lp
+            terms[f"{key}/perceptual"].append(lp.detach())
+        terms[f"{key}/total"].append(total.detach())
+        self._apply(key, total)
+
+    def _d_step(self, terms: Dict[str, List[torch.Tensor]]) -> None:
+        y0, x0 = self._draw_tile(self.tile_rng)
+        x = self._crop(self.photo, y0, x0)
+        with torch.no_grad():
+            with self._amp():
+                maps = self.generator(x).float()
+            fake = self.geometry.render(maps, y0, x0)
+        with self._amp():
+            real_logits, fake_logits = self.discriminator(x), self.discriminator(fake)
+        loss = gan_discriminator_loss(real_logits.float(), fake_logits.float())
+        terms["d/loss"].append(loss.detach())
+        self._apply("d", loss)
+
+    def iteration(self) -> Dict[str, Any]:
+        """Run one iteration of the schedule; returns its record (mean of each loss term over its sub-steps)."""
+        t0 = time.perf_counter()
+        skips0 = self.counters["nonfinite_skips"]
+        terms: Dict[str, List[torch.Tensor]] = defaultdict(list)
+        for _ in range(self.config.nr_updates):
+            self._g_step("nr", terms)
+        for _ in range(self.config.ds_updates):
+            self._g_step("ds", terms)
+        for _ in range(self.config.d_updates):
+            self._d_step(terms)
+        self.step += 1
+        rec: Dict[str, Any] = {"step": self.step}
+        for k, v in terms.items():
+            rec[k] = _finite_or_none(float(torch.stack(v).mean()))
+        rec["skipped"] = self.counters["nonfinite_skips"] - skips0
+        if self.config.eval_every and self.step % self.config.eval_every == 0:
+            rec.update(self.evaluate())
+        rec["seconds"] = time.perf_counter() - t0
+        return rec
+
+    @torch.no_grad()
+    def evaluate(self) -> Dict[str, Optional[float]]:
+        """Label-free progress signal on the fixed evaluation tiles (float32, no autocast).
+
+        Returns:
+            ``{"eval/render_l1": mean |render(G(tile)) - tile|, "eval/map_change": mean |maps - maps at the
+            previous evaluation| (None at the first)}``.
+        """
+        maps, l1 = [], []
+        for y0, x0 in self.eval_boxes:
+            x = self._crop(self.photo, y0, x0)
+            m = self.generator(x).float()
+            l1.append((self.geometry.render(m, y0, x0) - x).abs().mean())
+            maps.append(m)
+        maps_t = torch.cat(maps)
+        change = None if self.eval_maps is None else float((maps_t - self.eval_maps).abs().mean())
+        self.eval_maps = maps_t
+        return {"eval/render_l1": _finite_or_none(float(torch.stack(l1).mean())),
+                "eval/map_change": None if change is None else _finite_or_none(change)}
+
+    def plateaued(self) -> bool:
+        """The ``quality="auto"`` stopping rule: over the last ``plateau_window`` evaluations the re-render L1
+        dropped by less than ``plateau_render_tol`` (relative) and the mean map change stayed below
+        ``plateau_change_tol``."""
+        cfg = self.config
+        evals = [h for h in self.history if h.get("eval/render_l1") is not None]
+        if len(evals) <= cfg.plateau_window:
+            return False
+        old, new = evals[-cfg.plateau_window - 1]["eval/render_l1"], evals[-1]["eval/render_l1"]
+        changes = [h.get("eval/map_change") for h in evals[-cfg.plateau_window:]]
+        if any(c is None for c in changes):
+            return False
+        return (old - new) / max(old, 1e-8) < cfg.plateau_render_tol and sum(changes) / len(changes) < \
+            cfg.plateau_change_tol
+
+    # ------------------------------------------------------------------ the loop
+    def run(self) -> List[Dict[str, Any]]:
+        """Iterate until ``iters`` (or a plateau with ``quality="auto"``, or the callback asks to stop); save a
+        checkpoint every ``checkpoint_every`` iterations and at the end. Returns the history."""
+        cfg = self.config
+        self._take_snapshot()
+        self._log({"event": "start" if self.step == 0 else "resume", "stage": self.stage, "step": self.step,
+                   "iters": self.iters, "notes": self.notes})
+        while self.step < self.iters:
+            rec = self.iteration()
+            self.history.append(rec)
+            self._log(rec)
+            if rec["skipped"] == 0 and self.step % cfg.guard_snapshot_every == 0:
+                self._take_snapshot()
+            if self.checkpoint_path is not None and cfg.checkpoint_every and self.step % cfg.checkpoint_every == 0 \
+                    and self.step < self.iters:
+                self.save()
+            if cfg.quality == "auto" and "eval/render_l1" in rec and self.plateaued():
+                self.stopped_early = True
+            if self.callback is not None and self.callback(self, rec):
+                self.interrupted = True
+            if self.stopped_early or self.interrupted:
+                break
+        if self.checkpoint_path is not None:
+            self.save()
+        self._log({"event": "stop", "step": self.step, "stopped_early": self.stopped_early,
+                   "interrupted": self.interrupted, **self.counters})
+        return self.history
+
+    def _log(self, rec: Mapping[str, Any]) -> None:
+        if self.log_path is None:
+            return
+        self.log_path.parent.mkdir(parents=True, exist_ok=True)
+        with open(self.log_path, "a", encoding="utf-8") as f:
+            f.write(json.dumps(rec, allow_nan=False) + "\n")
+
+    def predict(self) -> torch.Tensor:
+        """(1, 8, H, W) maps of the whole photo (see :func:`predict_full`)."""
+        return predict_full(self.generator, self.photo, max_side=self.config.predict_max_side,
+                            overlap=self.config.predict_overlap)
+
+
+def last_good_path(path: PathLike) -> Path:
+    """``checkpoint.pt`` -> ``checkpoint_last_good.pt``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}_last_good{path.suffix}")
+
+
+# ----------------------------------------------------------------------------------------------- stages
+def pretrain(photo: torch.Tensor, config: TrainConfig, **kw) -> Trainer:
+    """Stage 1: train from scratch for ``config.iters_pretrain`` iterations. ``kw``: see :class:`Trainer`."""
+    trainer = Trainer(photo, config, stage="pretrain", **kw)
+    trainer.run()
+    return trainer
+
+
+def fit(photo: torch.Tensor, config: TrainConfig, **kw) -> Trainer:
+    """Train from scratch on one photo for ``config.iters_fit`` iterations. ``kw``: see :class:`Trainer`."""
+    trainer = Trainer(photo, config, stage="fit", **kw)
+    trainer.run()
+    return trainer
+
+
+def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[TrainConfig, List[str]]:
+    """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept)."""
+    gen = GeneratorConfig.from_dict({**init["generator_config"], "train_encoder": config.train_encoder})
+    disc = config.discriminator
+    if init.get("discriminator_config"):
+        disc = DiscriminatorConfig.from_dict(init["discriminator_config"])
+    notes = []
+    if gen != config.generator or disc != config.discriminator:
+        notes.append("model architecture taken from the initial checkpoint")
+    d = config.to_dict()
+    d.update(generator=gen.to_dict(), discriminator=disc.to_dict())
+    return TrainConfig.from_dict(d), notes
+
+
+def finetune(photo: torch.Tensor, init: Union[PathLike, Mapping[str, Any]], config: TrainConfig, **kw) -> Trainer:
+    """Stage 2: start from a pretrained checkpoint (path or loaded dict) and train ``config.iters_finetune``
+    iterations on a new photo. The architecture comes from the checkpoint. ``kw``: see :class:`Trainer`."""
+    source = init if not isinstance(init, Mapping) else "checkpoint"
+    ckpt = ckpt_io.load_checkpoint(init) if not isinstance(init, Mapping) else init
+    config, notes = finetune_config(config, ckpt)
+    trainer = Trainer(photo, config, stage="finetune", **kw)
+    trainer.notes.extend(notes)
+    trainer.load_init(ckpt, source)
+    trainer.run()
+    return trainer
+
+
+def resume(photo: torch.Tensor, checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optional[int] = None,
+           **kw) -> Trainer:
+    """Continue a run exactly where ``checkpoint`` stood (same settings; ``iters`` may extend it)."""
+    source = checkpoint if not isinstance(checkpoint, Mapping) else "checkpoint"
+    ckpt = ckpt_io.load_checkpoint(checkpoint) if not isinstance(checkpoint, Mapping) else checkpoint
+    config = TrainConfig.from_dict(ckpt["train_config"])
+    trainer = Trainer(photo, config, stage=ckpt["stage"], iters=iters if iters is not None else ckpt.get("iters"),
+                      **kw)
+    trainer.load_resume(ckpt, source)
+    trainer.run()
+    return trainer
+
+
+__all__ = ["Trainer", "pretrain", "finetune", "fit", "resume", "finetune_config", "predict_full", "to_maps",
+           "load_photo", "photo_to_tensor", "tensor_photo_info", "pick_device", "bf16_support", "set_threads",
+           "last_good_path"]
