@@ -116,7 +116,8 @@ def _parity(path: Path, generator: nn.Module, sizes: Sequence[Tuple[int, int]]) 
             ref = generator(torch.from_numpy(x)).numpy()
         got = sess.run([OUTPUT_NAME], {INPUT_NAME: x})[0]
         if got.shape != (1, 8, h, w):
-            raise ModelError(f"{path}: exported graph returns {got.shape} for a {h}x{w} input, expected (1, 8, {h}, {w})")
+            raise ModelError(f"{path}: exported graph returns {got.shape} for a {h}x{w} input, "
+                             f"expected (1, 8, {h}, {w})")
         out.append({"size": [h, w], "max_abs_diff": float(np.abs(got - ref).max())})
     return out
 
@@ -134,8 +135,9 @@ def export_generator(
     """Export a generator to ``out_path`` (one ``.onnx`` file) plus its manifest ``out_path.with_suffix('.json')``.
 
     Args:
-        source: a training checkpoint path (read with :func:`svbrdf.trainer.checkpoint.load_generator`) or a
-            :class:`~svbrdf.trainer.models.Generator` module.
+        source: a training checkpoint path (read with :func:`svbrdf.trainer.checkpoint.load_generator`; its
+            name, absolute path and sha256 go into the manifest's ``checkpoint`` entry, used by
+            ``svbrdf-preview --refine``) or a :class:`~svbrdf.trainer.models.Generator` module.
         out_path: the ``.onnx`` file to write.
         opset: ONNX opset (default :data:`OPSET`).
         check: run ``onnx.checker.check_model(full_check=True)`` and the onnxruntime-vs-torch parity check on
@@ -165,12 +167,16 @@ def export_generator(
     if any(min(s) < MIN_SIZE for s in sizes):
         raise ValueError(f"parity sizes must be >= {MIN_SIZE}, got {list(sizes)}")
 
+    checkpoint = None
     if isinstance(source, nn.Module):
         generator, meta = source, dict(meta or {})
     else:
         from svbrdf.trainer.checkpoint import load_generator
 
         generator, meta = load_generator(source)
+        # `svbrdf-preview --refine` fine-tunes from this file: found beside the model, else at this path.
+        checkpoint = {"file": Path(source).name, "path": str(Path(source).resolve()),
+                      "sha256": sha256_file(source)}
     generator = generator.eval()
     graph = _Graph(generator).eval()
 
@@ -201,6 +207,7 @@ def export_generator(
             "maps": map_layout(),
             "input": input_contract(),
             **_provenance(meta, generator),
+            "checkpoint": checkpoint,
             "opset": opset,
             "exporter": _versions(),
             "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),

@@ -38,6 +38,7 @@ Format detection (:func:`detect_format`), in this order:
 
 from __future__ import annotations
 
+import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -230,6 +231,31 @@ def read_gt(
     return _read_panels(path, fmt, normal_y, maps_encoding)
 
 
+def normal_curl_ratio(normal: np.ndarray) -> float:
+    """How far a normal map is from the normals of a height field, read in the project's frame (+y up).
+
+    The slopes p = dh/dx = -nx/nz and q = dh/dy = -ny/nz of any height field satisfy dp/dy = dq/dx. This returns
+    ``rms(dp/dy - dq/dx) / sqrt(rms(dp/dy)^2 + rms(dq/dx)^2)`` (central differences, y up the image): well below
+    1 for a map baked from a height field in the OpenGL convention, about sqrt(2) when the map's y axis is the
+    other way (the two terms then add instead of cancelling). It is the evidence behind ``normal_y``.
+
+    Args:
+        normal: (H, W, 3) unit normals, OpenGL frame, z > 0.
+
+    Returns:
+        the ratio (>= 0), or NaN for a flat map (no slope: no evidence).
+    """
+    n = np.asarray(normal, dtype=np.float64)
+    nz = np.maximum(n[..., 2], 1e-3)
+    p, q = -n[..., 0] / nz, -n[..., 1] / nz
+    dp_dy = -(p[2:, 1:-1] - p[:-2, 1:-1]) * 0.5  # rows grow downwards, y upwards
+    dq_dx = (q[1:-1, 2:] - q[1:-1, :-2]) * 0.5
+    scale = math.sqrt(np.mean(dp_dy ** 2) + np.mean(dq_dx ** 2))
+    if scale < 1e-9:
+        return float("nan")
+    return float(np.sqrt(np.mean((dp_dy - dq_dx) ** 2)) / scale)
+
+
 def find_cases(root: PathLike, format: Optional[str] = None) -> List[Case]:
     """Every image under ``root`` (recursively), as ground-truth sets or real photos.
 
@@ -266,4 +292,4 @@ def find_cases(root: PathLike, format: Optional[str] = None) -> List[Case]:
 
 
 __all__ = ["Case", "FORMATS", "LAYOUTS", "IMAGE_EXTENSIONS", "detect_format", "find_cases", "read_des18",
-           "read_des19", "read_xuejiao", "read_gt"]
+           "read_des19", "read_xuejiao", "read_gt", "normal_curl_ratio"]

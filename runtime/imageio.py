@@ -179,9 +179,9 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
     a = np.asarray(arr)
     if a.ndim == 2:
         a = a[..., None]
-    if a.ndim != 3 or a.shape[-1] not in (1, 3) or a.shape[0] < 1 or a.shape[1] < 1:
-        raise ImageError(f"{path}: cannot write an array of shape {np.shape(arr)} (expected (H, W), (H, W, 1) "
-                         f"or (H, W, 3))")
+    if a.ndim != 3 or a.shape[-1] not in (1, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
+        raise ImageError(f"{path}: cannot write an array of shape {np.shape(arr)} (expected (H, W), (H, W, 1), "
+                         f"(H, W, 3) or (H, W, 4))")
     a = a.astype(np.float32)
     if not np.all(np.isfinite(a)):
         raise ImageError(f"{path}: refusing to write NaN/Inf values")
@@ -200,8 +200,9 @@ def write_image(
 
     Args:
         path: target file; its folder must exist. Extension ``.png``, ``.exr``, ``.tif`` or ``.tiff``.
-        arr: (H, W), (H, W, 1) or (H, W, 3) float array. Integer formats clip it to [0, 1] and round to the
-            nearest code; float formats store it as is.
+        arr: (H, W), (H, W, 1), (H, W, 3) or (H, W, 4) float array. Integer formats clip it to [0, 1] and
+            round to the nearest code; float formats store it as is. A fourth channel is written as an
+            unassociated (straight) alpha: it is never sRGB-encoded and the colour is not divided by it.
         bits: 8 or 16 for PNG; 16 (half) or 32 (float) for EXR; 8, 16 or 32 (float) for TIFF.
         srgb_encode: ``arr`` is linear colour: encode it with the sRGB curve before quantising and tag the file
             sRGB (integer formats only). Otherwise values are stored as given and integer files are written
@@ -235,12 +236,15 @@ def write_image(
 
     a = _as_hwc(path, arr)
     if srgb_encode:
-        a = linear_to_srgb(np.clip(a, 0.0, 1.0))
+        a = a.copy()
+        a[..., :3] = linear_to_srgb(np.clip(a[..., :3], 0.0, 1.0))  # alpha stays linear
     if not is_float:
         a = np.clip(a, 0.0, 1.0)
     h, w, c = a.shape
 
     spec = oiio.ImageSpec(w, h, c, pixel_type)
+    if c == 4:  # without this OpenImageIO treats alpha as associated and un-premultiplies the colour on write
+        spec.attribute("oiio:UnassociatedAlpha", 1)
     if not is_float:
         spec.attribute("oiio:ColorSpace", "sRGB" if srgb_encode else "Raw")
     # Same folder (so os.replace is atomic) and the real extension (so OpenImageIO picks the format).

@@ -45,6 +45,7 @@ MIN_SIZE = 8
 __all__ = [
     "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "ModelInfo", "find_model",
     "manifest_path_for", "read_manifest", "sha256_file", "map_layout", "input_contract", "check_layout",
+    "find_checkpoint",
 ]
 
 
@@ -188,3 +189,26 @@ def find_model(model: Union[str, Path, None] = None) -> ModelInfo:
     if not path.is_file():
         raise ModelError(f"{path}: packaged model file listed in manifest.json is missing")
     return _verify(path, "packaged", manifest_path)
+
+
+def find_checkpoint(info: ModelInfo) -> Path:
+    """The training checkpoint a model was exported from (for fine-tuning), verified against its sha256.
+
+    Looked up from the manifest's ``checkpoint`` entry: the file of that name beside the model, else the
+    absolute path recorded at export.
+
+    Raises:
+        ModelError: no manifest or no ``checkpoint`` entry, file not found, or sha256 mismatch.
+    """
+    entry = (info.manifest or {}).get("checkpoint")
+    if not entry:
+        raise ModelError(f"{info.path}: its manifest names no training checkpoint, so it cannot be refined")
+    candidates = [info.path.parent / entry["file"], Path(entry["path"])]
+    path = next((p for p in candidates if p.is_file()), None)
+    if path is None:
+        raise ModelError(
+            f"{info.path}: training checkpoint {entry['file']} not found beside the model or at {entry['path']}"
+        )
+    if sha256_file(path) != entry["sha256"]:
+        raise ModelError(f"{path}: sha256 does not match the checkpoint recorded in {info.manifest_path.name}")
+    return path

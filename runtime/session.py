@@ -101,7 +101,11 @@ class PreviewSession:
         else:
             self.metadata = self._embedded_metadata()
             check_layout(self.metadata, str(info.path))
-        self.render_config = RenderConfig(**self.metadata["render_config"]) if "render_config" in self.metadata else ZHAO
+        try:
+            render = self.metadata.get("render_config")
+            self.render_config = RenderConfig(**render) if render else ZHAO
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"{info.path}: invalid render_config in the model metadata ({exc})") from None
 
     def _embedded_metadata(self) -> dict:
         props = self._session.get_modelmeta().custom_metadata_map
@@ -110,7 +114,9 @@ class PreviewSession:
         except ValueError:
             meta = {}
         if meta.get("schema") != MANIFEST_SCHEMA:
-            raise ModelError(f"{self.info.path}: no manifest and no svbrdf metadata in the file; re-export it with svbrdf-export")
+            raise ModelError(
+                f"{self.info.path}: no manifest and no svbrdf metadata in the file; re-export it with svbrdf-export"
+            )
         return meta
 
     @property

@@ -37,20 +37,27 @@ def _fast_fft_size(n: int) -> int:
         n += 1
 
 
-def _blur_fft(x: torch.Tensor, kernel: torch.Tensor, padding: str) -> torch.Tensor:
-    """'same' convolution of (B, C, H, W) with a centred odd (k, k) kernel by FFT, with zero or reflect padding.
+class _FFTBlur:
+    """'same' convolution of (H, W) planes with a centred odd (k, k) kernel by FFT, zero or reflect padding.
 
-    The input is padded by p = k // 2 on each side; output rows/columns 2p .. 2p + H - 1 of the circular
-    convolution only read padded samples 0 .. H + 2p - 1, so they never see the wrap-around.
+    A plane is padded by p = k // 2 on each side; output rows/columns 2p .. 2p + H - 1 of the circular convolution
+    only read padded samples 0 .. H + 2p - 1, so they never see the wrap-around. The kernel spectrum is computed
+    once per image size.
     """
-    k = kernel.shape[-1]
-    p = k // 2
-    h, w = x.shape[-2:]
-    xp = F.pad(x, (p, p, p, p), mode="constant" if padding == "zeros" else "reflect")
-    size = (_fast_fft_size(h + 2 * p), _fast_fft_size(w + 2 * p))
-    spec = torch.fft.rfft2(xp, s=size) * torch.fft.rfft2(kernel, s=size)
-    # Output index i collects xp[i - k + 1 .. i], i.e. the window centred on photo pixel i - 2p.
-    return torch.fft.irfft2(spec, s=size)[..., 2 * p:2 * p + h, 2 * p:2 * p + w]
+
+    def __init__(self, kernel: torch.Tensor, h: int, w: int, padding: str):
+        self.p = kernel.shape[-1] // 2
+        self.h, self.w = h, w
+        self.mode = "constant" if padding == "zeros" else "reflect"
+        self.size = (_fast_fft_size(h + 2 * self.p), _fast_fft_size(w + 2 * self.p))
+        self.kernel_spec = torch.fft.rfft2(kernel, s=self.size)
+
+    def __call__(self, plane: torch.Tensor) -> torch.Tensor:
+        p = self.p
+        padded = F.pad(plane[None], (p, p, p, p), mode=self.mode)[0]
+        out = torch.fft.irfft2(torch.fft.rfft2(padded, s=self.size) * self.kernel_spec, s=self.size)
+        # output index i collects padded[i - 2p .. i], the window centred on photo pixel i - 2p
+        return out[2 * p:2 * p + self.h, 2 * p:2 * p + self.w]
 
 
 def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 101.0, eps: float = 1e-4,
@@ -61,7 +68,8 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
     ``(z - min z) / (max z - min z + eps)`` over the whole image. ``K`` is a normalised
     ``kernel_size x kernel_size`` Gaussian (sigma 101 over 101 px is nearly a box). With ``padding="zeros"``
     (Zhao, TF SAME) the sums still divide by the full kernel weight, so a ``kernel_size // 2`` border is darkened;
-    ``"reflect"`` avoids that (needs H, W > kernel_size // 2). Computed by FFT: about 4 s for a 4096 x 4096 photo on 2 CPU cores.
+    ``"reflect"`` avoids that (needs H, W > kernel_size // 2). Computed by FFT in float64 (a 4096 x 4096 photo:
+    about 7 s and 2 GB on 2 CPU cores).
 
     Deviation: Zhao linearises with x^2.2; the project decodes sRGB exactly upstream, so ``photo`` is linear.
 
@@ -83,15 +91,20 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
         raise ValueError(f"photo must be (B, C, H, W), got {tuple(photo.shape)}")
     if padding == "reflect" and min(photo.shape[-2:]) <= kernel_size // 2:
         raise ValueError(f"reflect padding needs H, W > {kernel_size // 2}, got {tuple(photo.shape[-2:])}")
-    x = _f32(photo)
+    # float64: with float32 FFTs the round-off of the blurred variance follows the brightest part of the image
+    # and reaches a few percent of the output in flat, low-noise regions (their std is ~1e-4).
+    x = photo.double()
     g = get_gaussian_kernel1d(kernel_size, sigma, device=x.device, dtype=x.dtype)[0]
     kernel = g[:, None] * g[None, :]  # separable: the outer product of the normalised 1D kernel sums to 1
-    mean = _blur_fft(x, kernel, padding)
-    std = _blur_fft((x - mean) ** 2, kernel, padding).clamp_min(0.0).sqrt()  # FFT round-off can go below 0
-    z = (x - mean) / (std + eps)
-    lo = z.amin(dim=(-2, -1), keepdim=True)
-    hi = z.amax(dim=(-2, -1), keepdim=True)
-    return ((z - lo) / (hi - lo + eps)).clamp(0.0, 1.0)
+    h, w = x.shape[-2:]
+    blur = _FFTBlur(kernel, h, w, padding)
+    planes = []
+    for plane in x.reshape(-1, h, w):  # one channel at a time bounds the peak memory for large photos
+        mean = blur(plane)
+        std = blur((plane - mean) ** 2).clamp_min(0.0).sqrt()  # FFT round-off can go below 0
+        z = (plane - mean) / (std + eps)
+        planes.append((z - z.min()) / (z.max() - z.min() + eps))
+    return torch.stack(planes).reshape(x.shape).clamp(0.0, 1.0).to(_f32(photo).dtype)
 
 
 def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
@@ -207,7 +220,7 @@ def fourier_loss(maps: torch.Tensor, guess: torch.Tensor, mode: str = "complex",
     if not include_dc and h * w < 2:
         raise ValueError("include_dc=False needs at least 2 pixels")
     with torch.autocast(device_type=maps.device.type, enabled=False):
-        u = _f32(maps_for_loss(maps))
+        u = maps_for_loss(_f32(maps))
         g = _f32(guess)[:, None]  # (B, 1, 3, H, W), broadcast over the four maps
         if mode == "complex":
             dist = _modulus(torch.fft.fft2(u - g, norm="ortho"))  # FFT is linear: FFT(u) - FFT(g) = FFT(u - g)

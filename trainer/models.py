@@ -65,7 +65,7 @@ class GeneratorConfig:
     def __post_init__(self) -> None:
         if not self.width > 0:
             raise ValueError(f"width must be > 0, got {self.width}")
-        if int(self.decoder_blocks) != self.decoder_blocks or self.decoder_blocks < 1:
+        if not isinstance(self.decoder_blocks, int) or self.decoder_blocks < 1:
             raise ValueError(f"decoder_blocks must be an integer >= 1, got {self.decoder_blocks}")
         if not self.height_scale > 0:
             raise ValueError(f"height_scale must be > 0, got {self.height_scale}")
@@ -93,7 +93,7 @@ class DiscriminatorConfig:
     def __post_init__(self) -> None:
         if not self.width > 0:
             raise ValueError(f"width must be > 0, got {self.width}")
-        if int(self.n_layers) != self.n_layers or self.n_layers < 1:
+        if not isinstance(self.n_layers, int) or self.n_layers < 1:
             raise ValueError(f"n_layers must be an integer >= 1, got {self.n_layers}")
 
     def to_dict(self) -> dict:

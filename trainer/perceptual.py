@@ -52,14 +52,14 @@ class VGGWeightsError(ModelError, ValueError):
     """A VGG-19 weights file cannot be read or does not hold VGG-19 ``features`` weights."""
 
 
-def _vgg19_layers() -> List[nn.Module]:
+def _vgg19_layers(device=None) -> List[nn.Module]:
     layers: List[nn.Module] = []
     cin = 3
     for v in VGG19_CFG:
         if v == "M":
             layers.append(nn.MaxPool2d(2, 2))
         else:
-            layers += [nn.Conv2d(cin, v, 3, padding=1), nn.ReLU()]
+            layers += [nn.Conv2d(cin, v, 3, padding=1, device=device), nn.ReLU()]
             cin = v
     return layers
 
@@ -67,7 +67,7 @@ def _vgg19_layers() -> List[nn.Module]:
 def _expected_shapes() -> Dict[str, Tuple[int, ...]]:
     """torchvision state-dict keys (``features.N.weight/bias``) of the convs up to conv5_1 and their shapes."""
     out = {}
-    for i, layer in enumerate(_vgg19_layers()):
+    for i, layer in enumerate(_vgg19_layers("meta")):
         if isinstance(layer, nn.Conv2d):
             out[f"features.{i}.weight"] = (layer.out_channels, layer.in_channels, 3, 3)
             out[f"features.{i}.bias"] = (layer.out_channels,)
@@ -97,7 +97,8 @@ class VGG19Features(nn.Module):
 
     def __init__(self, state_dict: Optional[Mapping[str, torch.Tensor]] = None, seed: int = 0):
         super().__init__()
-        self.features = nn.Sequential(*_vgg19_layers())
+        # built on "meta" (no default init, global RNG untouched), then given real storage
+        self.features = nn.Sequential(*_vgg19_layers("meta")).to_empty(device="cpu")
         if state_dict is None:
             gen = torch.Generator().manual_seed(seed)
             for m in self.features:
@@ -126,7 +127,7 @@ class PyramidFeatures(nn.Module):
     """Cheap stand-in for VGG: a Gaussian pyramid of the sRGB-encoded image and its Sobel gradients.
 
     Input (B, 3, H, W) linear RGB (clamped to [0, 1]); output: one (B, 9, h, w) tensor per level (image, d/dx,
-    d/dy) for up to 5 levels, halving the size each time while the side stays >= 4.
+    d/dy) for up to 5 levels, halving the size while the smaller side is >= 4 (5 levels from 32 px up).
     """
 
     def __init__(self, levels: int = PYRAMID_LEVELS):
@@ -139,7 +140,7 @@ class PyramidFeatures(nn.Module):
         out = []
         for i in range(self.levels):
             if i:
-                if min(x.shape[-2:]) < 8:
+                if min(x.shape[-2:]) < 4:  # pyrdown's reflect padding needs >= 3 px
                     break
                 x = pyrdown(x)
             b, c, h, w = x.shape

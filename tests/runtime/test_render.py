@@ -84,7 +84,8 @@ def test_specular_peak_at_centre_closed_form_and_monotone(geometry):
         peaks.append(img[1, 1, 0])
     peaks = np.array(peaks)
     alpha = np.maximum(rough ** 2, ALPHA_MIN)
-    np.testing.assert_allclose(peaks, cfg.intensity * 0.5 / (4 * np.pi * alpha ** 2), rtol=1e-4)
+    # rtol: in float32, 1 - (n.h)^2 (1 - alpha^2) cancels badly for alpha < 0.01 (0.3 % at r = 0.05).
+    np.testing.assert_allclose(peaks, cfg.intensity * 0.5 / (4 * np.pi * alpha ** 2), rtol=5e-3)
     assert np.all(np.diff(peaks) < 0)
 
 
@@ -120,6 +121,9 @@ def test_specular_lobe_energy_at_most_one_and_near_one_when_smooth(theta_v):
         assert e <= 1.0 + 2e-3, (r, e)
     assert albedo[0.2] > 0.97, albedo  # smooth GGX + Smith loses almost nothing to masking
     assert albedo[1.0] < albedo[0.2]  # single scattering loses energy as the surface gets rougher
+    if theta_v == 0.0:
+        # alpha = 1: D = 1/pi and G1(x) = 2x/(1+x), so E = (1/4pi) int 2cos/(1+cos) dw = 1 - ln 2.
+        assert albedo[1.0] == pytest.approx(1.0 - math.log(2.0), abs=2e-3)
 
 
 _unit_hemisphere = st.tuples(st.floats(0.0, 80.0), st.floats(0.0, 360.0))
@@ -191,4 +195,4 @@ def test_maps_normalised_on_the_fly():
     rng = np.random.default_rng(7)
     maps = _random_maps(rng, 6, 6)
     scaled = Maps(diffuse=maps.diffuse, specular=maps.specular, roughness=maps.roughness, normal=maps.normal * 0.7)
-    np.testing.assert_allclose(render(scaled), render(maps), rtol=1e-5)
+    np.testing.assert_allclose(render(scaled), render(maps), rtol=1e-4, atol=1e-6)

@@ -147,7 +147,8 @@ def render_mitsuba(maps: Maps, light_pos: Optional[Sequence[float]] = None, conf
 
     m = maps.clipped()
     bsdf = {
-        "type": "normalmap",
+        # Mitsuba >= 3.7 defaults (flipping invalid normals, a terminator shadowing term) are not in our model.
+        "type": "normalmap", "flip_invalid_normals": False, "use_shadowing_function": False,
         "normalmap": tex(encode_normal(m.normal)),
         "bsdf": {
             "type": "blendbsdf", "weight": 0.5,

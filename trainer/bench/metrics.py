@@ -193,7 +193,8 @@ def burn_in(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, eps
         eps: added to the field's standard deviation.
 
     Returns:
-        ``(mean in the disc - mean in the ring) / (std + eps)``; 0 if the ring or the disc is empty.
+        ``(mean in the disc - mean in the ring) / (std + eps)``; 0 for a constant field or if the ring or the
+        disc is empty.
     """
     g = np.asarray(field, dtype=np.float64)
     if g.ndim != 2:
@@ -204,7 +205,7 @@ def burn_in(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, eps
     r = np.hypot(yy + 0.5 - cy, xx + 0.5 - cx) / w
     disc = r <= DISC_RADIUS
     ring = (r >= RING_RADII[0]) & (r <= RING_RADII[1])
-    if not disc.any() or not ring.any():
+    if not disc.any() or not ring.any() or np.ptp(g) == 0:  # (a constant field: exactly 0, not rounding noise)
         return 0.0
     return float((g[disc].mean() - g[ring].mean()) / (g.std() + eps))
 

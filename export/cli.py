@@ -1,0 +1,93 @@
+"""``svbrdf-export``: training checkpoint -> ONNX preview model + manifest (see :mod:`svbrdf.export.onnx`).
+
+Exit codes: 0 success, 2 usage error, 1 failure (one line ``svbrdf-export: error: <message>`` on stderr;
+``--verbose`` adds the traceback).
+"""
+
+from __future__ import annotations
+
+import argparse
+import logging
+import sys
+import traceback
+import warnings
+from pathlib import Path
+from typing import List, Optional
+
+from svbrdf.runtime.errors import SvbrdfError
+
+PROG = "svbrdf-export"
+
+EXAMPLES = f"""\
+examples:
+  {PROG} runs/wood/checkpoint.pt                    writes runs/wood/checkpoint.onnx + checkpoint.json
+  {PROG} runs/pretrain/final.pt -o models/svbrdf-v1.onnx --force
+
+The export is checked (onnx.checker, then onnxruntime against torch at 64x64, 75x101 and 96x160) before
+anything is written. To ship a model as the packaged default, copy NAME.onnx, NAME.json and the checkpoint into
+models/ and copy NAME.json to models/manifest.json.
+"""
+
+
+def _version() -> str:
+    try:
+        from importlib.metadata import version
+
+        return version("svbrdf")
+    except Exception:  # source tree without an install
+        return "0.0.0+local"
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog=PROG, description="Export a trained generator to a single-file ONNX model.",
+                                epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("checkpoint", metavar="CKPT", type=Path, help="training checkpoint (.pt) from svbrdf-train")
+    p.add_argument("-o", "--out", metavar="PATH", type=Path,
+                   help="output .onnx file (default: CKPT with the suffix .onnx); the manifest goes beside it")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--opset", metavar="N", type=int, default=None, help="ONNX opset (default: 18)")
+    p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
+    p.add_argument("-v", "--verbose", action="store_true", help="print tracebacks on errors")
+    p.add_argument("--version", action="version", version=f"{PROG} {_version()}")
+    return p
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Entry point of ``svbrdf-export``; returns the exit code."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help / --version (0) and usage errors (2)
+        return int(exc.code or 0)
+    out = args.out if args.out is not None else args.checkpoint.with_suffix(".onnx")
+    if out.suffix != ".onnx":
+        parser.print_usage(sys.stderr)
+        print(f"{PROG}: error: the output file must end in .onnx, got {out}", file=sys.stderr)
+        return 2
+    try:
+        from .onnx import OPSET, export_generator
+
+        # The exporter's "torchvision is not installed" log lines and deprecation warnings are not the user's
+        # business; real failures still raise.
+        logging.getLogger("torch.onnx").setLevel(logging.ERROR)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", FutureWarning)
+            report = export_generator(args.checkpoint, out, opset=args.opset or OPSET, force=args.force)
+    except KeyboardInterrupt:
+        print(f"{PROG}: error: interrupted", file=sys.stderr)
+        return 130
+    except Exception as exc:
+        msg = str(exc) if isinstance(exc, SvbrdfError) else f"{type(exc).__name__}: {exc}"
+        print(f"{PROG}: error: {msg}", file=sys.stderr)
+        if args.verbose:
+            traceback.print_exc()
+        return 1
+    if not args.quiet:
+        print(f"{report['path']}: {report['bytes'] / 1e6:.1f} MB, opset {report['opset']}, sha256 "
+              f"{report['sha256'][:12]}, onnxruntime vs torch max |diff| {report['max_abs_diff']:.1e}; "
+              f"manifest {report['manifest_path']} ({report['seconds']:.1f} s)")
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,214 @@
+"""``svbrdf-preview``: flash photo(s) -> texture set(s) with the ONNX preview model (optionally refined with torch).
+
+Exit codes: 0 success, 2 usage error, 1 if any photo failed (each failure is one line
+``svbrdf-preview: error: <message>`` on stderr; ``--verbose`` adds the traceback). Heavy modules
+(onnxruntime, OpenImageIO, torch) are imported only after the arguments are parsed, so ``--version`` and
+``--help`` stay instant.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+import traceback
+import warnings
+from pathlib import Path
+from typing import List, Optional
+
+from . import __version__
+from .errors import SvbrdfError
+
+PROG = "svbrdf-preview"
+TORCH_HINT = '--refine needs torch: pip install "svbrdf[train]"'
+
+EXAMPLES = f"""\
+examples:
+  {PROG} wood.jpg                      maps in wood_svbrdf/ beside the photo
+  {PROG} photos/*.png -o maps/         a batch into one folder (files named after each photo)
+  {PROG} tiles.png --normal dx --format exr --max-size 4096
+  {PROG} wood.jpg --model my.onnx      a model of your own (or set SVBRDF_MODEL)
+  {PROG} wood.jpg --refine --iters 300 fine-tune the model on this photo first (needs torch)
+
+Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name>_specular (.png 16-bit or
+.exr), <name>.json (sidecar) and <name>_relit.png (renders under the flash and two other lights).
+"""
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog=PROG,
+        description="Estimate SVBRDF maps (diffuse, specular, roughness, normal) from flash photos of flat materials.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    p.add_argument("photos", nargs="+", metavar="PHOTO", help="flash photo(s): PNG, JPEG, TIFF, EXR, ...")
+    p.add_argument("-o", "--out", metavar="DIR", type=Path,
+                   help="output folder (default: <photo folder>/<photo name>_svbrdf/)")
+    p.add_argument("--model", metavar="PATH", help="ONNX model (default: $SVBRDF_MODEL, else the packaged model)")
+    p.add_argument("--threads", metavar="N", type=_positive, help="CPU threads (default: all cores)")
+    p.add_argument("--fov", metavar="DEG", type=float,
+                   help="camera field of view across the photo width, for the relit preview "
+                        "(default: the model's training value)")
+    p.add_argument("--normal", choices=("gl", "dx"), default="gl",
+                   help="normal map convention: gl = OpenGL, green up; dx = DirectX, green down (default: gl)")
+    p.add_argument("--format", choices=("png", "exr"), default="png",
+                   help="normal/roughness/specular files: 16-bit png or float exr (default: png)")
+    p.add_argument("--max-size", metavar="N", type=_positive, default=2048,
+                   help="downsize photos whose long side exceeds N pixels (default: 2048)")
+    p.add_argument("--tile", metavar="N", type=_positive, default=1024,
+                   help="process larger images in overlapping N x N tiles to bound memory (default: 1024)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--refine", action="store_true",
+                   help="fine-tune the model's training checkpoint on each photo with torch before predicting")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--iters", metavar="N", type=_positive, help="--refine iterations (default: the checkpoint's)")
+    how.add_argument("--quality", choices=("auto",),
+                     help="--refine until the re-render error and the maps stop changing")
+    p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
+    p.add_argument("-v", "--verbose", action="store_true", help="print model details, and tracebacks on errors")
+    p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
+    return p
+
+
+def _error(msg: str) -> None:
+    print(f"{PROG}: error: {msg}", file=sys.stderr)
+
+
+def _refine(image, session, args, name: str):
+    """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear) and return the trainer's Maps."""
+    from svbrdf.trainer import checkpoint as ckpt_io
+    from svbrdf.trainer import train
+    from svbrdf.trainer.config import TrainConfig
+
+    from .models import find_checkpoint
+
+    init_path = find_checkpoint(session.info)
+    init = ckpt_io.load_checkpoint(init_path)
+    cfg = TrainConfig.from_dict(init["train_config"]).to_dict()
+    cfg["quality"] = "auto" if args.quality == "auto" else "fixed"
+    if args.iters:
+        cfg["iters_finetune"] = args.iters
+    photo = train.photo_to_tensor(image)
+    trainer = train.finetune(photo, init, TrainConfig.from_dict(cfg), threads=args.threads,
+                             photo_info=train.tensor_photo_info(photo, name))
+    meta = {"refine": {"checkpoint": str(init_path), "iterations": trainer.step,
+                       "stopped_early": trainer.stopped_early, "notes": list(trainer.notes)}}
+    return train.to_maps(trainer.predict(), meta)
+
+
+def _process(photo: Path, session, config, args, out_dir: Path) -> str:
+    """Estimate (or refine), render and write one texture set; returns the report line."""
+    from .session import DEFAULT_OVERLAP, estimate
+    from .texture_set import relit_panel, write_texture_set
+
+    start = time.perf_counter()
+    name = photo.stem
+    # Cheap early refusal before minutes of inference; write_texture_set re-checks every file it writes.
+    if not args.force and (out_dir / f"{name}.json").exists():
+        raise SvbrdfError(f"{out_dir / (name + '.json')}: exists (use --force to overwrite)")
+    if args.refine:
+        from .imageio import read_image
+        from .session import resize_long_side
+
+        maps = _refine(resize_long_side(read_image(photo), args.max_size), session, args, photo.name)
+        maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256})
+        detail = f"refined {maps.meta['refine']['iterations']} it"
+    else:
+        overlap = min(DEFAULT_OVERLAP, args.tile // 4)
+        maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, overlap=overlap)
+        tiles = maps.meta["tiles"]
+        detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
+    maps.meta["render_config"] = config.to_dict()
+    relit = relit_panel(maps, config)
+    write_texture_set(maps, out_dir, name, normal="dx" if args.normal == "dx" else "opengl", fmt=args.format,
+                      force=args.force, extra_meta={"tool": f"{PROG} {__version__}"}, relit=relit)
+    h, w = maps.shape
+    return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail})"
+
+
+def _run(args) -> int:
+    if args.refine:
+        try:  # before any work: every photo would fail the same way
+            import torch  # noqa: F401
+        except ImportError:
+            raise SvbrdfError(TORCH_HINT) from None
+    from .session import load_session
+
+    session = load_session(args.model, threads=args.threads)
+    config = session.render_config
+    if args.fov is not None:
+        config = config.replace(fov_deg=args.fov)
+    if args.verbose:
+        info = session.info
+        state = "verified" if info.verified else info.note
+        print(f"model: {info.path} ({info.source}, sha256 {info.sha256[:12]}, {state}); "
+              f"{', '.join(session.providers)}, {session.threads} threads")
+
+    failed = 0
+    seen = {}
+    for text in args.photos:
+        photo = Path(text)
+        out_dir = args.out if args.out is not None else photo.parent / f"{photo.stem}_svbrdf"
+        key = (out_dir.resolve(), photo.stem)
+        try:
+            if key in seen:
+                raise SvbrdfError(f"{photo}: same output name as {seen[key]} in {out_dir}; process it separately")
+            seen[key] = photo
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                line = _process(photo, session, config, args, out_dir)
+            if not args.quiet:
+                for w in caught:
+                    print(f"{PROG}: warning: {w.message}", file=sys.stderr)
+                print(line)
+        except Exception as exc:  # per photo: report, go on with the batch, exit 1 at the end
+            failed += 1
+            _error(str(exc) if isinstance(exc, SvbrdfError) else f"{photo}: {type(exc).__name__}: {exc}")
+            if args.verbose:
+                traceback.print_exc()
+    return 1 if failed else 0
+
+def main(argv: Optional[List[str]] = None) -> int:
+    """Entry point of ``svbrdf-preview``; returns the exit code (see the module docstring)."""
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # --help / --version (0) and usage errors (2)
+        return int(exc.code or 0)
+    if args.fov is not None and not 1.0 <= args.fov <= 170.0:
+        return _usage(parser, f"--fov must be in [1, 170] degrees, got {args.fov}")
+    if args.max_size < 8 or args.tile < 8:
+        return _usage(parser, "--max-size and --tile must be >= 8")
+    if (args.iters or args.quality) and not args.refine:
+        return _usage(parser, "--iters and --quality need --refine")
+    try:
+        return _run(args)
+    except KeyboardInterrupt:
+        _error("interrupted")
+        return 130
+    except SvbrdfError as exc:  # model not found / not loadable, torch missing for --refine
+        _error(str(exc))
+        if args.verbose:
+            traceback.print_exc()
+        return 1
+
+
+def _usage(parser: argparse.ArgumentParser, msg: str) -> int:
+    parser.print_usage(sys.stderr)
+    _error(msg)
+    return 2
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

@@ -1,0 +1,129 @@
+"""ONNX export of the generator (svbrdf.export.onnx) and the ``svbrdf-export`` CLI."""
+
+import json
+import warnings
+
+import numpy as np
+import pytest
+
+torch = pytest.importorskip("torch")
+onnx = pytest.importorskip("onnx")
+ort = pytest.importorskip("onnxruntime")
+pytest.importorskip("onnxscript")
+
+from svbrdf.export import onnx as export_onnx  # noqa: E402
+from svbrdf.export.cli import main  # noqa: E402
+from svbrdf.export.onnx import OPSET, export_generator  # noqa: E402
+from svbrdf.runtime.errors import ModelError, SvbrdfError  # noqa: E402
+from svbrdf.runtime.models import MANIFEST_SCHEMA, map_layout, sha256_file  # noqa: E402
+from svbrdf.trainer.checkpoint import build_checkpoint, save_checkpoint  # noqa: E402
+from svbrdf.trainer.config import resolve  # noqa: E402
+from svbrdf.trainer.models import MODEL_PRESETS, Generator  # noqa: E402
+
+SIZES = ((32, 32), (33, 45), (40, 64))
+
+
+def _generator():
+    torch.manual_seed(1)
+    return Generator(MODEL_PRESETS["tiny"]).eval()
+
+
+@pytest.fixture(scope="module")
+def exported(tmp_path_factory):
+    out = tmp_path_factory.mktemp("export") / "tiny.onnx"
+    generator = _generator()
+    meta = {"train_config": resolve("tiny", fov_deg=45.0).to_dict(), "stage": "finetune", "step": 3,
+            "photo": {"name": "p.png", "sha256": "f" * 64, "height": 40, "width": 50}}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        report = export_generator(generator, out, sizes=SIZES, meta=meta)
+    return out, generator, report
+
+
+def test_onnxruntime_matches_torch(exported):
+    out, generator, report = exported
+    assert [p["size"] for p in report["parity"]] == [list(s) for s in SIZES]
+    assert report["max_abs_diff"] <= 1e-4
+    # Checked here too, independently of the exporter's own report, with other inputs.
+    sess = ort.InferenceSession(str(out), providers=["CPUExecutionProvider"])
+    rng = np.random.default_rng(5)
+    for h, w in SIZES + ((8, 8), (9, 130)):
+        x = rng.random((1, 3, h, w), dtype=np.float32)
+        got = sess.run(["maps"], {"image": x})[0]
+        with torch.inference_mode():
+            ref = generator(torch.from_numpy(x)).numpy()
+        assert got.shape == (1, 8, h, w)
+        np.testing.assert_allclose(got, ref, atol=1e-4, rtol=0)
+
+
+def test_graph_contract(exported):
+    out, _, report = exported
+    model = onnx.load(str(out))
+    onnx.checker.check_model(model, full_check=True)
+    assert {o.domain: o.version for o in model.opset_import}[""] == OPSET == report["opset"]
+    dims = lambda v: [d.dim_param or d.dim_value for d in v.type.tensor_type.shape.dim]  # noqa: E731
+    assert [i.name for i in model.graph.input] == ["image"] and dims(model.graph.input[0]) == [1, 3, "H", "W"]
+    assert [o.name for o in model.graph.output] == ["maps"] and dims(model.graph.output[0]) == [1, 8, "H", "W"]
+    assert sorted(p.name for p in out.parent.iterdir()) == ["tiny.json", "tiny.onnx"]  # one file, no .data
+
+
+def test_metadata_and_manifest(exported):
+    out, _, report = exported
+    manifest = json.loads(out.with_suffix(".json").read_text())
+    assert manifest["schema"] == MANIFEST_SCHEMA and manifest["file"] == "tiny.onnx"
+    assert manifest["sha256"] == sha256_file(out) == report["sha256"]
+    assert manifest["maps"] == map_layout()
+    assert manifest["input"]["min_size"] == 8 and manifest["input"]["layout"] == "NCHW"
+    assert manifest["render_config"]["fov_deg"] == 45.0
+    assert manifest["training"]["preset"] == "tiny" and manifest["training"]["step"] == 3
+    assert manifest["training"]["generator_config"] == MODEL_PRESETS["tiny"].to_dict()
+    assert manifest["photo"]["name"] == "p.png" and manifest["photo"]["sha256"] == "f" * 64
+    assert manifest["opset"] == OPSET and manifest["exporter"]["torch"] == str(torch.__version__)
+    assert manifest["parity"]["results"] == report["parity"]
+    assert manifest["checkpoint"] is None  # exported from a module, not a file
+    props = {p.key: json.loads(p.value) for p in onnx.load(str(out)).metadata_props}
+    assert "sha256" not in props and "file" not in props
+    assert props == {k: v for k, v in manifest.items() if k not in ("sha256", "file", "parity")}
+
+
+def test_refuses_to_overwrite(exported):
+    out, generator, _ = exported
+    before = out.read_bytes()
+    with pytest.raises(SvbrdfError, match="exists"):
+        export_generator(generator, out)
+    with pytest.raises(SvbrdfError, match=r"\.onnx"):
+        export_generator(generator, out.with_suffix(".bin"))
+    assert out.read_bytes() == before
+
+
+def test_parity_failure_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.setattr(export_onnx, "PARITY_ATOL", 0.0)  # any float difference now fails
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        with pytest.raises(ModelError, match="differ"):
+            export_generator(_generator(), tmp_path / "m.onnx", sizes=((16, 16),))
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_cli(tmp_path, capsys):
+    ckpt_path = tmp_path / "run" / "ck.pt"
+    config = resolve("tiny")
+    save_checkpoint(ckpt_path, build_checkpoint(generator=_generator(), discriminator=None,
+                                                train_config=config.to_dict(), stage="pretrain", step=5, iters=5,
+                                                photo={"name": "a.png", "sha256": "a" * 64}))
+    out = tmp_path / "models" / "v1.onnx"
+    assert main([str(ckpt_path), "-o", str(out)]) == 0
+    stdout = capsys.readouterr().out
+    assert str(out) in stdout and "max |diff|" in stdout
+    manifest = json.loads(out.with_suffix(".json").read_text())
+    assert manifest["checkpoint"] == {"file": "ck.pt", "path": str(ckpt_path.resolve()),
+                                      "sha256": sha256_file(ckpt_path)}
+    assert manifest["training"]["stage"] == "pretrain" and manifest["training"]["step"] == 5
+
+    assert main([str(ckpt_path), "-o", str(out)]) == 1  # exists, no --force
+    err = capsys.readouterr().err
+    assert err.strip().splitlines() == [f"svbrdf-export: error: {out}: exists (use --force to overwrite)"]
+    assert main([str(tmp_path / "missing.pt")]) == 1
+    assert "no such checkpoint" in capsys.readouterr().err
+    assert main([str(ckpt_path), "-o", str(tmp_path / "x.bin")]) == 2
+    assert main(["--opset"]) == 2

@@ -1,0 +1,182 @@
+"""``svbrdf-preview`` through ``main(argv)``: outputs, batch failures, overwrite rules, exit codes, light imports."""
+
+import json
+import os
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.cli import TORCH_HINT, main
+from svbrdf.runtime.imageio import read_image, write_image
+
+pytest.importorskip("onnxruntime")
+
+ERR = "svbrdf-preview: error: "
+SET_FILES = ("_basecolor.png", "_normal.png", "_roughness.png", "_specular.png", "_relit.png", ".json")
+
+
+@pytest.fixture
+def photo(tmp_path):
+    rng = np.random.default_rng(0)
+    path = tmp_path / "wood.png"
+    write_image(path, rng.uniform(0.1, 0.6, (48, 64, 3)).astype(np.float32), bits=8, srgb_encode=True)
+    return path
+
+
+def _run(capsys, *argv):
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def _subprocess(code):
+    return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+
+
+def test_one_photo_writes_a_texture_set(photo, tiny_model, capsys):
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1")
+    assert code == 0, err
+    folder = photo.parent / "wood_svbrdf"  # default: beside the photo
+    for suffix in SET_FILES:
+        assert (folder / f"wood{suffix}").is_file(), suffix
+    assert out.count("\n") == 1 and str(folder) in out and "48" in out
+    assert read_image(folder / "wood_basecolor.png").shape == (48, 64, 3)
+    assert read_image(folder / "wood_relit.png").shape == (48, 3 * 64, 3)
+    sidecar = json.loads((folder / "wood.json").read_text())
+    assert sidecar["meta"]["model"]["verified"] and sidecar["meta"]["source"] == str(photo)
+    assert sidecar["brdf"]["render_config"]["fov_deg"] == 50.0  # the model's training FOV
+
+
+def test_options_reach_the_texture_set(photo, tiny_model, tmp_path, capsys):
+    out_dir = tmp_path / "out"
+    code, out, _ = _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--normal", "dx", "--format", "exr",
+                        "--fov", "40", "--quiet", "--tile", "32")
+    assert code == 0 and out == ""
+    sidecar = json.loads((out_dir / "wood.json").read_text())
+    assert sidecar["normal_convention"]["name"] == "dx"
+    assert sidecar["brdf"]["render_config"]["fov_deg"] == 40.0
+    assert sidecar["meta"]["tiles"] == 6  # 48 x 64 in 32 px tiles, overlap 8: 2 rows x 3 columns
+    assert (out_dir / "wood_normal.exr").is_file() and not (out_dir / "wood_normal.png").exists()
+
+
+def test_real_photo(shared_data, tiny_model, tmp_path, capsys):
+    photos = sorted((shared_data / "deschaintre18-real").glob("*.png"))
+    if not photos:
+        pytest.skip("no deschaintre18-real photos in the shared data")
+    code, _, err = _run(capsys, photos[0], "--model", tiny_model, "-o", tmp_path, "--max-size", "64")
+    assert code == 0, err
+    sidecar = json.loads((tmp_path / f"{photos[0].stem}.json").read_text())
+    assert sidecar["meta"]["resized"] and max(sidecar["size"].values()) == 64
+
+
+def test_batch_with_a_bad_file(photo, tiny_model, tmp_path, capsys):
+    bad = tmp_path / "broken.png"
+    bad.write_bytes(b"\x89PNG\r\n\x1a\n not really")
+    out_dir = tmp_path / "out"
+    code, out, err = _run(capsys, bad, photo, "--model", tiny_model, "-o", out_dir)
+    assert code == 1
+    lines = err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith(ERR) and "broken.png" in lines[0]
+    assert (out_dir / "wood.json").is_file() and not (out_dir / "broken.json").exists()
+    assert "wood" in out and "broken" not in out
+    code, _, err = _run(capsys, bad, "--model", tiny_model, "-o", out_dir, "--verbose")
+    assert code == 1 and "Traceback" in err
+
+
+def test_same_output_name_twice_in_a_batch(photo, tiny_model, tmp_path, capsys):
+    other = tmp_path / "b" / "wood.png"
+    other.parent.mkdir()
+    other.write_bytes(photo.read_bytes())
+    code, _, err = _run(capsys, photo, other, "--model", tiny_model, "-o", tmp_path / "out")
+    assert code == 1 and "same output name" in err
+
+
+def test_force_semantics(photo, tiny_model, tmp_path, capsys):
+    out_dir = tmp_path / "out"
+    assert _run(capsys, photo, "--model", tiny_model, "-o", out_dir)[0] == 0
+    files = [out_dir / f"wood{s}" for s in SET_FILES]
+    for f in files:
+        os.utime(f, ns=(10**18, 10**18))
+    before = {f: f.read_bytes() for f in files}
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir)
+    assert code == 1 and "exists" in err and "--force" in err
+    assert all(f.read_bytes() == before[f] and f.stat().st_mtime_ns == 10**18 for f in files)
+    assert _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--force")[0] == 0
+    assert all(f.stat().st_mtime_ns != 10**18 for f in files)
+
+
+def test_an_existing_user_file_is_left_untouched(photo, tiny_model, tmp_path, capsys):
+    out_dir = tmp_path / "out"
+    out_dir.mkdir()
+    mine = out_dir / "wood_basecolor.png"
+    mine.write_bytes(b"my own file")
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir)
+    assert code == 1 and "wood_basecolor.png" in err
+    assert mine.read_bytes() == b"my own file"
+    assert sorted(p.name for p in out_dir.iterdir()) == ["wood_basecolor.png"]  # nothing else written
+
+
+@pytest.mark.parametrize("argv", [
+    [],
+    ["p.png", "--tile", "0"],
+    ["p.png", "--iters", "5"],
+    ["p.png", "--normal", "yz"],
+    ["p.png", "--fov", "500"],
+    ["p.png", "--refine", "--iters", "3", "--quality", "auto"],
+])
+def test_usage_errors_exit_2(argv, capsys):
+    code, out, err = _run(capsys, *argv)
+    assert code == 2 and out == ""
+    assert "usage: svbrdf-preview" in err and ERR in err and "Traceback" not in err
+
+
+def test_missing_model_is_one_line(photo, tmp_path, capsys):
+    code, _, err = _run(capsys, photo, "--model", tmp_path / "none.onnx")
+    assert code == 1 and err.strip().splitlines() == [f"{ERR}{tmp_path / 'none.onnx'}: model file not found"]
+
+
+def test_help_and_version(capsys):
+    code, out, _ = _run(capsys, "--help")
+    assert code == 0 and "examples:" in out and "--refine" in out
+    code, out, _ = _run(capsys, "--version")
+    assert code == 0 and out.startswith("svbrdf-preview ")
+
+
+def test_version_imports_nothing_heavy():
+    res = _subprocess(
+        "import sys; from svbrdf.runtime.cli import main; code = main(['--version']); "
+        "heavy = [m for m in ('onnxruntime', 'OpenImageIO', 'torch') if m in sys.modules]; "
+        "assert code == 0 and not heavy, (code, heavy)"
+    )
+    assert res.returncode == 0, res.stderr
+    assert res.stdout.startswith("svbrdf-preview ")
+
+
+def test_session_and_cli_do_not_import_torch():
+    res = _subprocess(
+        "import svbrdf.runtime.session, svbrdf.runtime.cli, svbrdf.runtime.models, svbrdf.runtime.tiling, sys; "
+        "assert 'torch' not in sys.modules, 'torch was imported'"
+    )
+    assert res.returncode == 0, res.stderr
+
+
+def test_refine_without_torch(photo, tiny_model):
+    res = _subprocess(
+        "import sys; sys.modules['torch'] = None; from svbrdf.runtime.cli import main; "
+        f"sys.exit(main([{str(photo)!r}, '--model', {str(tiny_model)!r}, '--refine']))"
+    )
+    assert res.returncode == 1
+    assert res.stderr.strip().splitlines() == [ERR + TORCH_HINT]
+    assert not (photo.parent / "wood_svbrdf").exists()
+
+
+def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
+    pytest.importorskip("torch")
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "out", "--refine", "--iters", "1",
+                          "--threads", "1")
+    assert code == 0, err
+    assert "refined 1 it" in out
+    meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
+    assert meta["refine"]["iterations"] == 1 and meta["refine"]["checkpoint"] == str(tiny_model.with_suffix(".pt"))

@@ -1,0 +1,309 @@
+"""svbrdf-bench: metrics on hand-made cases, case preparation, summary definitions, and the CLI end to end."""
+
+import json
+import math
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.imageio import read_image, write_image
+from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
+from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, render
+from svbrdf.trainer.bench import cases as bc
+from svbrdf.trainer.bench import metrics as bm
+from svbrdf.trainer.bench import report
+from svbrdf.trainer.bench.cli import main, run_benchmark
+from svbrdf.trainer.bench.methods import BenchOptions
+
+S = 48
+
+
+def _srgb(x):
+    """The IEC 61966-2-1 encoding, written out independently of the project's colour module."""
+    x = np.asarray(x, dtype=np.float64)
+    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0), 1 / 2.4) - 0.055)
+
+
+def _maps(n=S, seed=0, diffuse=None, roughness=0.4, specular=0.05, normal=None):
+    rng = np.random.default_rng(seed)
+    d = rng.uniform(0.2, 0.6, (n, n, 3)) if diffuse is None else np.broadcast_to(diffuse, (n, n, 3))
+    if normal is None:
+        normal = np.zeros((n, n, 3))
+        normal[..., 2] = 1.0
+    return Maps(diffuse=np.array(d, np.float32), specular=np.full((n, n, 1), specular, np.float32),
+                roughness=np.full((n, n, 1), roughness, np.float32), normal=np.array(normal, np.float32))
+
+
+def _tilted(n, deg):
+    t = math.radians(deg)
+    normal = np.zeros((n, n, 3))
+    normal[..., 1], normal[..., 2] = math.sin(t), math.cos(t)
+    return normal
+
+
+# ------------------------------------------------------------------------------------------------ metrics
+def test_identical_maps_score_zero():
+    m = _maps()
+    out = bm.evaluate(m, gt=m)
+    for key in bm.MAP_METRICS + ("rerender_rmse", "input_rmse"):
+        assert out[key] == pytest.approx(0.0, abs=1e-6), key
+
+
+def test_known_shifts_give_known_rmse():
+    gt = _maps(diffuse=0.3, roughness=0.4, specular=0.04)
+    pred = _maps(diffuse=0.4, roughness=0.6, specular=0.1)
+    e = bm.map_errors(pred, gt)
+    assert e["diffuse_rmse"] == pytest.approx(0.1, abs=1e-6)
+    assert e["roughness_rmse"] == pytest.approx(0.2, abs=1e-6)
+    assert e["specular_rmse"] == pytest.approx(0.06, abs=1e-6)
+    assert e["diffuse_rmse_srgb"] == pytest.approx(float(_srgb(0.4) - _srgb(0.3)), abs=1e-4)
+    assert e["specular_rmse_srgb"] == pytest.approx(float(_srgb(0.1) - _srgb(0.04)), abs=1e-4)
+    assert e["normal_rmse"] == pytest.approx(0.0, abs=1e-7)
+
+
+def test_angular_error_of_a_known_tilt():
+    gt = _maps()
+    pred = _maps(normal=_tilted(S, 30.0))
+    e = bm.map_errors(pred, gt)
+    assert e["normal_angle_deg"] == pytest.approx(30.0, abs=1e-3)
+    # (n+1)/2 differs by (0, sin t / 2, (cos t - 1) / 2): RMSE over 3 channels = sqrt((2 - 2 cos t) / 12)
+    assert e["normal_rmse"] == pytest.approx(math.sqrt((2 - 2 * math.cos(math.radians(30))) / 12), abs=1e-5)
+
+
+def test_burn_in_of_bright_disc_constant_and_stationary_maps():
+    n = 128
+    yy, xx = np.mgrid[0:n, 0:n]
+    r = np.hypot(yy + 0.5 - n / 2, xx + 0.5 - n / 2) / n
+    disc = np.where(r < 0.1, 1.0, 0.2)
+    assert bm.burn_in(disc) > 1.0
+    assert bm.burn_in(-disc) < -1.0  # signed: a dip under the highlight is negative
+    assert bm.burn_in(np.full((n, n), 0.37)) == 0.0
+    noise = np.random.default_rng(1).uniform(0, 1, (n, n))
+    assert abs(bm.burn_in(noise)) < 0.15
+    # Off-centre disc: invisible from the image centre, found at its own centre.
+    off = np.where(np.hypot(yy + 0.5 - 30, xx + 0.5 - 90) / n < 0.1, 1.0, 0.2)
+    assert bm.burn_in(off, centre=(30, 90)) > 1.0
+    assert bm.burn_in(off, centre=(30, 90)) > 3 * abs(bm.burn_in(off))
+
+
+def test_burn_in_scores_and_highlight_centre():
+    m = _maps(n=64)
+    scores = bm.burn_in_scores(m)
+    assert set(scores) == set(bm.BURN_METRICS) | {"burn_in"}
+    assert scores["burn_specular"] == 0.0 and scores["burn_normal"] == 0.0
+    assert scores["burn_in"] == pytest.approx(np.mean([abs(scores[k]) for k in bm.BURN_METRICS]))
+    # A flash photo with the light off-centre: the highlight centre follows the light.
+    shiny = _maps(n=64, diffuse=0.2, roughness=0.2, specular=0.5)
+    d = ZHAO.camera_distance
+    photo = render(shiny, (0.4, 0.4, d), ZHAO)  # +x right, +y up: the upper right quadrant
+    row, col = bm.highlight_centre(photo)
+    assert row < 32 and col > 32
+
+
+def test_rerender_rmse_against_maps_and_photo():
+    gt = _maps(seed=2)
+    lights = bm.evaluation_lights()
+    assert len(lights) == 10 and lights[-1] is None
+    assert np.allclose(np.array(lights[:9]), novel_lights(ZHAO))
+    photo = np.clip(render(gt, None, ZHAO), 0, 1)
+    assert bm.rerender_rmse(gt, photo, [None]) == pytest.approx(0.0, abs=1e-6)
+    darker = Maps(**{**dict(gt.items()), "diffuse": gt.diffuse * 0.5})
+    assert bm.rerender_rmse(darker, gt, lights) > 0.02
+    assert bm.evaluate(darker, photo=photo)["input_rmse"] == pytest.approx(
+        bm.rerender_rmse(darker, gt, [None]), abs=1e-6)
+
+
+# ------------------------------------------------------------------------------------------------ cases
+def test_resize_maps_area_average_and_unit_normals():
+    rng = np.random.default_rng(3)
+    normal = normalize_normals(rng.normal(0, 0.3, (8, 8, 3)) + [0, 0, 1])
+    m = Maps(diffuse=rng.uniform(0, 1, (8, 8, 3)), specular=rng.uniform(0, 1, (8, 8, 1)),
+             roughness=rng.uniform(0, 1, (8, 8, 1)), normal=normal)
+    small = bc.resize_maps(m, 4)
+    assert small.shape == (4, 4)
+    assert np.allclose(small.diffuse, m.diffuse.reshape(4, 2, 4, 2, 3).mean((1, 3)), atol=1e-6)
+    assert np.allclose(small.roughness, m.roughness.reshape(4, 2, 4, 2, 1).mean((1, 3)), atol=1e-6)
+    assert np.allclose(np.linalg.norm(small.normal, axis=-1), 1.0, atol=1e-5)
+
+
+def test_simulate_photo_noise_quantize_and_clip():
+    m = _maps(n=32, seed=4, specular=0.9, roughness=0.1)  # a highlight above 1
+    clean = bc.simulate_photo(m)
+    assert clean.max() == pytest.approx(1.0) and clean.min() >= 0.0
+    assert np.allclose(clean, np.clip(render(m, None, ZHAO), 0, 1))
+    noisy = bc.simulate_photo(m, noise=0.05, seed=7)
+    assert not np.allclose(noisy, clean)
+    assert np.array_equal(noisy, bc.simulate_photo(m, noise=0.05, seed=7))  # seeded
+    q = bc.simulate_photo(m, quantize=True)
+    codes = _srgb(q) * 255
+    assert np.abs(codes - np.round(codes)).max() < 0.02
+    with pytest.raises(ValueError):
+        bc.simulate_photo(m, renderer="povray")
+
+
+def test_render_mitsuba_matches_our_physical_settings():
+    pytest.importorskip("mitsuba")
+    n = 32
+    yy, xx = np.mgrid[0:n, 0:n] / n
+    normal = normalize_normals(np.stack([0.3 * np.sin(9 * xx), 0.2 * np.cos(7 * yy), np.ones_like(xx)], -1))
+    m = Maps(diffuse=np.stack([0.2 + 0.6 * xx, 0.3 + 0.5 * yy, np.full_like(xx, 0.3)], -1),
+             specular=np.full((n, n, 1), 0.3), roughness=(0.3 + 0.5 * xx)[..., None], normal=normal)
+    light = (0.3, -0.2, 1.2)
+    ours = render(m, light, ZHAO.replace(falloff=True, geometry="smith", fresnel="none"))
+    ref = bc.render_mitsuba(m, light, ZHAO, spp=32)
+    assert bm.rmse(ours, ref) < 0.01  # Monte Carlo noise and bilinear texture lookups
+    assert bm.rmse(ours, ref) < 0.3 * bm.rmse(ours[::-1], ref)  # an upside-down texture would be caught
+
+
+def _case(name):
+    from pathlib import Path
+
+    from svbrdf.runtime.datasets import Case
+
+    return Case(name=name, path=Path(name + ".png"), kind="photo", format="photo")
+
+
+def test_select_cases():
+    cs = [_case(n) for n in ("a/x1", "a/x2", "b/y1")]
+    assert [c.name for c in bc.select_cases(cs, None)] == ["a/x1", "a/x2", "b/y1"]
+    assert [c.name for c in bc.select_cases(cs, "2")] == ["a/x1", "a/x2"]
+    assert [c.name for c in bc.select_cases(cs, "b/*")] == ["b/y1"]
+    with pytest.raises(SvbrdfError):
+        bc.select_cases(cs, "zzz*")
+
+
+# ------------------------------------------------------------------------------------------------ summary
+def _rec(method, preset, it, seconds, err, case="c1", **kw):
+    return {"case": case, "source": case, "kind": "synthetic", "method": method, "preset": preset,
+            "iterations": it, "seconds": seconds, "train_seconds": seconds, "eval_seconds": 0.0,
+            "truncated": False, "rerender_rmse": err, "input_rmse": err, "burn_in": 0.1, **kw}
+
+
+def test_aggregate_and_summary_definitions():
+    recs = [
+        _rec("finetune", "paper", 0, 10.0, 0.5), _rec("finetune", "paper", 100, 100.0, 0.2),
+        _rec("finetune", "fast", 0, 1.0, 0.5), _rec("finetune", "fast", 100, 10.0, 0.25),
+        _rec("finetune", "fast", 300, 20.0, 0.19),
+        _rec("scratch", "fast", 0, 1.0, 0.6), _rec("scratch", "fast", 300, 30.0, 0.3),
+        _rec("preview", None, None, 0.5, 0.4),
+    ]
+    s = report.summarize(recs, ["paper", "fast"])
+    assert s["speedup_vs_paper"] == pytest.approx(100.0 / 20.0)  # fast first reaches 0.2 at 20 s
+    assert s["details"]["two_stage_speedup"]["fast"]["speedup"] == pytest.approx(30.0 / 10.0)
+    assert s["two_stage_speedup"] == pytest.approx(3.0)  # paper has no scratch run: fast is the reference
+    assert s["preview_time_ratio"] == pytest.approx(0.5 / 100.0)  # against finetune paper, its last point
+    assert s["preview_error_ratio"] == pytest.approx(0.4 / 0.2)
+    assert s["early_stop_saving"] is None  # no run facts recorded
+
+    rows = report.aggregate(recs + [_rec("finetune", "paper", 100, 300.0, 0.4, case="c2")])
+    row = next(r for r in rows if r["method"] == "finetune" and r["preset"] == "paper" and r["iterations"] == "100")
+    assert row["n"] == 2
+    assert row["seconds"]["mean"] == pytest.approx(200.0) and row["seconds"]["std"] == pytest.approx(100.0)
+    assert row["rerender_rmse"]["min"] == pytest.approx(0.2) and row["rerender_rmse"]["max"] == pytest.approx(0.4)
+
+
+def test_early_stop_saving_from_run_facts():
+    run = {"run_train_seconds": 100.0, "plateau": {"step": 150, "train_seconds": 40.0}}
+    recs = [_rec("finetune", "fast", 100, 30.0, 0.3, run=run), _rec("finetune", "fast", 300, 100.0, 0.25, run=run)]
+    s = report.summarize(recs, ["fast"])
+    assert s["early_stop_saving"] == pytest.approx(0.6)
+    assert s["details"]["early_stop"]["fast"]["early_stop_error_ratio"] == pytest.approx(1.0)  # first point >= 150
+
+
+# ------------------------------------------------------------------------------------------------ CLI
+def _make_data(root):
+    """A Des19-style 4-panel file (normal, diffuse, roughness, specular) and a small non-square photo."""
+    n = 32
+    rng = np.random.default_rng(5)
+    yy, xx = np.mgrid[0:n, 0:n] / n
+    normal = normalize_normals(np.stack([0.2 * np.sin(12 * xx), 0.2 * np.cos(9 * yy), np.ones_like(xx)], -1))
+    panels = [encode_normal(normal), rng.uniform(0.1, 0.7, (n, n, 3)),
+              np.repeat(0.3 + 0.4 * xx[..., None], 3, -1), np.full((n, n, 3), 10 / 255)]
+    (root / "gt").mkdir(parents=True)
+    write_image(root / "gt" / "material.png", np.concatenate(panels, axis=1), bits=8)
+    photo = np.clip(render(_maps(n=40, seed=6, specular=0.3, roughness=0.3), None, ZHAO)[:, :36], 0, 1)
+    write_image(root / "photo (1).png", photo, bits=8, srgb_encode=True)
+
+
+def test_cli_quick_writes_every_output(tmp_path):
+    data, out = tmp_path / "data", tmp_path / "out"
+    _make_data(data)
+    code = main(["--quick", "--data", str(data), "--out", str(out), "--size", "32", "--iters", "0,1",
+                 "--model", str(tmp_path / "missing.onnx"), "--quiet"])
+    assert code == 0
+    for name in ("results.md", "pareto.png", "results.json", "summary.json"):
+        assert (out / name).is_file(), name
+    assert read_image(out / "pareto.png").shape[2] == 3
+    doc = json.loads((out / "results.json").read_text())
+    assert doc["schema"] == report.SCHEMA
+    assert {"command", "date", "machine", "settings", "cases", "skipped", "errors", "records", "summary"} <= set(doc)
+    assert doc["errors"] == []
+    assert {c["kind"] for c in doc["cases"]} == {"synthetic", "photo"}
+    skipped = {s["method"]: s["reason"] for s in doc["skipped"]}
+    assert "preview" in skipped and "missing.onnx" in skipped["preview"]
+    methods = {r["method"] for r in doc["records"]}
+    assert {"baseline", "finetune", "scratch"} <= methods
+    base = {"case", "source", "kind", "method", "preset", "iterations", "seconds", "train_seconds", "eval_seconds",
+            "truncated", "input_rmse", "burn_in", "run"}
+    for r in doc["records"]:
+        assert base <= set(r)
+        if r["kind"] == "synthetic":
+            assert set(bm.MAP_METRICS) | {"rerender_rmse"} <= set(r)
+    assert sorted(r["iterations"] for r in doc["records"] if r["method"] == "scratch") == [0, 0, 1, 1]
+    summary = json.loads((out / "summary.json").read_text())
+    assert {"speedup_vs_paper", "two_stage_speedup", "preview_time_ratio", "preview_error_ratio",
+            "early_stop_saving"} <= set(summary)
+    md = (out / "results.md").read_text()
+    assert "svbrdf-bench --quick" in md and "pareto.png" in md and "preview" in md
+    # Outputs exist now: a second run refuses without --force, before doing any work.
+    assert main(["--quick", "--data", str(data), "--out", str(out), "--quiet"]) == 2
+
+
+def test_time_budget_truncates_without_extrapolating(tmp_path):
+    pytest.importorskip("torch")
+    data = tmp_path / "data"
+    _make_data(data)
+    opts = BenchOptions(iters=[0, 100000], time_budget=0.3, repeats=1)
+    doc = run_benchmark(data, methods=["scratch"], presets=["tiny"], size=32, cases="gt/*", opts=opts)
+    recs = doc["records"]
+    assert [r["iterations"] for r in recs][0] == 0
+    last = recs[-1]
+    assert last["truncated"] is True and 0 < last["iterations"] < 100000
+    assert last["train_seconds"] > 0.3
+    assert not any(r["truncated"] for r in recs[:-1])
+
+
+def test_bad_input_is_a_clear_error(tmp_path, capsys):
+    assert main(["--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "o"), "--quiet"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    assert main(["--data", str(tmp_path), "--out", str(tmp_path / "o"), "--methods", "magic", "--quiet"]) == 2
+
+
+def test_shared_data_one_case(shared_data, tmp_path):
+    out = tmp_path / "out"
+    code = main(["--data", str(shared_data), "--cases", "1", "--methods", "baseline", "--size", "64",
+                 "--out", str(out), "--quiet"])
+    assert code == 0
+    doc = json.loads((out / "results.json").read_text())
+    assert len(doc["cases"]) == 1 and doc["records"]
+
+
+@pytest.mark.slow
+def test_preview_method_with_an_exported_model(tmp_path):
+    pytest.importorskip("onnxscript")
+    import torch
+
+    from svbrdf.export.onnx import export_generator
+    from svbrdf.trainer.config import resolve
+    from svbrdf.trainer.models import Generator
+
+    torch.manual_seed(0)
+    model = tmp_path / "tiny.onnx"
+    export_generator(Generator(resolve("tiny").generator), model, sizes=((32, 32),))
+    data = tmp_path / "data"
+    _make_data(data)
+    doc = run_benchmark(data, methods=["preview"], size=32, opts=BenchOptions(model=str(model), repeats=2))
+    assert not doc["skipped"] and not doc["errors"]
+    assert len(doc["records"]) == 2 and all(r["eval_seconds"] > 0 for r in doc["records"])
+    assert doc["records"][0]["run"]["model"] == str(model)

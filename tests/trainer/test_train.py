@@ -1,0 +1,289 @@
+"""Training loop: configuration, learning on a synthetic photo, determinism, the non-finite guard, inference."""
+
+import json
+import math
+
+import pytest
+import torch
+import torch.nn.functional as F
+
+from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.render import ZHAO
+from svbrdf.trainer import train as train_mod
+from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
+from svbrdf.trainer.render import FlashGeometry
+from svbrdf.trainer.train import Trainer, finetune, predict_full, pretrain
+
+
+def synthetic_scene(size=64, seed=3):
+    """A photo rendered from smooth random diffuse, constant specular/roughness and flat normals."""
+    g = torch.Generator().manual_seed(seed)
+    low = torch.rand(1, 3, 8, 8, generator=g) * 0.6 + 0.2
+    diffuse = F.interpolate(low, size=(size, size), mode="bicubic", align_corners=False).clamp(0.05, 0.95)
+    flat = torch.zeros(1, 3, size, size)
+    flat[:, 2] = 1.0
+    maps = torch.cat([diffuse, torch.full((1, 1, size, size), 0.04), torch.full((1, 1, size, size), 0.4), flat], 1)
+    photo = FlashGeometry(size, size, ZHAO).render(maps).clamp(0.0, 1.0)
+    return photo, maps
+
+
+def random_photo(h=48, w=64, seed=0):
+    return torch.rand(1, 3, h, w, generator=torch.Generator().manual_seed(seed)) * 0.5
+
+
+def params(module):
+    return torch.cat([p.detach().flatten().clone() for p in module.parameters()])
+
+
+def window_mean(history, key, start, stop):
+    vals = [h[key] for h in history[start:stop] if h.get(key) is not None]
+    return sum(vals) / len(vals)
+
+
+# ------------------------------------------------------------------ configuration
+def test_presets_round_trip_through_json():
+    for name in TRAIN_PRESETS:
+        cfg = resolve(name)
+        again = TrainConfig.from_dict(json.loads(json.dumps(cfg.to_dict())))
+        assert again == cfg
+        assert again.preset == name
+
+
+def test_paper_and_zhao_presets_are_the_published_schedule():
+    p = resolve("paper")
+    assert (p.tile, p.nr_updates, p.ds_updates, p.d_updates) == (256, 5, 1, 1)
+    assert (p.lr, p.betas, p.seed) == (2e-5, (0.0, 0.9), 24)
+    assert (p.lambda_gan, p.lambda_fourier, p.lambda_perceptual) == (0.1, 0.1, 0.2)
+    assert (p.iters_pretrain, p.iters_finetune, p.iters_fit) == (10000, 3000, 20000)
+    assert not p.train_encoder and p.render_config == ZHAO
+    z = resolve("zhao")
+    assert z.lambda_fourier == 0 and z.lambda_perceptual == 0 and z.generator == p.generator
+    f = resolve("fast")
+    assert (f.tile, f.nr_updates, f.ds_updates, f.d_updates) == (128, 1, 1, 1) and f.generator.width < 1
+
+
+def test_resolve_overrides_and_errors():
+    cfg = resolve("paper", tile=128, fov_deg=45.0, train_encoder=True, lr=None)
+    assert cfg.tile == 128 and cfg.render_config.fov_deg == 45.0 and cfg.train_encoder and cfg.lr == 2e-5
+    assert resolve("paper").train_encoder is False  # presets are not mutated
+    with pytest.raises(ValueError, match="unknown preset"):
+        resolve("nope")
+    with pytest.raises(ValueError, match="unknown training settings"):
+        resolve("paper", tiles=3)
+    with pytest.raises(ValueError, match="tile"):
+        resolve("paper", tile=4)
+    with pytest.raises(ValueError, match="perceptual"):
+        resolve("paper", perceptual="lpips")
+    with pytest.raises(ValueError, match="fov"):
+        resolve("paper", fov_deg=0.0)
+
+
+# ------------------------------------------------------------------ learning
+def test_tiny_run_losses_finite_and_decreasing():
+    photo = random_photo()
+    trainer = Trainer(photo, resolve("tiny", iters_fit=30, eval_every=5))
+    history = trainer.run()
+    assert len(history) == 30 and trainer.step == 30
+    for rec in history:
+        for key in ("nr/gan", "ds/gan", "ds/diffuse", "d/loss", "nr/fourier", "ds/perceptual"):
+            assert rec[key] is not None and math.isfinite(rec[key]), (rec["step"], key)
+    assert window_mean(history, "ds/diffuse", 20, 30) < window_mean(history, "ds/diffuse", 0, 10)
+    evals = [h["eval/render_l1"] for h in history if "eval/render_l1" in h]
+    assert len(evals) == 6 and history[4]["eval/map_change"] is None and history[9]["eval/map_change"] > 0
+
+
+@pytest.mark.slow
+def test_tiny_run_learns_synthetic_scene():
+    photo, maps = synthetic_scene()
+    trainer = Trainer(photo, resolve("tiny", iters_fit=200, eval_every=10))
+    first = trainer.evaluate()["eval/render_l1"]
+    history = trainer.run()
+    assert window_mean(history, "ds/diffuse", 180, 200) < 0.75 * window_mean(history, "ds/diffuse", 0, 20)
+    assert history[-1]["eval/render_l1"] < 0.75 * first
+    pred = trainer.predict()
+    rerender = (trainer.geometry.render(pred) - photo).abs().mean()
+    untrained = Trainer(photo, resolve("tiny"))
+    assert rerender < 0.75 * (untrained.geometry.render(untrained.predict()) - photo).abs().mean()
+
+
+def test_seeded_runs_are_deterministic():
+    photo = random_photo()
+    runs = [Trainer(photo, resolve("tiny", iters_fit=3, seed=s)) for s in (5, 5, 6)]
+    for t in runs:
+        t.run()
+    assert torch.equal(params(runs[0].generator), params(runs[1].generator))
+    assert torch.equal(params(runs[0].discriminator), params(runs[1].discriminator))
+    assert not torch.equal(params(runs[0].generator), params(runs[2].generator))
+
+
+def test_encoder_frozen_unless_trained():
+    photo = random_photo()
+    frozen = Trainer(photo, resolve("tiny", iters_fit=2))
+    before = params(frozen.generator.encoder)
+    frozen.run()
+    assert torch.equal(before, params(frozen.generator.encoder))
+    trained = Trainer(photo, resolve("tiny", iters_fit=2, train_encoder=True))
+    before = params(trained.generator.encoder)
+    trained.run()
+    assert not torch.equal(before, params(trained.generator.encoder))
+
+
+@pytest.mark.parametrize("value", [0.0, 1.0])
+def test_black_and_white_photos_stay_finite(value):
+    photo = torch.full((1, 3, 32, 40), value)
+    trainer = Trainer(photo, resolve("tiny", iters_fit=4, eval_every=2))
+    history = trainer.run()
+    assert trainer.counters["nonfinite_skips"] == 0
+    for rec in history:  # None marks a non-finite value; the first evaluation has no map change yet
+        assert all(v is not None for k, v in rec.items() if not (k == "eval/map_change" and rec["step"] == 2))
+    assert torch.isfinite(trainer.predict()).all()
+
+
+def test_photo_checks():
+    with pytest.raises(ImageError, match="at least"):
+        Trainer(torch.rand(1, 3, 12, 64), resolve("tiny"))
+    with pytest.raises(ImageError, match="NaN"):
+        Trainer(torch.full((1, 3, 32, 32), float("nan")), resolve("tiny"))
+    with pytest.raises(ImageError, match=r"\(1, 3, H, W\)"):
+        Trainer(torch.rand(3, 32, 32), resolve("tiny"))
+    small = Trainer(torch.rand(1, 3, 24, 40), resolve("tiny"))
+    assert small.tile == 24 and any("clipped" in n for n in small.notes)
+
+
+# ------------------------------------------------------------------ numerical guard
+def test_nonfinite_loss_skips_the_step(monkeypatch):
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=1))
+    real = train_mod.fourier_loss
+    calls = []
+
+    def nan_once(*a, **k):
+        calls.append(1)
+        out = real(*a, **k)
+        return out * float("nan") if len(calls) == 1 else out
+
+    monkeypatch.setattr(train_mod, "fourier_loss", nan_once)
+    nr, ds = params(trainer.generator.decoder_nr), params(trainer.generator.decoder_ds)
+    rec = trainer.iteration()  # 1 NR step (NaN, skipped), 1 DS step, 1 D step
+    assert rec["skipped"] == 1 and trainer.counters["nonfinite_skips"] == 1
+    assert rec["nr/total"] is None and rec["ds/total"] is not None
+    assert torch.equal(nr, params(trainer.generator.decoder_nr))
+    assert not torch.equal(ds, params(trainer.generator.decoder_ds))
+
+
+def test_nonfinite_gradient_skips_the_step(monkeypatch):
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=1))
+    real = train_mod.gan_discriminator_loss
+
+    def infinite_grad(real_logits, fake_logits):
+        zero = (real_logits - real_logits.detach()).sum()
+        return real(real_logits, fake_logits) + zero.sqrt()  # value finite, d sqrt/dx at 0 is inf
+
+    monkeypatch.setattr(train_mod, "gan_discriminator_loss", infinite_grad)
+    d = params(trainer.discriminator)
+    rec = trainer.iteration()
+    assert rec["skipped"] == 1 and rec["d/loss"] is not None
+    assert torch.equal(d, params(trainer.discriminator))
+    assert all(p.grad is None for p in trainer.discriminator.parameters())
+
+
+def test_repeated_nonfinite_steps_roll_back(monkeypatch):
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, guard_rollback_after=3))
+    trainer.iteration()
+    trainer._take_snapshot()
+    good_g, good_d = params(trainer.generator), params(trainer.discriminator)
+    trainer.iteration()  # moves away from the snapshot
+    assert not torch.equal(good_g, params(trainer.generator))
+    monkeypatch.setattr(train_mod, "gan_generator_loss", lambda logits: logits.sum() * float("nan"))
+    monkeypatch.setattr(train_mod, "gan_discriminator_loss", lambda r, f: r.sum() * float("inf"))
+    trainer.iteration()  # 3 non-finite steps in a row -> rollback
+    assert trainer.counters == {"nonfinite_skips": 3, "rollbacks": 1}
+    assert torch.equal(good_g, params(trainer.generator)) and torch.equal(good_d, params(trainer.discriminator))
+
+
+# ------------------------------------------------------------------ stopping, stages, inference
+def test_plateau_rule():
+    trainer = Trainer(random_photo(), resolve("tiny", plateau_window=2, plateau_render_tol=0.01,
+                                              plateau_change_tol=0.01))
+    flat = [{"eval/render_l1": 0.1, "eval/map_change": c} for c in (None, 0.001, 0.001)]
+    trainer.history = flat
+    assert trainer.plateaued()
+    trainer.history = flat[:2]
+    assert not trainer.plateaued()  # not enough evaluations yet
+    trainer.history = [{"eval/render_l1": v, "eval/map_change": 0.001} for v in (0.2, 0.15, 0.1)]
+    assert not trainer.plateaued()  # still improving
+    trainer.history = [{"eval/render_l1": 0.1, "eval/map_change": 0.05} for _ in range(3)]
+    assert not trainer.plateaued()  # maps still changing
+
+
+def test_quality_auto_stops_early():
+    cfg = resolve("tiny", iters_fit=100, eval_every=2, plateau_window=2, quality="auto",
+                  plateau_render_tol=10.0, plateau_change_tol=10.0)
+    trainer = Trainer(random_photo(), cfg)
+    trainer.run()
+    assert trainer.stopped_early and trainer.step == 6  # evaluations at 2, 4, 6: window of 2 after the first
+
+
+def test_finetune_starts_from_the_pretrained_state(tmp_path):
+    photo_a, photo_b = random_photo(seed=1), random_photo(seed=2)
+    ckpt = tmp_path / "pre.pt"
+    pre = pretrain(photo_a, resolve("tiny", iters_pretrain=3), checkpoint_path=ckpt)
+    start = Trainer(photo_b, resolve("tiny", seed=99), stage="finetune")
+    start.load_init(torch.load(ckpt, weights_only=True), ckpt)
+    assert torch.equal(params(start.generator), params(pre.generator))
+    assert start.optimizers["nr"].state_dict()["state"][0]["step"] == 3
+    tuned = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=2, lr=5e-4))
+    assert tuned.step == 2 and tuned.init["step"] == 3 and tuned.init["path"] == str(ckpt)
+    assert tuned.optimizers["nr"].param_groups[0]["lr"] == 5e-4
+    assert tuned.optimizers["nr"].state_dict()["state"][0]["step"] == 5
+    reset = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=1, reset_optimizers=True))
+    assert reset.optimizers["nr"].state_dict()["state"][0]["step"] == 1
+
+
+def test_finetune_takes_the_architecture_of_the_checkpoint(tmp_path):
+    ckpt = tmp_path / "pre.pt"
+    pretrain(random_photo(), resolve("tiny", iters_pretrain=1), checkpoint_path=ckpt)
+    tuned = finetune(random_photo(seed=4), ckpt, resolve("fast", tile=32, iters_finetune=1, lambda_perceptual=0))
+    assert tuned.config.generator == resolve("tiny").generator
+    assert any("architecture" in n for n in tuned.notes)
+
+
+class _Pointwise(torch.nn.Module):
+    """A per-pixel 'generator': tiling must not change its output."""
+
+    def forward(self, x):
+        n = torch.cat([x[:, :2] - 0.25, torch.ones_like(x[:, :1])], 1)
+        return torch.cat([x, x[:, :1], x[:, 1:2], n / n.norm(dim=1, keepdim=True)], 1)
+
+
+def test_predict_full_tiles_blend_seamlessly():
+    photo = random_photo(50, 70)
+    whole = predict_full(_Pointwise(), photo, max_side=128)
+    tiled = predict_full(_Pointwise(), photo, max_side=32, overlap=8)
+    assert tiled.shape == (1, 8, 50, 70)
+    assert torch.allclose(whole, tiled, atol=1e-6)
+
+
+def test_predict_full_real_generator_tiles():
+    trainer = Trainer(random_photo(40, 72), resolve("tiny", predict_max_side=32, predict_overlap=8))
+    out = trainer.predict()
+    assert out.shape == (1, 8, 40, 72) and torch.isfinite(out).all()
+    assert torch.allclose(out[:, SLICES["normal"]].norm(dim=1), torch.ones(1, 40, 72), atol=1e-5)
+    maps = train_mod.to_maps(out)
+    assert maps.shape == (40, 72) and maps.diffuse.min() >= 0 and maps.diffuse.max() <= 1
+
+
+def test_bf16_switch_runs_or_falls_back():
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, bf16=True))
+    supported, _ = train_mod.bf16_support(trainer.device)
+    assert trainer.bf16 == supported and (supported or any("bf16" in n for n in trainer.notes))
+    history = trainer.run()
+    assert all(h["ds/total"] is not None for h in history)
+
+
+def test_log_file_has_one_json_line_per_iteration(tmp_path):
+    log = tmp_path / "log.jsonl"
+    Trainer(random_photo(), resolve("tiny", iters_fit=3), log_path=log).run()
+    lines = [json.loads(line) for line in log.read_text().splitlines()]
+    assert [l.get("event") for l in (lines[0], lines[-1])] == ["start", "stop"]
+    assert [l["step"] for l in lines[1:-1]] == [1, 2, 3]

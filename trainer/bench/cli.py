@@ -1,0 +1,396 @@
+"""``svbrdf-bench``: run time against error of every method on ground-truth sets and real photos.
+
+Example::
+
+    svbrdf-bench --quick                                   # pipeline check, 2 small cases, < 2 min
+    svbrdf-bench --cases 4 --methods baseline,finetune --presets fast --iters 0,30 --time-budget 600
+
+Outputs in ``--out`` (default ``docs/benchmarks/`` of the repository): ``results.md``, ``pareto.png``,
+``results.json`` (or ``--json PATH``) and ``summary.json``. Existing files are kept unless ``--force``.
+Python API: :func:`run_benchmark` (returns the document) and :func:`write_outputs`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import os
+import platform
+import shlex
+import sys
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Optional, Sequence
+
+import numpy as np
+
+from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.render import ZHAO
+
+from . import report
+from .cases import RENDERERS, BenchCase, load_cases, mitsuba_available, prepare_case
+from .methods import METHODS, BenchOptions, Point, torch_available
+from .metrics import burn_in_scores, evaluate
+
+DEFAULT_PRESETS = ("paper", "zhao", "fast")
+DEFAULT_ITERS = (0, 100, 300, 1000, 3000)
+#: --quick: size, iteration counts, presets, cases, repeats.
+QUICK = {"size": 64, "iters": (0, 2, 4), "presets": ("tiny",), "repeats": 1, "pretrain_iters": 2}
+OUTPUT_NAMES = {"markdown": "results.md", "plot": "pareto.png", "json": "results.json", "summary": "summary.json"}
+
+
+def repo_root() -> Path:
+    """The source checkout this package runs from (editable install), else the current folder."""
+    root = Path(__file__).resolve().parents[2]
+    return root if (root / "pyproject.toml").is_file() else Path.cwd()
+
+
+def default_data() -> Path:
+    """``../shared/data`` next to the repository root."""
+    return repo_root().parent / "shared" / "data"
+
+
+def machine_info(opts: BenchOptions) -> Dict[str, Any]:
+    """CPU model, visible cores, thread counts and library versions."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    versions: Dict[str, str] = {"python": platform.python_version(), "numpy": np.__version__}
+    import OpenImageIO as oiio
+
+    versions["OpenImageIO"] = oiio.__version__
+    torch_threads = None
+    if torch_available():
+        import torch
+
+        versions["torch"] = torch.__version__
+        if opts.threads:
+            torch.set_num_threads(opts.threads)
+        torch_threads = torch.get_num_threads()
+    try:
+        import onnxruntime
+
+        versions["onnxruntime"] = onnxruntime.__version__
+    except ImportError:
+        pass
+    return {"cpu": cpu, "cores": cores, "cpu_count": os.cpu_count(), "platform": platform.platform(),
+            "torch_threads": torch_threads, "ort_threads": opts.threads or os.cpu_count(), "versions": versions}
+
+
+def _quick_init(case: BenchCase, opts: BenchOptions) -> Optional[dict]:
+    """--quick without --init: a throwaway stage-one checkpoint (tiny preset, a few iterations on one case)."""
+    if not torch_available():
+        return None
+    from svbrdf.trainer import train as T
+    from svbrdf.trainer.config import resolve
+
+    cfg = resolve("tiny", render=opts.config, checkpoint_every=0, maps_every=0)
+    trainer = T.Trainer(T.photo_to_tensor(case.photo), cfg, stage="pretrain", iters=QUICK["pretrain_iters"],
+                        threads=opts.threads)
+    trainer.run()
+    return trainer.checkpoint()
+
+
+def _describe_init(init: Any) -> Any:
+    if init is None or isinstance(init, (str, os.PathLike)):
+        return None if init is None else str(init)
+    if "format" in init:
+        return "<in-memory checkpoint>"
+    return {k: _describe_init(v) for k, v in init.items()}
+
+
+def run_benchmark(
+    data: Path,
+    *,
+    methods: Sequence[str] = tuple(METHODS),
+    presets: Sequence[str] = DEFAULT_PRESETS,
+    size: int = 256,
+    cases: Optional[str] = None,
+    renderer: str = "ours",
+    noise: float = 0.0,
+    quantize: bool = False,
+    opts: Optional[BenchOptions] = None,
+    quick: bool = False,
+    command: str = "",
+    progress: Optional[Callable[[str], None]] = None,
+) -> Dict[str, Any]:
+    """Run every selected method on every case and return the benchmark document (the JSON of ``--json``).
+
+    Args:
+        data: folder (or file) searched by :func:`svbrdf.runtime.datasets.find_cases`.
+        methods: names in :data:`svbrdf.trainer.bench.methods.METHODS`.
+        presets: training presets for the training methods.
+        size: side of every case, pixels.
+        cases: selection (see :func:`svbrdf.trainer.bench.cases.select_cases`); with ``quick`` and no
+            selection: the first ground-truth set and the first photo.
+        renderer, noise, quantize: synthetic photo simulation (:func:`svbrdf.trainer.bench.cases.simulate_photo`).
+        opts: method settings (default :class:`BenchOptions` with the ZHAO renderer).
+        quick: pretrain a throwaway tiny stage-one checkpoint when ``opts.init`` is None.
+        command: the command line, recorded.
+        progress: called with one line per evaluation point.
+
+    Returns:
+        dict: ``schema, command, date, machine, settings, cases, skipped, errors, records, summary``
+        (see ``docs/benchmarks/README.md``).
+
+    Raises:
+        SvbrdfError: missing data folder, no case selected, unknown method/preset, bad option.
+    """
+    opts = opts or BenchOptions()
+    say = progress or (lambda _msg: None)
+    unknown = [m for m in methods if m not in METHODS]
+    if unknown:
+        raise SvbrdfError(f"unknown method(s) {', '.join(unknown)}; expected some of {', '.join(METHODS)}")
+    if size < 16:
+        raise SvbrdfError(f"--size must be >= 16, got {size}")
+    if renderer not in RENDERERS:
+        raise SvbrdfError(f"--renderer must be one of {', '.join(RENDERERS)}, got {renderer!r}")
+    if renderer == "mitsuba" and not mitsuba_available():
+        raise SvbrdfError("--renderer mitsuba needs Mitsuba 3 (pip install mitsuba)")
+    data = Path(data)
+    if not data.exists():
+        raise SvbrdfError(f"data folder {data} does not exist (pass --data DIR)")
+    if torch_available() and any(METHODS[m].uses_presets for m in methods):
+        from svbrdf.trainer.config import TRAIN_PRESETS
+
+        bad = [p for p in presets if p not in TRAIN_PRESETS]
+        if bad:
+            raise SvbrdfError(f"unknown preset(s) {', '.join(bad)}; expected some of {', '.join(TRAIN_PRESETS)}")
+
+    kw = dict(renderer=renderer, config=opts.config, noise=noise, quantize=quantize)
+    if quick and cases is None:
+        from svbrdf.runtime.datasets import find_cases
+
+        found = find_cases(data)
+        pick = [c for c in found if c.kind == "gt"][:1] + [c for c in found if c.kind == "photo"][:1]
+        if len(pick) < 2:
+            pick = found[:2]
+        bench_cases = [prepare_case(c, size, **kw) for c in pick]
+    else:
+        bench_cases = load_cases(data, size, cases, **kw)
+    if not bench_cases:
+        raise SvbrdfError(f"{data}: no image found")
+
+    case_docs = []
+    for c in bench_cases:
+        d = {"name": c.name, "source": c.source, "kind": c.kind, "format": c.format,
+             "centre": [float(v) for v in c.centre]}
+        if c.gt is not None:
+            d.update({f"gt_{k}": v for k, v in burn_in_scores(c.gt, c.centre).items()})
+        case_docs.append(d)
+
+    init_note = None
+    if quick and opts.init is None and "finetune" in methods:
+        opts.init = _quick_init(bench_cases[0], opts)
+        init_note = f"--quick: throwaway tiny stage-one checkpoint ({QUICK['pretrain_iters']} iterations on " \
+                    f"{bench_cases[0].name})"
+
+    records: List[Dict[str, Any]] = []
+    skipped: List[Dict[str, Any]] = []
+    errors: List[Dict[str, Any]] = []
+    for name in methods:
+        method = METHODS[name]
+        for preset in (presets if method.uses_presets else [None]):
+            reason = method.unavailable(opts, preset)
+            if reason:
+                skipped.append({"method": name, "preset": preset, "reason": reason})
+                say(f"skip {name}{' ' + preset if preset else ''}: {reason}")
+                continue
+            for case in bench_cases:
+                run_recs: List[Dict[str, Any]] = []
+
+                def on_point(p: Point, case: BenchCase = case) -> None:
+                    metrics = evaluate(p.maps, gt=case.gt, photo=case.photo if case.gt is None else None,
+                                       config=opts.config, centre=case.centre)
+                    rec = {"case": case.name, "source": case.source, "kind": case.kind, "method": name,
+                           "preset": preset, "iterations": p.iterations, "seconds": p.train_seconds + p.eval_seconds,
+                           "train_seconds": p.train_seconds, "eval_seconds": p.eval_seconds,
+                           "truncated": p.truncated, **metrics}
+                    run_recs.append(rec)
+                    err = metrics.get("rerender_rmse", metrics.get("input_rmse"))
+                    say(f"{case.name} | {name}{' ' + preset if preset else ''} | it {p.iterations} | "
+                        f"{rec['seconds']:.2f} s | err {err:.4f} | burn {metrics['burn_in']:.3f}"
+                        + (" | truncated" if p.truncated else ""))
+
+                try:
+                    run = method.run(case, opts, preset, on_point)
+                except Exception as e:  # one failing run must not lose the others; it is reported
+                    msg = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
+                    errors.append({"case": case.name, "method": name, "preset": preset, "error": msg})
+                    say(f"ERROR {case.name} | {name} {preset or ''}: {msg}")
+                    run = {"failed": msg}
+                if init_note and name == "finetune":
+                    run = {**run, "init_note": init_note}
+                for rec in run_recs:
+                    rec["run"] = run
+                records.extend(run_recs)
+
+    doc = {
+        "schema": report.SCHEMA,
+        "command": command,
+        "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
+        "machine": machine_info(opts),
+        "settings": {"data": str(data), "size": size, "cases": cases, "quick": quick, "renderer": renderer,
+                     "noise": noise, "quantize": quantize, "methods": list(methods), "presets": list(presets),
+                     "iters": sorted(set(opts.iters)), "time_budget": opts.time_budget, "threads": opts.threads,
+                     "repeats": opts.repeats, "bf16": opts.bf16, "model": opts.model,
+                     "init": _describe_init(opts.init),
+                     "render_config": opts.config.to_dict()},
+        "cases": case_docs,
+        "skipped": skipped,
+        "errors": errors,
+        "records": records,
+    }
+    doc["summary"] = report.summarize(records, presets)
+    return doc
+
+
+def output_paths(out: Path, json_path: Optional[Path] = None) -> Dict[str, Path]:
+    """Where :func:`write_outputs` writes each file."""
+    paths = {k: Path(out) / v for k, v in OUTPUT_NAMES.items()}
+    if json_path is not None:
+        paths["json"] = Path(json_path)
+    return paths
+
+
+def write_outputs(doc: Dict[str, Any], out: Path, json_path: Optional[Path] = None,
+                  force: bool = False) -> Dict[str, Path]:
+    """Write ``results.md``, ``pareto.png``, the records JSON and ``summary.json``; returns their paths."""
+    paths = output_paths(out, json_path)
+    for p in paths.values():
+        p.parent.mkdir(parents=True, exist_ok=True)
+    series, titles = report.pareto_series(doc["records"])
+    legend, note = report.plot_pareto(series, paths["plot"], titles=titles, force=force)
+    report.write_json(paths["json"], doc, force)
+    report.write_json(paths["summary"], {"schema": report.SCHEMA, "command": doc["command"], "date": doc["date"],
+                                         **doc["summary"]}, force)
+    report.write_text(paths["markdown"], report.markdown(doc, paths["plot"].name, legend, note), force)
+    return paths
+
+
+def _int_list(text: str) -> List[int]:
+    try:
+        vals = sorted({int(v) for v in text.split(",") if v.strip()})
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected comma-separated integers, got {text!r}") from None
+    if not vals or vals[0] < 0:
+        raise argparse.ArgumentTypeError(f"expected non-negative integers, got {text!r}")
+    return vals
+
+
+def _names(text: str) -> List[str]:
+    return [v.strip() for v in text.split(",") if v.strip()]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="svbrdf-bench", description=__doc__.split("\n\n")[0],
+                                formatter_class=argparse.RawDescriptionHelpFormatter)
+    p.add_argument("--data", type=Path, default=None,
+                   help="folder of ground-truth sets and/or photos (default: ../shared/data next to the repo)")
+    p.add_argument("--out", type=Path, default=None, help="output folder (default: docs/benchmarks of the repo)")
+    p.add_argument("--json", type=Path, default=None, help="records JSON (default: OUT/results.json)")
+    p.add_argument("--methods", type=_names, default=None, help=f"comma list of {', '.join(METHODS)} (default: all)")
+    p.add_argument("--presets", type=_names, default=None,
+                   help=f"training presets (default: {','.join(DEFAULT_PRESETS)}; --quick: tiny)")
+    p.add_argument("--size", type=int, default=None, help="case side in pixels (default 256; --quick: 64)")
+    p.add_argument("--cases", default=None, help="first N cases, or a glob on the case name")
+    p.add_argument("--iters", type=_int_list, default=None,
+                   help=f"evaluated iteration counts of one training run (default {','.join(map(str, DEFAULT_ITERS))})")
+    p.add_argument("--time-budget", type=float, default=None, help="training seconds per run (default: none)")
+    p.add_argument("--renderer", choices=RENDERERS, default="ours", help="renderer of the synthetic photos")
+    p.add_argument("--noise", type=float, default=0.0, help="Gaussian sensor noise sigma (linear units)")
+    p.add_argument("--quantize", action="store_true", help="8-bit sRGB quantisation of the synthetic photos")
+    p.add_argument("--model", default=None, help="ONNX model for 'preview' (default: the packaged model)")
+    p.add_argument("--init", action="append", default=None, metavar="[PRESET=]CKPT",
+                   help="stage-one checkpoint for 'finetune' (repeatable per preset; default: packaged models/*.pt)")
+    p.add_argument("--threads", type=int, default=None, help="CPU threads for torch and onnxruntime")
+    p.add_argument("--repeats", type=int, default=None, help="timed repeats of baseline/preview (default 3)")
+    p.add_argument("--bf16", action="store_true", help="bfloat16 autocast in training")
+    p.add_argument("--quick", action="store_true",
+                   help="pipeline check: 2 small cases at 64 px, tiny preset, iterations 0,2,4")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    return p
+
+
+def _parse_init(values: Optional[List[str]]):
+    if not values:
+        return None
+    if len(values) == 1 and "=" not in values[0]:
+        return values[0]
+    out = {}
+    for v in values:
+        preset, sep, path = v.partition("=")
+        if not sep or not preset or not path:
+            raise SvbrdfError(f"--init {v!r}: give one CKPT, or PRESET=CKPT for each preset")
+        out[preset] = path
+    return out
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    """Command-line entry point; returns the exit code (0 ok, 1 some runs failed, 2 bad input)."""
+    argv = list(sys.argv[1:] if argv is None else argv)
+    args = build_parser().parse_args(argv)
+    say = (lambda _m: None) if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    try:
+        if args.threads is not None and args.threads < 1:
+            raise SvbrdfError(f"--threads must be >= 1, got {args.threads}")
+        if args.time_budget is not None and args.time_budget <= 0:
+            raise SvbrdfError(f"--time-budget must be > 0, got {args.time_budget}")
+        if args.noise < 0:
+            raise SvbrdfError(f"--noise must be >= 0, got {args.noise}")
+        quick = args.quick
+        data = args.data or default_data()
+        if args.data is None and not data.exists():
+            raise SvbrdfError(f"default data folder {data} does not exist (pass --data DIR)")
+        out = args.out or repo_root() / "docs" / "benchmarks"
+        paths = output_paths(out, args.json)
+        existing = [str(p) for p in paths.values() if p.exists()]
+        if existing and not args.force:
+            raise SvbrdfError(f"{existing[0]}: exists (use --force to overwrite)")
+        opts = BenchOptions(
+            config=ZHAO,
+            iters=list(args.iters or (QUICK["iters"] if quick else DEFAULT_ITERS)),
+            time_budget=args.time_budget,
+            model=args.model,
+            init=_parse_init(args.init),
+            threads=args.threads,
+            repeats=args.repeats if args.repeats is not None else (QUICK["repeats"] if quick else 3),
+            bf16=args.bf16,
+        )
+        if opts.repeats < 1:
+            raise SvbrdfError(f"--repeats must be >= 1, got {opts.repeats}")
+        doc = run_benchmark(
+            data,
+            methods=args.methods or tuple(METHODS),
+            presets=args.presets or (QUICK["presets"] if quick else DEFAULT_PRESETS),
+            size=args.size or (QUICK["size"] if quick else 256),
+            cases=args.cases,
+            renderer=args.renderer,
+            noise=args.noise,
+            quantize=args.quantize,
+            opts=opts,
+            quick=quick,
+            command=shlex.join(["svbrdf-bench"] + argv),
+            progress=say,
+        )
+        written = write_outputs(doc, out, args.json, force=args.force)
+    except SvbrdfError as e:
+        print(f"svbrdf-bench: error: {e}", file=sys.stderr)
+        return 2
+    for p in written.values():
+        say(f"wrote {p}")
+    if doc["errors"]:
+        print(f"svbrdf-bench: {len(doc['errors'])} run(s) failed (see {written['markdown']})", file=sys.stderr)
+        return 1
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

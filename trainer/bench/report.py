@@ -1,0 +1,498 @@
+"""Benchmark outputs: aggregated Markdown tables, a Pareto plot (OpenImageIO drawing, no matplotlib), the JSON
+records and the headline summary (numpy + OpenImageIO, no torch).
+
+Aggregation (:func:`aggregate`): records are grouped by (case kind, method, preset, iteration count); each
+metric is reported as mean +- standard deviation over the cases of the group (population std, 0 for one case),
+with min and max kept in the JSON rows. Points where a time budget stopped a run (``truncated``) form their own
+group per (kind, method, preset), labelled ``budget`` (their iteration counts differ per case; the table shows
+their mean and range).
+
+Headline numbers (:func:`summarize`, ``summary.json``). The error ``E`` is the mean over synthetic cases of
+``rerender_rmse`` (or, with no synthetic case, the mean ``input_rmse`` over the photos); time ``T`` is the mean
+``seconds`` (training + one full prediction) over the same cases; only complete (non-truncated) groups count.
+A *reference preset* is the first preset in ``--presets`` order for which the needed runs exist; every
+per-preset value is kept under ``details``. A value is null when the runs it needs did not happen.
+
+* ``speedup_vs_paper``: reference = ``finetune`` with preset ``paper`` at its largest evaluated iteration count
+  (``E_ref``, ``T_ref``). For every other ``finetune`` preset, ``T`` = the seconds of its first evaluation point
+  with ``E <= E_ref``; speedup = ``T_ref / T``. The value is the best of them (null if none reaches ``E_ref``).
+* ``two_stage_speedup``: for a preset, target = the ``scratch`` run's error at its largest iteration count;
+  ``T_scratch`` / ``T_finetune`` = seconds of the first point of each run whose ``E <= target``.
+* ``preview_time_ratio`` / ``preview_error_ratio``: ``preview`` time (median of repeats) and error divided by
+  those of ``finetune`` at its largest iteration count (reference preset).
+* ``early_stop_saving``: for ``finetune`` runs (reference preset), the fraction of training time the trainer's
+  label-free plateau rule (``quality="auto"``, :meth:`svbrdf.trainer.train.Trainer.plateaued`, evaluated in
+  the same run) would have saved: mean over cases of ``1 - t_plateau / t_run`` (0 when the rule never fired).
+  ``details.early_stop_error_ratio`` gives the price: mean over cases of ``E`` at the first evaluation point at
+  or after the plateau step divided by ``E`` at the end of the run.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import secrets
+from pathlib import Path
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
+
+import numpy as np
+import OpenImageIO as oiio
+
+from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.imageio import write_image
+
+from .metrics import BURN_METRICS, MAP_METRICS
+
+SCHEMA = "svbrdf-bench/1"
+#: Every numeric metric a record may carry, in table order.
+METRICS = ("rerender_rmse", "input_rmse") + MAP_METRICS + ("burn_in",) + BURN_METRICS
+TIMES = ("seconds", "train_seconds", "eval_seconds")
+METHOD_ORDER = ("baseline", "preview", "finetune", "scratch")
+BUDGET = "budget"
+
+
+# ----------------------------------------------------------------------------------------------- files
+def write_text(path: Path, text: str, force: bool = False) -> Path:
+    """Write a text file atomically (temp file in the same folder + ``os.replace``); refuse to overwrite
+    unless ``force``."""
+    path = Path(path)
+    if path.exists() and not force:
+        raise SvbrdfError(f"{path}: exists (use --force to overwrite)")
+    if not path.parent.is_dir():
+        raise SvbrdfError(f"{path}: folder {path.parent} does not exist")
+    tmp = path.with_name(f".{path.name}.tmp-{secrets.token_hex(4)}")
+    try:
+        tmp.write_text(text, encoding="utf-8")
+        os.replace(tmp, path)
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise SvbrdfError(f"{path}: cannot write ({e.strerror or e})") from None
+    return path
+
+
+def write_json(path: Path, obj: Any, force: bool = False) -> Path:
+    """JSON (indented, no NaN: non-finite floats become null) written with :func:`write_text`."""
+    return write_text(path, json.dumps(_finite(obj), indent=1, allow_nan=False) + "\n", force)
+
+
+def _finite(obj: Any) -> Any:
+    if isinstance(obj, float):
+        return obj if math.isfinite(obj) else None
+    if isinstance(obj, Mapping):
+        return {str(k): _finite(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_finite(v) for v in obj]
+    if isinstance(obj, (np.floating, np.integer)):
+        return _finite(obj.item())
+    return obj
+
+
+# ----------------------------------------------------------------------------------------------- aggregation
+def _stats(values: Sequence[float]) -> Optional[Dict[str, float]]:
+    v = np.asarray([x for x in values if x is not None and math.isfinite(x)], dtype=np.float64)
+    if v.size == 0:
+        return None
+    return {"mean": float(v.mean()), "std": float(v.std()), "min": float(v.min()), "max": float(v.max()),
+            "n": int(v.size)}
+
+
+def _label(rec: Mapping[str, Any]) -> str:
+    if rec.get("truncated"):
+        return BUDGET
+    return "-" if rec.get("iterations") is None else str(rec["iterations"])
+
+
+def _order(row: Mapping[str, Any]) -> tuple:
+    m = row["method"]
+    it = row["iterations"]
+    return (METHOD_ORDER.index(m) if m in METHOD_ORDER else len(METHOD_ORDER), m, row["preset"] or "",
+            math.inf if it == BUDGET else (-1 if it == "-" else int(it)))
+
+
+def aggregate(records: Iterable[Mapping[str, Any]]) -> List[Dict[str, Any]]:
+    """Group records by (kind, method, preset, iteration label) and summarise every time and metric.
+
+    Returns:
+        rows sorted by kind, method, preset and iterations, each ``{kind, method, preset, iterations (label),
+        n, cases, truncated, iterations_stats, <time or metric>: {mean, std, min, max, n} or None}``.
+    """
+    groups: Dict[tuple, List[Mapping[str, Any]]] = {}
+    for r in records:
+        groups.setdefault((r["kind"], r["method"], r.get("preset"), _label(r)), []).append(r)
+    rows = []
+    for (kind, method, preset, label), recs in groups.items():
+        row: Dict[str, Any] = {"kind": kind, "method": method, "preset": preset, "iterations": label,
+                               "n": len(recs), "cases": [r["case"] for r in recs],
+                               "truncated": sum(bool(r.get("truncated")) for r in recs),
+                               "iterations_stats": _stats([r["iterations"] for r in recs
+                                                           if r.get("iterations") is not None])}
+        for key in TIMES + METRICS:
+            row[key] = _stats([r.get(key) for r in recs])
+        rows.append(row)
+    return sorted(rows, key=lambda r: (r["kind"],) + _order(r))
+
+
+# ----------------------------------------------------------------------------------------------- summary
+def _error_key(rows: Sequence[Mapping[str, Any]]) -> Tuple[str, str]:
+    """(kind, metric) of the headline error: synthetic re-render RMSE, else the photos' input RMSE."""
+    if any(r["kind"] == "synthetic" and r.get("rerender_rmse") for r in rows):
+        return "synthetic", "rerender_rmse"
+    return "photo", "input_rmse"
+
+
+def _curve(rows, kind, metric, method, preset) -> List[Tuple[int, float, float]]:
+    """Complete evaluation points (iterations, mean seconds, mean error) of one run type, by iterations."""
+    out = []
+    for r in rows:
+        if (r["kind"], r["method"], r["preset"]) != (kind, method, preset) or r["iterations"] in (BUDGET,):
+            continue
+        if r.get(metric) is None or r.get("seconds") is None:
+            continue
+        it = -1 if r["iterations"] == "-" else int(r["iterations"])
+        out.append((it, r["seconds"]["mean"], r[metric]["mean"]))
+    return sorted(out)
+
+
+def _first_reach(curve, target: float) -> Optional[float]:
+    for _, t, e in curve:
+        if e <= target * (1 + 1e-9):
+            return t
+    return None
+
+
+def _ratio(a: Optional[float], b: Optional[float]) -> Optional[float]:
+    if a is None or b is None or b <= 0:
+        return None
+    return a / b
+
+
+def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> Dict[str, Any]:
+    """Headline numbers (see the module docstring); every value is a float or None, with ``details``."""
+    rows = aggregate(records)
+    kind, metric = _error_key(rows)
+    details: Dict[str, Any] = {"error_metric": metric, "case_kind": kind}
+    curve = lambda m, p=None: _curve(rows, kind, metric, m, p)  # noqa: E731
+    truncated = {(r["method"], r["preset"]) for r in rows if r["truncated"]}
+
+    # speedup_vs_paper
+    speedup = None
+    paper = curve("finetune", "paper")
+    if paper:
+        _, t_ref, e_ref = paper[-1]
+        per = {}
+        for p in presets:
+            if p == "paper" or not curve("finetune", p):
+                continue
+            per[p] = _ratio(t_ref, _first_reach(curve("finetune", p), e_ref))
+        details["speedup_vs_paper"] = {"reference": {"iterations": paper[-1][0], "seconds": t_ref, "error": e_ref,
+                                                     "truncated": ("finetune", "paper") in truncated},
+                                       "per_preset": per}
+        found = [v for v in per.values() if v is not None]
+        speedup = max(found) if found else None
+
+    # two_stage_speedup
+    two = {}
+    for p in presets:
+        ft, sc = curve("finetune", p), curve("scratch", p)
+        if ft and sc:
+            target = sc[-1][2]
+            two[p] = {"target_error": target, "scratch_seconds": _first_reach(sc, target),
+                      "finetune_seconds": _first_reach(ft, target)}
+            two[p]["speedup"] = _ratio(two[p]["scratch_seconds"], two[p]["finetune_seconds"])
+    details["two_stage_speedup"] = two
+    two_value = next((v["speedup"] for v in two.values()), None)
+
+    # preview ratios
+    prev, time_ratio, err_ratio = curve("preview"), None, None
+    ref = next((p for p in presets if curve("finetune", p)), None)
+    if prev and ref:
+        _, t_ft, e_ft = curve("finetune", ref)[-1]
+        time_ratio, err_ratio = _ratio(prev[0][1], t_ft), _ratio(prev[0][2], e_ft)
+        details["preview"] = {"reference_preset": ref, "preview_seconds": prev[0][1], "preview_error": prev[0][2],
+                              "finetune_seconds": t_ft, "finetune_error": e_ft}
+
+    # early_stop_saving
+    saving = None
+    es = {}
+    for p in presets:
+        runs = [r for r in records if r["method"] == "finetune" and r.get("preset") == p and r["kind"] == kind]
+        by_case: Dict[str, List[Mapping[str, Any]]] = {}
+        for r in runs:
+            by_case.setdefault(r["case"], []).append(r)
+        savings, prices = [], []
+        for recs in by_case.values():
+            recs = sorted(recs, key=lambda r: r["iterations"])
+            run = recs[-1].get("run") or {}
+            total = run.get("run_train_seconds")
+            plateau = run.get("plateau")
+            if not total:
+                continue
+            if plateau is None:
+                savings.append(0.0)
+                continue
+            savings.append(max(0.0, 1.0 - plateau["train_seconds"] / total))
+            at = next((r for r in recs if r["iterations"] >= plateau["step"]), None)
+            if at is not None and at.get(metric) and recs[-1].get(metric):
+                prices.append(at[metric] / recs[-1][metric])
+        if savings:
+            es[p] = {"saving": float(np.mean(savings)), "cases": len(savings),
+                     "fired": sum(1 for s in by_case.values() if (s[-1].get("run") or {}).get("plateau")),
+                     "early_stop_error_ratio": float(np.mean(prices)) if prices else None}
+    details["early_stop"] = es
+    ref_es = next((p for p in presets if p in es), None)
+    if ref_es:
+        saving = es[ref_es]["saving"]
+        details["early_stop_reference_preset"] = ref_es
+    return {"speedup_vs_paper": speedup, "two_stage_speedup": two_value, "preview_time_ratio": time_ratio,
+            "preview_error_ratio": err_ratio, "early_stop_saving": saving, "details": details}
+
+
+# ----------------------------------------------------------------------------------------------- Markdown
+def _fmt(v: Optional[float]) -> str:
+    """3 significant digits (whole numbers from 1000 on); an en dash for a missing value."""
+    if v is None:
+        return "–"
+    return f"{v:.0f}" if abs(v) >= 1000 else f"{v:.3g}"
+
+
+def _cell(s: Optional[Mapping[str, float]]) -> str:
+    if s is None:
+        return "–"
+    return _fmt(s["mean"]) if s["n"] == 1 else f"{_fmt(s['mean'])} ± {_fmt(s['std'])}"
+
+
+def _iters_cell(row: Mapping[str, Any]) -> str:
+    if row["iterations"] != BUDGET:
+        return row["iterations"]
+    s = row["iterations_stats"]
+    return f"{s['mean']:.0f} ({s['min']:.0f}–{s['max']:.0f}), budget" if s else BUDGET
+
+
+def _table(rows: Sequence[Mapping[str, Any]], columns: Sequence[Tuple[str, str]]) -> str:
+    head = ["method", "preset", "iterations", "n"] + [title for _, title in columns]
+    lines = ["| " + " | ".join(head) + " |", "|" + "---|" * len(head)]
+    for r in rows:
+        cells = [r["method"], r["preset"] or "–", _iters_cell(r), str(r["n"])]
+        cells += [_cell(r.get(key)) for key, _ in columns]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines)
+
+
+def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[Mapping[str, str]],
+             plot_note: str = "") -> str:
+    """The ``results.md`` text of a benchmark document (:func:`svbrdf.trainer.bench.cli.run_benchmark`)."""
+    rows = aggregate(doc["records"])
+    m = doc["machine"]
+    s = doc["settings"]
+    out = [
+        "# svbrdf-bench results",
+        "",
+        "Generated by `svbrdf-bench`; metric definitions: `svbrdf.trainer.bench.metrics`, schema: "
+        "`docs/benchmarks/README.md`.",
+        "",
+        "```",
+        doc["command"],
+        "```",
+        "",
+        f"- date: {doc['date']}",
+        f"- machine: {m.get('cpu')} ({m.get('cores')} cores visible), {m.get('platform')}",
+        f"- threads: torch {m.get('torch_threads')}, onnxruntime {m.get('ort_threads')}",
+        f"- versions: " + ", ".join(f"{k} {v}" for k, v in (m.get("versions") or {}).items()),
+        f"- cases: {len(doc['cases'])} ({sum(c['kind'] == 'synthetic' for c in doc['cases'])} synthetic, "
+        f"{sum(c['kind'] == 'photo' for c in doc['cases'])} real photos) from `{s['data']}`, "
+        f"{s['size']} px, renderer `{s['renderer']}`, noise {s['noise']}, quantize {s['quantize']}",
+        f"- render config: {s['render_config']}",
+        f"- iterations evaluated: {s['iters']}; time budget per run: {s['time_budget'] or 'none'}",
+        "- cells: mean ± std over the cases (n); seconds = training + one full-photo prediction "
+        "(train_seconds excludes evaluation; see `methods.py`)",
+        "",
+    ]
+    if doc.get("skipped"):
+        out += ["## Skipped", ""] + [f"- `{k['method']}`" + (f" ({k['preset']})" if k.get("preset") else "")
+                                      + f": {k['reason']}" for k in doc["skipped"]] + [""]
+    if doc.get("errors"):
+        out += ["## Errors", ""] + [f"- `{e['method']}` {e.get('preset') or ''} on `{e['case']}`: {e['error']}"
+                                     for e in doc["errors"]] + [""]
+    syn = [r for r in rows if r["kind"] == "synthetic"]
+    pho = [r for r in rows if r["kind"] == "photo"]
+    if syn:
+        gt_burn = [c["gt_burn_in"] for c in doc["cases"] if c.get("gt_burn_in") is not None]
+        out += ["## Synthetic cases (ground truth)", "",
+                _table(syn, [("seconds", "seconds"), ("train_seconds", "train s"), ("eval_seconds", "eval s"),
+                             ("rerender_rmse", "re-render RMSE (10 lights)"), ("input_rmse", "input-light RMSE"),
+                             ("burn_in", "burn-in")]),
+                "",
+                f"Burn-in of the ground-truth maps themselves (chance level): {_fmt(float(np.mean(gt_burn)))} "
+                f"(mean over cases)." if gt_burn else "",
+                "",
+                "### Per-map errors", "",
+                _table(syn, [("diffuse_rmse", "diffuse"), ("diffuse_rmse_srgb", "diffuse sRGB"),
+                             ("specular_rmse", "specular"), ("specular_rmse_srgb", "specular sRGB"),
+                             ("roughness_rmse", "roughness"), ("normal_rmse", "normal (n+1)/2"),
+                             ("normal_angle_deg", "normal °")]),
+                "",
+                "### Signed burn-in per map", "",
+                _table(syn, [(k, k.replace("burn_", "")) for k in BURN_METRICS]), ""]
+    if pho:
+        out += ["## Real photos (no ground truth)", "",
+                _table(pho, [("seconds", "seconds"), ("train_seconds", "train s"), ("eval_seconds", "eval s"),
+                             ("input_rmse", "input-light RMSE"), ("burn_in", "burn-in")]
+                       + [(k, k.replace("burn_", "")) for k in BURN_METRICS]), ""]
+    if plot_name:
+        out += ["## Pareto plot", "", f"![run time against error]({plot_name})", "",
+                "Left: mean seconds (log scale) against the headline error "
+                f"({doc['summary']['details']['error_metric']} on {doc['summary']['details']['case_kind']} cases); "
+                "right: against the mean burn-in over all cases. Lines join the iteration counts of one run type.",
+                ""]
+        if plot_note:
+            out += [plot_note, ""]
+        out += ["| series | colour | marker |", "|---|---|---|"]
+        out += [f"| {e['label']} | {e['colour']} | {e['marker']} |" for e in legend] + [""]
+    summ = doc["summary"]
+    out += ["## Summary", "", "| headline | value |", "|---|---|"]
+    out += [f"| {k} | {_fmt(summ[k])} |" for k in ("speedup_vs_paper", "two_stage_speedup", "preview_time_ratio",
+                                                       "preview_error_ratio", "early_stop_saving")]
+    out += ["", "Definitions: `svbrdf.trainer.bench.report` (module docstring); details in `summary.json`.", ""]
+    return "\n".join(out)
+
+
+# ----------------------------------------------------------------------------------------------- plot
+_PALETTE = [(0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16), (0.58, 0.4, 0.74),
+            (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.5, 0.5, 0.5), (0.74, 0.74, 0.13), (0.09, 0.75, 0.81)]
+_MARKERS = {"baseline": "square", "preview": "diamond", "finetune": "circle", "scratch": "cross"}
+
+
+def text_supported() -> bool:
+    """True when OpenImageIO can draw text here (it needs a usable font)."""
+    buf = oiio.ImageBuf(oiio.ImageSpec(64, 32, 3, oiio.FLOAT))
+    return bool(oiio.ImageBufAlgo.render_text(buf, 2, 20, "1.0", 12, "", (1.0, 1.0, 1.0))) and \
+        float(buf.get_pixels(oiio.FLOAT).sum()) > 0
+
+
+def _marker(buf, x: int, y: int, shape: str, colour, r: int = 4) -> None:
+    A = oiio.ImageBufAlgo
+    if shape == "square":
+        A.render_box(buf, x - r, y - r, x + r, y + r, colour, True)
+    elif shape == "diamond":
+        for dy in range(-r - 1, r + 2):
+            w = r + 1 - abs(dy)
+            A.render_line(buf, x - w, y + dy, x + w, y + dy, colour)
+    elif shape == "circle":
+        for dy in range(-r, r + 1):
+            w = int(round(math.sqrt(r * r - dy * dy)))
+            A.render_line(buf, x - w, y + dy, x + w, y + dy, colour)
+    else:  # cross
+        for o in (-1, 0, 1):
+            A.render_line(buf, x - r, y - r + o, x + r, y + r + o, colour)
+            A.render_line(buf, x - r, y + r + o, x + r, y - r + o, colour)
+
+
+def _nice_max(v: float) -> float:
+    if v <= 0:
+        return 1.0
+    e = 10 ** math.floor(math.log10(v))
+    for m in (1, 1.2, 1.5, 2, 2.5, 3, 4, 5, 6, 8, 10):
+        if m * e >= v:
+            return m * e
+    return 10 * e
+
+
+def plot_pareto(series: Sequence[Mapping[str, Any]], path: Path, *, titles: Tuple[str, str],
+                force: bool = False) -> Tuple[List[Dict[str, str]], str]:
+    """Draw two panels (x = seconds on a log axis; y = ``y[0]`` and ``y[1]`` of each point) into a PNG.
+
+    Args:
+        series: ``{label, method, points: [(seconds, y0 or None, y1 or None), ...]}`` (points joined by lines
+            in the given order).
+        path: output PNG.
+        titles: y-axis titles of the two panels.
+        force: overwrite.
+
+    Returns:
+        ``(legend, note)``: one ``{label, colour (hex), marker}`` per series, and a note when text could not
+        be drawn (no font).
+    """
+    A = oiio.ImageBufAlgo
+    pw, ph, ml, mr, mt, mb = 520, 420, 70, 20, 40, 50
+    cols = 4
+    leg_h = 22 * math.ceil(len(series) / cols) + 10 if series else 0
+    width, height = 2 * pw, ph + leg_h
+    buf = oiio.ImageBuf(oiio.ImageSpec(width, height, 3, oiio.FLOAT))
+    A.fill(buf, (1.0, 1.0, 1.0))
+    text = text_supported()
+    ink, grid = (0.0, 0.0, 0.0), (0.85, 0.85, 0.85)
+    legend = []
+    for i, s in enumerate(series):
+        c = _PALETTE[i % len(_PALETTE)]
+        legend.append({"label": s["label"], "colour": "#%02x%02x%02x" % tuple(int(round(255 * v)) for v in c),
+                       "marker": _MARKERS.get(s["method"], "cross"), "rgb": c})
+    xs = [p[0] for s in series for p in s["points"] if p[0] is not None and p[0] > 0]
+    lo = math.floor(math.log10(min(xs))) if xs else -2
+    hi = math.ceil(math.log10(max(xs))) if xs else 2
+    hi = max(hi, lo + 1)
+    for panel in (0, 1):
+        x0, x1, y0, y1 = panel * pw + ml, panel * pw + pw - mr, mt, ph - mb
+        ys = [p[1 + panel] for s in series for p in s["points"] if p[1 + panel] is not None]
+        ymax = _nice_max(max(ys)) if ys else 1.0
+
+        def X(sec: float) -> int:
+            return int(round(x0 + (math.log10(max(sec, 10.0 ** lo)) - lo) / (hi - lo) * (x1 - x0)))
+
+        def Y(v: float) -> int:
+            return int(round(y1 - min(max(v, 0.0), ymax) / ymax * (y1 - y0)))
+
+        for k in range(lo, hi + 1):
+            A.render_line(buf, X(10.0 ** k), y0, X(10.0 ** k), y1, grid)
+            if text:
+                A.render_text(buf, X(10.0 ** k) - 14, y1 + 18, f"{10.0 ** k:g}", 13, "", ink)
+        for j in range(6):
+            v = ymax * j / 5
+            A.render_line(buf, x0, Y(v), x1, Y(v), grid)
+            if text:
+                A.render_text(buf, x0 - 52, Y(v) + 5, f"{v:.3g}", 13, "", ink)
+        A.render_box(buf, x0, y0, x1, y1, ink)
+        if text:
+            A.render_text(buf, (x0 + x1) // 2 - 60, ph - 10, "seconds (log scale)", 14, "", ink)
+            A.render_text(buf, x0, y0 - 12, titles[panel], 15, "", ink)
+        for s, leg in zip(series, legend):
+            pts = [(X(p[0]), Y(p[1 + panel])) for p in s["points"] if p[0] and p[1 + panel] is not None]
+            for (ax, ay), (bx, by) in zip(pts, pts[1:]):
+                A.render_line(buf, ax, ay, bx, by, leg["rgb"])
+            for px, py in pts:
+                _marker(buf, px, py, leg["marker"], leg["rgb"])
+    for k, leg in enumerate(legend):  # legend strip under the panels (markers even without a font)
+        lx, ly = ml + (k % cols) * (width - ml) // cols, ph + 14 + 22 * (k // cols)
+        _marker(buf, lx, ly, leg["marker"], leg["rgb"])
+        if text:
+            A.render_text(buf, lx + 12, ly + 5, leg["label"], 13, "", ink)
+    write_image(path, buf.get_pixels(oiio.FLOAT), bits=8, force=force)
+    for leg in legend:
+        del leg["rgb"]
+    return legend, "" if text else "(No font available to OpenImageIO here: the plot has no text; read the " \
+                                    "legend below. x axis: decades of seconds.)"
+
+
+def pareto_series(records: Sequence[Mapping[str, Any]]) -> Tuple[List[Dict[str, Any]], Tuple[str, str]]:
+    """Series of the Pareto plot: per (method, preset), mean seconds, headline error and burn-in at each
+    evaluated iteration count (complete groups; budget-truncated points appended last)."""
+    rows = aggregate(records)
+    kind, metric = _error_key(rows)
+    burn = aggregate([{**r, "kind": "all"} for r in records])
+    series: Dict[tuple, Dict[str, Any]] = {}
+    for r in rows:
+        if r["kind"] != kind or r.get("seconds") is None:
+            continue
+        b = next(x for x in burn if (x["method"], x["preset"], x["iterations"]) ==
+                 (r["method"], r["preset"], r["iterations"]))
+        key = (r["method"], r["preset"])
+        s = series.setdefault(key, {"label": r["method"] + (f" {r['preset']}" if r["preset"] else ""),
+                                    "method": r["method"], "points": []})
+        s["points"].append((r["seconds"]["mean"], (r.get(metric) or {}).get("mean"),
+                            (b.get("burn_in") or {}).get("mean")))
+    ylabel = "re-render RMSE (sRGB)" if metric == "rerender_rmse" else "input-light RMSE (sRGB)"
+    return list(series.values()), (ylabel, "burn-in (mean |score| of 4 maps)")
+
+
+__all__ = ["SCHEMA", "METRICS", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",
+           "text_supported", "write_text", "write_json"]

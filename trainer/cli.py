@@ -1,0 +1,306 @@
+"""``svbrdf-train``: train the GAN on one flash photo (pretrain, finetune from a pretrained checkpoint, or fit).
+
+Writes into ``--out`` (default ``./<photo stem>-<stage>``): ``checkpoint.pt`` (every ``--checkpoint-every``
+iterations and at the end), ``checkpoint_last_good.pt`` (latest checkpoint without non-finite steps),
+``train_log.jsonl`` (one line per iteration), ``maps/step_NNNNNN/`` (every ``--maps-every`` iterations) and,
+at the end, the texture set of the whole photo (``<stem>_basecolor.png``, ... ``<stem>.json``,
+``<stem>_relit.png``).
+
+Exit codes: 0 done, 1 failure (one line ``svbrdf-train: error: ...``), 2 usage, 130 interrupted (Ctrl-C: the
+checkpoint is saved after the current iteration; ``--resume`` continues exactly from it).
+"""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+import traceback
+import warnings
+from pathlib import Path
+from typing import Any, Dict, List, Optional
+
+PROG = "svbrdf-train"
+CHECKPOINT = "checkpoint.pt"
+LOG = "train_log.jsonl"
+
+PRESET_HELP = """training presets:
+  paper  the published setup: paper-size networks, 256 px tiles, per iteration 5 normal/roughness-decoder
+         + 1 diffuse/specular-decoder + 1 discriminator updates, Adam 2e-5 (0, 0.9),
+         loss 0.1 GAN + L_d + 0.1 Fourier + 0.2 perceptual; 10k / 3k / 20k iterations
+         (pretrain / finetune / fit). Measured on a 2-core CPU: about 21 s/it fp32, 7.5 s/it --bf16 at
+         256 px, i.e. days for a full run: use a GPU.
+  zhao   paper without the Fourier and perceptual losses (Zhao et al. 2020).
+  fast   quarter-width networks, 128 px tiles, schedule 1:1:1, lr 1e-4: about 0.10 s/it fp32 on a 2-core
+         CPU (3k iterations in ~5 min). A first guess; the benchmark tunes it.
+  tiny   toy networks for tests (32 px tiles, 20 iterations).
+"""
+
+
+class _Fail(Exception):
+    """A one-line failure reported as ``svbrdf-train: error: ...`` (exit 1)."""
+
+
+def build_parser() -> argparse.ArgumentParser:
+    from svbrdf.trainer.config import TRAIN_PRESETS
+
+    common = argparse.ArgumentParser(add_help=False)
+    g = common.add_argument_group("training")
+    g.add_argument("--preset", choices=sorted(TRAIN_PRESETS), default="paper",
+                   help="starting set of settings (see below; default paper)")
+    g.add_argument("--iters", type=int, help="iterations of this stage (with --quality auto: the maximum)")
+    g.add_argument("--tile", type=int, help="training tile size in pixels")
+    g.add_argument("--bf16", action="store_true", default=None,
+                   help="bfloat16 autocast (2-3x faster on CPUs with AMX/AVX512-BF16; falls back to fp32)")
+    g.add_argument("--fourier", choices=("complex", "magnitude", "off"), help="Fourier loss variant or off")
+    g.add_argument("--perceptual", choices=("auto", "vgg19", "vgg19-random", "pyramid", "off"),
+                   help="perceptual loss backend or off (auto: VGG-19 if weights are found, else random VGG-19)")
+    g.add_argument("--vgg-weights", metavar="PATH", help="VGG-19 state-dict file (torchvision layout)")
+    g.add_argument("--reset-optimizers", action="store_true", default=None,
+                   help="finetune with fresh Adam states instead of the pretrained ones")
+    g.add_argument("--train-encoder", action="store_true", default=None,
+                   help="train the encoder too (default: Zhao's frozen random encoder)")
+    g.add_argument("--seed", type=int, help="random seed (default 24)")
+    g.add_argument("--fov", type=float, metavar="DEG", help="camera field of view across the photo width (default 66)")
+    g.add_argument("--quality", choices=("fixed", "auto"),
+                   help="fixed: run every iteration; auto: stop early when the re-render error and the maps stop "
+                        "changing (--iters is the maximum)")
+    o = common.add_argument_group("output and machine")
+    o.add_argument("--out", metavar="DIR", help="output folder (default ./<photo stem>-<stage>)")
+    o.add_argument("--resume", action="store_true", help="continue the run saved in --out exactly where it stopped")
+    o.add_argument("--force", action="store_true", help="start over in an existing output folder")
+    o.add_argument("--checkpoint-every", type=int, metavar="N", help="iterations between checkpoints")
+    o.add_argument("--maps-every", type=int, metavar="N", help="iterations between full-photo map dumps (0 = off)")
+    o.add_argument("--threads", type=int, help="CPU threads (default: all cores)")
+    o.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
+    o.add_argument("--quiet", action="store_true", help="print errors only")
+    o.add_argument("--verbose", action="store_true", help="print a traceback on errors")
+
+    parser = argparse.ArgumentParser(
+        prog=PROG, description="Train the SVBRDF GAN (Wen et al. 2022) on one flash photo.",
+        epilog=PRESET_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = parser.add_subparsers(dest="stage", required=True, metavar="{pretrain,finetune,fit}")
+    kw = dict(parents=[common], epilog=PRESET_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    p = sub.add_parser("pretrain", help="stage 1: train from scratch on one photo (a reusable starting point)", **kw)
+    p.add_argument("photo", help="flash photo (8/16-bit sRGB image or linear EXR)")
+    p = sub.add_parser("finetune", help="stage 2: continue a pretrained checkpoint on a new photo", **kw)
+    p.add_argument("photo", help="flash photo (8/16-bit sRGB image or linear EXR)")
+    p.add_argument("--init", metavar="CKPT", help="pretrained checkpoint (required unless --resume)")
+    p = sub.add_parser("fit", help="train from scratch on one photo for the full schedule", **kw)
+    p.add_argument("photo", help="flash photo (8/16-bit sRGB image or linear EXR)")
+    return parser
+
+
+def _overrides(args: argparse.Namespace, preset) -> Dict[str, Any]:
+    """TrainConfig overrides from the flags that were given (None = keep the preset's value)."""
+    ov: Dict[str, Any] = {
+        f"iters_{args.stage}": args.iters, "tile": args.tile, "bf16": args.bf16, "seed": args.seed,
+        "fov_deg": args.fov, "quality": args.quality, "checkpoint_every": args.checkpoint_every,
+        "maps_every": args.maps_every, "reset_optimizers": args.reset_optimizers,
+        "train_encoder": args.train_encoder, "vgg_weights": args.vgg_weights,
+    }
+    if args.fourier == "off":
+        ov["lambda_fourier"] = 0.0
+    elif args.fourier:
+        # Turning the loss on in a preset that has it off uses the paper's weight.
+        ov.update(fourier_mode=args.fourier, lambda_fourier=preset.lambda_fourier or 0.1)
+    if args.perceptual == "off":
+        ov["lambda_perceptual"] = 0.0
+    elif args.perceptual:
+        ov.update(perceptual=args.perceptual, lambda_perceptual=preset.lambda_perceptual or 0.2)
+    return ov
+
+
+class _Progress:
+    """One updating line on a TTY, plain log lines otherwise; also the Ctrl-C flag and the map dumps."""
+
+    def __init__(self, args, out: Path, name: str, iters: int, log):
+        self.args, self.out, self.name, self.log = args, out, name, log
+        self.tty = sys.stderr.isatty() and not args.quiet
+        self.every = max(1, min(100, iters // 20))
+        self.stop = False
+        self.t_last, self.step_last = time.perf_counter(), None
+        self.rate = 0.0
+
+    def __call__(self, trainer, rec) -> bool:
+        now = time.perf_counter()
+        if self.step_last is None:
+            self.rate = 1.0 / max(rec["seconds"], 1e-9)
+        elif now > self.t_last:
+            self.rate = (rec["step"] - self.step_last) / (now - self.t_last)
+        cfg = trainer.config
+        if cfg.maps_every and rec["step"] % cfg.maps_every == 0 and rec["step"] < trainer.iters:
+            _write_maps(trainer, self.out / "maps" / f"step_{rec['step']:06d}", self.name, relit=False)
+        if not self.args.quiet and (self.tty or rec["step"] % self.every == 0 or rec["step"] == 1):
+            losses = " ".join(f"{k}={v:.4g}" for k, v in rec.items()
+                              if "/" in k and not k.endswith("/total") and v is not None)
+            line = f"it {rec['step']}/{trainer.iters} {self.rate:.2f} it/s {losses}"
+            if rec.get("skipped"):
+                line += f" skipped={rec['skipped']}"
+            if self.tty:
+                sys.stderr.write("\r\033[K" + line)
+                sys.stderr.flush()
+            else:
+                self.log(line)
+        self.t_last, self.step_last = now, rec["step"]
+        return self.stop
+
+    def end_line(self) -> None:
+        if self.tty:
+            sys.stderr.write("\n")
+            sys.stderr.flush()
+
+
+def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[dict] = None) -> Dict[str, Path]:
+    from svbrdf.runtime.texture_set import relit_panel, write_texture_set
+    from svbrdf.trainer.train import to_maps
+
+    cfg = trainer.config
+    maps = to_maps(trainer.predict(), {"render_config": dict(cfg.render)})
+    meta = {"source_photo": trainer.photo_info.get("name"), "photo_sha256": trainer.photo_info.get("sha256"),
+            "stage": trainer.stage, "step": trainer.step, "preset": cfg.preset,
+            "perceptual_backend": trainer.perceptual_backend, **(extra or {})}
+    panel = relit_panel(maps, cfg.render_config) if relit else None
+    return write_texture_set(maps, out_dir, name, force=True, extra_meta=meta, relit=panel)
+
+
+def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    # Imported here so that --help and usage errors stay fast (no torch import).
+    from svbrdf.trainer import checkpoint as ckpt_io
+    from svbrdf.trainer.config import TRAIN_PRESETS, resolve
+    from svbrdf.trainer.train import Trainer, finetune_config, last_good_path, load_photo
+
+    def log(msg: str) -> None:
+        if not args.quiet:
+            print(msg, file=sys.stderr, flush=True)
+
+    photo_path = Path(args.photo)
+    out = Path(args.out) if args.out else Path.cwd() / f"{photo_path.stem}-{args.stage}"
+    ckpt_path = out / CHECKPOINT
+    if args.resume and args.force:
+        parser.error("--resume and --force exclude each other")
+    if args.resume:
+        if not ckpt_path.is_file():
+            raise _Fail(f"{ckpt_path}: no checkpoint to resume from")
+    elif out.exists() and (not out.is_dir() or any(out.iterdir())):
+        if not out.is_dir():
+            raise _Fail(f"{out}: exists and is not a folder")
+        if not args.force:
+            raise _Fail(f"{out}: output folder exists and is not empty (use --force to start over, or --resume)")
+    if args.stage == "finetune" and not args.resume and not args.init:
+        parser.error("finetune needs --init CKPT")
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        photo, info = load_photo(photo_path)
+    for w in caught:
+        log(f"{PROG}: warning: {w.message}")
+
+    kw = dict(device=args.device, threads=args.threads, photo_info=info, checkpoint_path=ckpt_path,
+              log_path=out / LOG)
+    if args.resume:
+        ckpt = ckpt_io.load_checkpoint(ckpt_path)
+        if ckpt["stage"] != args.stage:
+            raise _Fail(f"{ckpt_path}: is a {ckpt['stage']!r} run, not {args.stage!r}")
+        from svbrdf.trainer.config import TrainConfig
+
+        try:
+            config = TrainConfig.from_dict(ckpt["train_config"])
+        except (TypeError, ValueError) as e:
+            raise _Fail(f"{ckpt_path}: bad training settings ({e})") from None
+        iters = args.iters if args.iters is not None else ckpt.get("iters")
+        trainer = Trainer(photo, config, stage=args.stage, iters=iters, **kw)
+        trainer.load_resume(ckpt, ckpt_path)
+        log(f"resuming {ckpt_path} at iteration {trainer.step}/{trainer.iters} (settings from the checkpoint)")
+    else:
+        try:
+            config = resolve(args.preset, **_overrides(args, TRAIN_PRESETS[args.preset]))
+        except ValueError as e:
+            parser.error(str(e))
+        init = None
+        if args.stage == "finetune":
+            init = ckpt_io.load_checkpoint(args.init)
+            config, notes = finetune_config(config, init)
+        if out.exists():  # --force: remove only this tool's files; the texture set is overwritten at the end
+            for p in (ckpt_path, last_good_path(ckpt_path), out / LOG):
+                p.unlink(missing_ok=True)
+        out.mkdir(parents=True, exist_ok=True)
+        trainer = Trainer(photo, config, stage=args.stage, **kw)
+        if init is not None:
+            trainer.notes.extend(notes)
+            trainer.load_init(init, args.init)
+    cfg = trainer.config
+    log(f"{args.stage} {photo_path.name} ({info['width']}x{info['height']}) preset {cfg.preset}, "
+        f"{trainer.iters} iterations, tile {trainer.tile}, device {trainer.device}"
+        f"{', bf16' if trainer.bf16 else ''}, out {out}")
+    log(f"perceptual loss: {trainer.perceptual_backend or 'off'}; Fourier loss: "
+        f"{cfg.fourier_mode if cfg.lambda_fourier > 0 else 'off'}")
+    for note in trainer.notes:
+        log(f"note: {note}")
+
+    progress = _Progress(args, out, photo_path.stem, trainer.iters, log)
+    trainer.callback = progress
+    resume_cmd = f"{PROG} {args.stage} {photo_path} --out {out} --resume"
+
+    def on_sigint(signum, frame):
+        progress.stop = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C stops at once
+
+    old = signal.signal(signal.SIGINT, on_sigint)
+    t0 = time.perf_counter()
+    try:
+        trainer.run()
+    except KeyboardInterrupt:
+        progress.end_line()
+        print(f"{PROG}: interrupted; the last checkpoint is {ckpt_path}; resume with: {resume_cmd}",
+              file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGINT, old)
+    progress.end_line()
+    seconds = time.perf_counter() - t0
+    if trainer.interrupted:
+        print(f"{PROG}: interrupted at iteration {trainer.step}/{trainer.iters}; checkpoint saved to {ckpt_path}; "
+              f"resume with: {resume_cmd}", file=sys.stderr)
+        return 130
+    if trainer.stopped_early:
+        log(f"stopped early at iteration {trainer.step} (re-render error and maps stopped changing)")
+    c = trainer.counters
+    if c["nonfinite_skips"] or c["rollbacks"]:
+        log(f"note: {c['nonfinite_skips']} non-finite steps skipped, {c['rollbacks']} rollbacks")
+    paths = _write_maps(trainer, out, photo_path.stem, relit=True,
+                        extra={"checkpoint": CHECKPOINT, "train_seconds": round(seconds, 1)})
+    log(f"done: {trainer.step} iterations in {seconds:.1f} s; maps in {out} ({paths['basecolor'].name}, ...); "
+        f"checkpoint {ckpt_path}")
+    return 0
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    parser = build_parser()
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as e:  # --help (0) or a usage error (2)
+        return int(e.code or 0)
+    try:
+        from svbrdf.runtime.errors import SvbrdfError
+
+        try:
+            return _run(args, parser)
+        except SystemExit as e:  # parser.error inside _run
+            return int(e.code or 0)
+        except Exception as e:
+            if args.verbose:
+                traceback.print_exc()
+            msg = " ".join(str(e).split()) or type(e).__name__
+            if not isinstance(e, (SvbrdfError, _Fail, OSError, ValueError)):  # a bug: say what kind
+                msg = f"{type(e).__name__}: {msg} (run with --verbose for a traceback)"
+            print(f"{PROG}: error: {msg}", file=sys.stderr)
+            return 1
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

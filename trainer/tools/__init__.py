@@ -1,0 +1,1 @@
+"""Developer tools (evidence scripts); not part of the public API."""
