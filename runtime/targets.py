@@ -4,22 +4,18 @@ A preset fixes the file names, the normal-map convention, the packing, the bit d
 every file, and the material document written next to the textures (layouts and import notes:
 ``docs/targets.md``; field conventions: the research notes, section 3):
 
-=========  ==========================================================  =========  =======  ====================
-target     files (``<n>`` = the set's name)                            normal     data     document
-=========  ==========================================================  =========  =======  ====================
-generic    exactly :func:`~svbrdf.runtime.texture_set.write_texture_set`  OpenGL  16-bit   ``<n>.json`` only
-gltf       ``<n>_basecolor``, ``_normal``, ``_orm`` (G rough, B metal),  OpenGL   8-bit    ``<n>.gltf`` (KHR_
-           ``_specularcolor``, ``_metalrough_basecolor``                                   materials_specular),
-                                                                                           ``<n>_metalrough.gltf``
-blender    ``<n>_diff``, ``_nor_gl``, ``_rough``, ``_metal`` (Poly Haven   OpenGL   16-bit   -
-           names, Node Wrangler tags; metal-rough)
-unreal     ``<n>_BaseColor``, ``_Normal``, ``_OcclusionRoughnessMetallic``  DirectX  16-bit   -
-unity      ``<n>_Albedo``, ``_Normal``, ``_SpecularSmoothness`` (RGB F0,  OpenGL   16-bit   -
-           A = 1 - roughness; specular setup)
-usd        ``<n>_Color``, ``_NormalGL``, ``_Roughness``, ``_Specular``     OpenGL   16-bit   ``<n>.usda``
-           (ambientCG names)
-mtlx       same as usd                                                  OpenGL   16-bit   ``<n>.mtlx``
-=========  ==========================================================  =========  =======  ====================
+* ``generic``: exactly :func:`~svbrdf.runtime.texture_set.write_texture_set` (OpenGL normal, 16-bit data maps);
+* ``gltf``: ``<n>_basecolor``, ``_normal``, ``_orm`` (R 1, G roughness, B metallic), ``_specularcolor``,
+  ``_metalrough_basecolor``; 8-bit (web); ``<n>.gltf`` (unit quad, KHR_materials_specular) and
+  ``<n>_metalrough.gltf`` (core metal-rough fallback, Khronos conversion);
+* ``blender``: ``<n>_diff``, ``_nor_gl``, ``_rough``, ``_metal`` (Poly Haven names, Node Wrangler tags;
+  metal-rough); 16-bit;
+* ``unreal``: ``<n>_BaseColor``, ``_Normal`` (DirectX), ``_OcclusionRoughnessMetallic``; 16-bit;
+* ``unity``: ``<n>_Albedo``, ``_Normal``, ``_SpecularSmoothness`` (RGB F0, A = 1 - roughness; specular
+  setup); 16-bit;
+* ``usd``: ``<n>_Color``, ``_NormalGL``, ``_Roughness``, ``_Specular`` (ambientCG names); 16-bit;
+  ``<n>.usda`` (unit quad, UsdPreviewSurface in the specular workflow);
+* ``mtlx``: the same files; ``<n>.mtlx`` (``standard_surface``).
 
 All files are PNG; base colours are 8-bit sRGB, data maps linear ("Non-Color") and untagged. Every preset
 also writes the ``<n>.json`` sidecar of :func:`write_texture_set` (BRDF model, render config, metadata) with

@@ -208,8 +208,10 @@ def select_cases(cases: List[Case], spec: Optional[str]) -> List[Case]:
     """Pick cases: ``None`` = all, a number N = the first N, anything else = a glob on the case name.
 
     Raises:
-        SvbrdfError: the selection is empty.
+        SvbrdfError: no case at all, or the selection is empty.
     """
+    if not cases:
+        raise SvbrdfError("no image found in the data folder")
     if spec is None or spec == "":
         picked = list(cases)
     elif spec.isdigit():
@@ -242,7 +244,10 @@ def prepare_case(case: Case, size: int, *, renderer: str = "ours", config: Rende
 
 def load_cases(root: Path, size: int, spec: Optional[str] = None, **kw) -> List[BenchCase]:
     """Find, select (:func:`select_cases`) and prepare (:func:`prepare_case`) every case under ``root``."""
-    return [prepare_case(c, size, **kw) for c in select_cases(find_cases(root), spec)]
+    found = find_cases(root)
+    if not found:
+        raise SvbrdfError(f"{root}: no image found")
+    return [prepare_case(c, size, **kw) for c in select_cases(found, spec)]
 
 
 __all__ = ["BenchCase", "RENDERERS", "MITSUBA_SPP", "resize_maps", "centre_square", "render_mitsuba",

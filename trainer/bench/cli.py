@@ -13,6 +13,7 @@ Python API: :func:`run_benchmark` (returns the document) and :func:`write_output
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime as _dt
 import os
 import platform
@@ -168,14 +169,14 @@ def run_benchmark(
         from svbrdf.runtime.datasets import find_cases
 
         found = find_cases(data)
+        if not found:
+            raise SvbrdfError(f"{data}: no image found")
         pick = [c for c in found if c.kind == "gt"][:1] + [c for c in found if c.kind == "photo"][:1]
         if len(pick) < 2:
             pick = found[:2]
         bench_cases = [prepare_case(c, size, **kw) for c in pick]
     else:
         bench_cases = load_cases(data, size, cases, **kw)
-    if not bench_cases:
-        raise SvbrdfError(f"{data}: no image found")
 
     case_docs = []
     for c in bench_cases:
@@ -187,7 +188,7 @@ def run_benchmark(
 
     init_note = None
     if quick and opts.init is None and "finetune" in methods:
-        opts.init = _quick_init(bench_cases[0], opts)
+        opts = dataclasses.replace(opts, init=_quick_init(bench_cases[0], opts))
         init_note = f"--quick: throwaway tiny stage-one checkpoint ({QUICK['pretrain_iters']} iterations on " \
                     f"{bench_cases[0].name})"
 
