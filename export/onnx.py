@@ -93,15 +93,6 @@ def _provenance(meta: Mapping[str, Any], generator: nn.Module) -> Dict[str, Any]
     }
 
 
-def _write_text_atomic(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
-
-
 def _parity(path: Path, generator: nn.Module, sizes: Sequence[Tuple[int, int]]) -> list:
     import onnxruntime as ort
 
@@ -164,8 +155,8 @@ def export_generator(
         for p in (out, manifest_path):
             if p.exists():
                 raise SvbrdfError(f"{p}: exists (use --force to overwrite)")
-    if any(min(s) < MIN_SIZE for s in sizes):
-        raise ValueError(f"parity sizes must be >= {MIN_SIZE}, got {list(sizes)}")
+    if (check and not sizes) or any(min(s) < MIN_SIZE for s in sizes):
+        raise ValueError(f"parity sizes must be given and >= {MIN_SIZE}, got {list(sizes)}")
 
     checkpoint = None
     if isinstance(source, nn.Module):
@@ -181,7 +172,8 @@ def export_generator(
     graph = _Graph(generator).eval()
 
     out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = out.with_name(f".{out.name}.{secrets.token_hex(4)}.tmp")
+    token = secrets.token_hex(4)
+    tmp, manifest_tmp = (p.with_name(f".{p.name}.{token}.tmp") for p in (out, manifest_path))
     try:
         dim = torch.export.Dim
         example = torch.rand(1, 3, 64, 64)
@@ -234,10 +226,12 @@ def export_generator(
         manifest["sha256"] = sha256_file(tmp)
         manifest["parity"] = {"atol": PARITY_ATOL, "results": parity}
         size = tmp.stat().st_size
+        manifest_tmp.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
         os.replace(tmp, out)
+        os.replace(manifest_tmp, manifest_path)
     finally:
         tmp.unlink(missing_ok=True)
-    _write_text_atomic(manifest_path, json.dumps(manifest, indent=2) + "\n")
+        manifest_tmp.unlink(missing_ok=True)
     return {
         "path": out,
         "manifest_path": manifest_path,

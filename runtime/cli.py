@@ -100,8 +100,15 @@ def _refine(image, session, args, name: str):
     if args.iters:
         cfg["iters_finetune"] = args.iters
     photo = train.photo_to_tensor(image)
+
+    def progress(trainer, record):  # a one-line counter, only for a person watching a terminal
+        print(f"\r{name}: refining {trainer.step}/{trainer.iters}", end="", file=sys.stderr, flush=True)
+
+    show = not args.quiet and sys.stderr.isatty()
     trainer = train.finetune(photo, init, TrainConfig.from_dict(cfg), threads=args.threads,
-                             photo_info=train.tensor_photo_info(photo, name))
+                             photo_info=train.tensor_photo_info(photo, name), callback=progress if show else None)
+    if show:
+        print(file=sys.stderr)
     meta = {"refine": {"checkpoint": str(init_path), "iterations": trainer.step,
                        "stopped_early": trainer.stopped_early, "notes": list(trainer.notes)}}
     return train.to_maps(trainer.predict(), meta)
@@ -178,6 +185,7 @@ def _run(args) -> int:
             if args.verbose:
                 traceback.print_exc()
     return 1 if failed else 0
+
 
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``svbrdf-preview``; returns the exit code (see the module docstring)."""

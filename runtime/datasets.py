@@ -60,6 +60,9 @@ LAYOUTS = {
     "des19": ("normal", "diffuse", "roughness", "specular"),
     "xuejiao": ("diffuse", "specular", "roughness", "normal"),
 }
+#: How the diffuse and specular panels are stored: both as linear values, both sRGB-encoded, or only the
+#: diffuse sRGB-encoded (the usual texture convention: base colour sRGB, specular level linear).
+MAPS_ENCODINGS = ("linear", "srgb", "srgb-diffuse")
 #: Every value :func:`detect_format` can return.
 FORMATS = tuple(LAYOUTS) + ("photo",)
 
@@ -94,8 +97,8 @@ class Case:
 def _check_options(normal_y: str, maps_encoding: str) -> None:
     if normal_y not in ("up", "down"):
         raise ValueError(f"normal_y must be 'up' or 'down', got {normal_y!r}")
-    if maps_encoding not in ("linear", "srgb"):
-        raise ValueError(f"maps_encoding must be 'linear' or 'srgb', got {maps_encoding!r}")
+    if maps_encoding not in MAPS_ENCODINGS:
+        raise ValueError(f"maps_encoding must be one of {', '.join(MAPS_ENCODINGS)}, got {maps_encoding!r}")
 
 
 def _size(path: Path) -> Tuple[int, int]:
@@ -168,10 +171,14 @@ def _read_panels(path: PathLike, fmt: str, normal_y: str, maps_encoding: str) ->
     normal = decode_normal(panel["normal"])
     if normal_y == "down":
         normal = normal_dx_to_gl(normal)
-    colour = srgb_to_linear if maps_encoding == "srgb" else np.asarray
+    diffuse, specular = panel["diffuse"], panel["specular"]
+    if maps_encoding in ("srgb", "srgb-diffuse"):
+        diffuse = srgb_to_linear(diffuse)
+    if maps_encoding == "srgb":
+        specular = srgb_to_linear(specular)
     maps = Maps(
-        diffuse=colour(panel["diffuse"]),
-        specular=np.mean(colour(panel["specular"]), axis=-1, keepdims=True),
+        diffuse=diffuse,
+        specular=np.mean(specular, axis=-1, keepdims=True),
         roughness=np.clip(np.mean(panel["roughness"], axis=-1, keepdims=True), 0.0, 1.0),
         normal=normal,
         meta={"source": str(path), "format": fmt, "normal_y": normal_y, "maps_encoding": maps_encoding},

@@ -52,12 +52,19 @@ def _first_line(exc: BaseException) -> str:
     return lines[0][:200] if lines else type(exc).__name__
 
 
+def _cpu_count() -> int:
+    """Cores this process may run on (the affinity mask, as the trainer counts them)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 class PreviewSession:
     """An onnxruntime session on an exported generator, with what its manifest says about it.
 
     Args:
         info: the located model (:func:`svbrdf.runtime.models.find_model`).
-        threads: intra-op threads (default: ``os.cpu_count()``).
+        threads: intra-op threads (default: every core this process may run on).
 
     Attributes:
         info: :class:`~svbrdf.runtime.models.ModelInfo` (path, sha256, manifest, note).
@@ -75,7 +82,7 @@ class PreviewSession:
         import onnxruntime as ort
 
         self.info = info
-        self.threads = int(threads or os.cpu_count() or 1)
+        self.threads = int(threads or _cpu_count())
         so = ort.SessionOptions()
         so.enable_cpu_mem_arena = False
         so.intra_op_num_threads = self.threads

@@ -47,7 +47,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     common = argparse.ArgumentParser(add_help=False)
     g = common.add_argument_group("training")
-    g.add_argument("--preset", choices=sorted(TRAIN_PRESETS), default="paper",
+    g.add_argument("--preset", choices=sorted(TRAIN_PRESETS),
                    help="starting set of settings (see below; default paper)")
     g.add_argument("--iters", type=int, help="iterations of this stage (with --quality auto: the maximum)")
     g.add_argument("--tile", type=int, help="training tile size in pixels")
@@ -213,9 +213,13 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         trainer = Trainer(photo, config, stage=args.stage, iters=iters, **kw)
         trainer.load_resume(ckpt, ckpt_path)
         log(f"resuming {ckpt_path} at iteration {trainer.step}/{trainer.iters} (settings from the checkpoint)")
+        ignored = [k for k, v in _overrides(args, config).items() if v is not None and k != f"iters_{args.stage}"]
+        if ignored or args.preset is not None:
+            log("note: training settings given with --resume are ignored (they come from the checkpoint)")
     else:
+        preset = args.preset or "paper"
         try:
-            config = resolve(args.preset, **_overrides(args, TRAIN_PRESETS[args.preset]))
+            config = resolve(preset, **_overrides(args, TRAIN_PRESETS[preset]))
         except ValueError as e:
             parser.error(str(e))
         init = None

@@ -169,6 +169,7 @@ def test_select_cases():
     assert [c.name for c in bc.select_cases(cs, None)] == ["a/x1", "a/x2", "b/y1"]
     assert [c.name for c in bc.select_cases(cs, "2")] == ["a/x1", "a/x2"]
     assert [c.name for c in bc.select_cases(cs, "b/*")] == ["b/y1"]
+    assert [c.name for c in bc.select_cases(cs, "b/y1, x1.png")] == ["a/x1", "b/y1"]  # case or file name
     with pytest.raises(SvbrdfError):
         bc.select_cases(cs, "zzz*")
 

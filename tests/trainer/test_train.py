@@ -16,6 +16,10 @@ from svbrdf.trainer.render import FlashGeometry
 from svbrdf.trainer.train import Trainer, finetune, predict_full, pretrain
 
 
+# Every run uses threads=1: with toy models thread synchronisation dominates, and one thread stays fast on a
+# busy machine (two spinning OpenMP threads on two shared cores can be 20x slower).
+
+
 def synthetic_scene(size=64, seed=3):
     """A photo rendered from smooth random diffuse, constant specular/roughness and flat normals."""
     g = torch.Generator().manual_seed(seed)
@@ -82,7 +86,7 @@ def test_resolve_overrides_and_errors():
 # ------------------------------------------------------------------ learning
 def test_tiny_run_losses_finite_and_decreasing():
     photo = random_photo()
-    trainer = Trainer(photo, resolve("tiny", iters_fit=30, eval_every=5))
+    trainer = Trainer(photo, resolve("tiny", iters_fit=30, eval_every=5), threads=1)
     history = trainer.run()
     assert len(history) == 30 and trainer.step == 30
     for rec in history:
@@ -96,20 +100,20 @@ def test_tiny_run_losses_finite_and_decreasing():
 @pytest.mark.slow
 def test_tiny_run_learns_synthetic_scene():
     photo, maps = synthetic_scene()
-    trainer = Trainer(photo, resolve("tiny", iters_fit=200, eval_every=10))
+    trainer = Trainer(photo, resolve("tiny", iters_fit=200, eval_every=10), threads=1)
     first = trainer.evaluate()["eval/render_l1"]
     history = trainer.run()
     assert window_mean(history, "ds/diffuse", 180, 200) < 0.75 * window_mean(history, "ds/diffuse", 0, 20)
     assert history[-1]["eval/render_l1"] < 0.75 * first
     pred = trainer.predict()
     rerender = (trainer.geometry.render(pred) - photo).abs().mean()
-    untrained = Trainer(photo, resolve("tiny"))
+    untrained = Trainer(photo, resolve("tiny"), threads=1)
     assert rerender < 0.75 * (untrained.geometry.render(untrained.predict()) - photo).abs().mean()
 
 
 def test_seeded_runs_are_deterministic():
     photo = random_photo()
-    runs = [Trainer(photo, resolve("tiny", iters_fit=3, seed=s)) for s in (5, 5, 6)]
+    runs = [Trainer(photo, resolve("tiny", iters_fit=3, seed=s), threads=1) for s in (5, 5, 6)]
     for t in runs:
         t.run()
     assert torch.equal(params(runs[0].generator), params(runs[1].generator))
@@ -119,11 +123,11 @@ def test_seeded_runs_are_deterministic():
 
 def test_encoder_frozen_unless_trained():
     photo = random_photo()
-    frozen = Trainer(photo, resolve("tiny", iters_fit=2))
+    frozen = Trainer(photo, resolve("tiny", iters_fit=2), threads=1)
     before = params(frozen.generator.encoder)
     frozen.run()
     assert torch.equal(before, params(frozen.generator.encoder))
-    trained = Trainer(photo, resolve("tiny", iters_fit=2, train_encoder=True))
+    trained = Trainer(photo, resolve("tiny", iters_fit=2, train_encoder=True), threads=1)
     before = params(trained.generator.encoder)
     trained.run()
     assert not torch.equal(before, params(trained.generator.encoder))
@@ -132,7 +136,7 @@ def test_encoder_frozen_unless_trained():
 @pytest.mark.parametrize("value", [0.0, 1.0])
 def test_black_and_white_photos_stay_finite(value):
     photo = torch.full((1, 3, 32, 40), value)
-    trainer = Trainer(photo, resolve("tiny", iters_fit=4, eval_every=2))
+    trainer = Trainer(photo, resolve("tiny", iters_fit=4, eval_every=2), threads=1)
     history = trainer.run()
     assert trainer.counters["nonfinite_skips"] == 0
     for rec in history:  # None marks a non-finite value; the first evaluation has no map change yet
@@ -142,18 +146,18 @@ def test_black_and_white_photos_stay_finite(value):
 
 def test_photo_checks():
     with pytest.raises(ImageError, match="at least"):
-        Trainer(torch.rand(1, 3, 12, 64), resolve("tiny"))
+        Trainer(torch.rand(1, 3, 12, 64), resolve("tiny"), threads=1)
     with pytest.raises(ImageError, match="NaN"):
-        Trainer(torch.full((1, 3, 32, 32), float("nan")), resolve("tiny"))
+        Trainer(torch.full((1, 3, 32, 32), float("nan")), resolve("tiny"), threads=1)
     with pytest.raises(ImageError, match=r"\(1, 3, H, W\)"):
-        Trainer(torch.rand(3, 32, 32), resolve("tiny"))
-    small = Trainer(torch.rand(1, 3, 24, 40), resolve("tiny"))
+        Trainer(torch.rand(3, 32, 32), resolve("tiny"), threads=1)
+    small = Trainer(torch.rand(1, 3, 24, 40), resolve("tiny"), threads=1)
     assert small.tile == 24 and any("clipped" in n for n in small.notes)
 
 
 # ------------------------------------------------------------------ numerical guard
 def test_nonfinite_loss_skips_the_step(monkeypatch):
-    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=1))
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=1), threads=1)
     real = train_mod.fourier_loss
     calls = []
 
@@ -172,7 +176,7 @@ def test_nonfinite_loss_skips_the_step(monkeypatch):
 
 
 def test_nonfinite_gradient_skips_the_step(monkeypatch):
-    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=1))
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=1), threads=1)
     real = train_mod.gan_discriminator_loss
 
     def infinite_grad(real_logits, fake_logits):
@@ -188,7 +192,7 @@ def test_nonfinite_gradient_skips_the_step(monkeypatch):
 
 
 def test_repeated_nonfinite_steps_roll_back(monkeypatch):
-    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, guard_rollback_after=3))
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, guard_rollback_after=3), threads=1)
     trainer.iteration()
     trainer._take_snapshot()
     good_g, good_d = params(trainer.generator), params(trainer.discriminator)
@@ -204,7 +208,7 @@ def test_repeated_nonfinite_steps_roll_back(monkeypatch):
 # ------------------------------------------------------------------ stopping, stages, inference
 def test_plateau_rule():
     trainer = Trainer(random_photo(), resolve("tiny", plateau_window=2, plateau_render_tol=0.01,
-                                              plateau_change_tol=0.01))
+                                              plateau_change_tol=0.01), threads=1)
     flat = [{"eval/render_l1": 0.1, "eval/map_change": c} for c in (None, 0.001, 0.001)]
     trainer.history = flat
     assert trainer.plateaued()
@@ -219,7 +223,7 @@ def test_plateau_rule():
 def test_quality_auto_stops_early():
     cfg = resolve("tiny", iters_fit=100, eval_every=2, plateau_window=2, quality="auto",
                   plateau_render_tol=10.0, plateau_change_tol=10.0)
-    trainer = Trainer(random_photo(), cfg)
+    trainer = Trainer(random_photo(), cfg, threads=1)
     trainer.run()
     assert trainer.stopped_early and trainer.step == 6  # evaluations at 2, 4, 6: window of 2 after the first
 
@@ -227,23 +231,24 @@ def test_quality_auto_stops_early():
 def test_finetune_starts_from_the_pretrained_state(tmp_path):
     photo_a, photo_b = random_photo(seed=1), random_photo(seed=2)
     ckpt = tmp_path / "pre.pt"
-    pre = pretrain(photo_a, resolve("tiny", iters_pretrain=3), checkpoint_path=ckpt)
-    start = Trainer(photo_b, resolve("tiny", seed=99), stage="finetune")
+    pre = pretrain(photo_a, resolve("tiny", iters_pretrain=3), checkpoint_path=ckpt, threads=1)
+    start = Trainer(photo_b, resolve("tiny", seed=99), stage="finetune", threads=1)
     start.load_init(torch.load(ckpt, weights_only=True), ckpt)
     assert torch.equal(params(start.generator), params(pre.generator))
     assert start.optimizers["nr"].state_dict()["state"][0]["step"] == 3
-    tuned = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=2, lr=5e-4))
+    tuned = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=2, lr=5e-4), threads=1)
     assert tuned.step == 2 and tuned.init["step"] == 3 and tuned.init["path"] == str(ckpt)
     assert tuned.optimizers["nr"].param_groups[0]["lr"] == 5e-4
     assert tuned.optimizers["nr"].state_dict()["state"][0]["step"] == 5
-    reset = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=1, reset_optimizers=True))
+    reset = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=1, reset_optimizers=True), threads=1)
     assert reset.optimizers["nr"].state_dict()["state"][0]["step"] == 1
 
 
 def test_finetune_takes_the_architecture_of_the_checkpoint(tmp_path):
     ckpt = tmp_path / "pre.pt"
-    pretrain(random_photo(), resolve("tiny", iters_pretrain=1), checkpoint_path=ckpt)
-    tuned = finetune(random_photo(seed=4), ckpt, resolve("fast", tile=32, iters_finetune=1, lambda_perceptual=0))
+    pretrain(random_photo(), resolve("tiny", iters_pretrain=1), checkpoint_path=ckpt, threads=1)
+    cfg = resolve("fast", tile=32, iters_finetune=1, lambda_perceptual=0)
+    tuned = finetune(random_photo(seed=4), ckpt, cfg, threads=1)
     assert tuned.config.generator == resolve("tiny").generator
     assert any("architecture" in n for n in tuned.notes)
 
@@ -265,7 +270,7 @@ def test_predict_full_tiles_blend_seamlessly():
 
 
 def test_predict_full_real_generator_tiles():
-    trainer = Trainer(random_photo(40, 72), resolve("tiny", predict_max_side=32, predict_overlap=8))
+    trainer = Trainer(random_photo(40, 72), resolve("tiny", predict_max_side=32, predict_overlap=8), threads=1)
     out = trainer.predict()
     assert out.shape == (1, 8, 40, 72) and torch.isfinite(out).all()
     assert torch.allclose(out[:, SLICES["normal"]].norm(dim=1), torch.ones(1, 40, 72), atol=1e-5)
@@ -274,7 +279,7 @@ def test_predict_full_real_generator_tiles():
 
 
 def test_bf16_switch_runs_or_falls_back():
-    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, bf16=True))
+    trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, bf16=True), threads=1)
     supported, _ = train_mod.bf16_support(trainer.device)
     assert trainer.bf16 == supported and (supported or any("bf16" in n for n in trainer.notes))
     history = trainer.run()
@@ -283,7 +288,7 @@ def test_bf16_switch_runs_or_falls_back():
 
 def test_log_file_has_one_json_line_per_iteration(tmp_path):
     log = tmp_path / "log.jsonl"
-    Trainer(random_photo(), resolve("tiny", iters_fit=3), log_path=log).run()
+    Trainer(random_photo(), resolve("tiny", iters_fit=3), log_path=log, threads=1).run()
     lines = [json.loads(line) for line in log.read_text().splitlines()]
     assert [l.get("event") for l in (lines[0], lines[-1])] == ["start", "stop"]
     assert [l["step"] for l in lines[1:-1]] == [1, 2, 3]

@@ -205,7 +205,8 @@ def simulate_photo(maps: Maps, *, renderer: str = "ours", config: RenderConfig =
 
 
 def select_cases(cases: List[Case], spec: Optional[str]) -> List[Case]:
-    """Pick cases: ``None`` = all, a number N = the first N, anything else = a glob on the case name.
+    """Pick cases: ``None`` = all, a number N = the first N, else comma-separated globs matched against the case
+    name or the file name (cases kept in their sorted order).
 
     Raises:
         SvbrdfError: no case at all, or the selection is empty.
@@ -217,7 +218,9 @@ def select_cases(cases: List[Case], spec: Optional[str]) -> List[Case]:
     elif spec.isdigit():
         picked = cases[: int(spec)]
     else:
-        picked = [c for c in cases if fnmatch.fnmatchcase(c.name, spec) or fnmatch.fnmatchcase(c.path.name, spec)]
+        globs = [g.strip() for g in spec.split(",") if g.strip()]
+        picked = [c for c in cases if any(fnmatch.fnmatchcase(c.name, g) or fnmatch.fnmatchcase(c.path.name, g)
+                                          for g in globs)]
     if not picked:
         raise SvbrdfError(f"--cases {spec!r} selects no case (found {len(cases)})")
     return picked

@@ -300,7 +300,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--presets", type=_names, default=None,
                    help=f"training presets (default: {','.join(DEFAULT_PRESETS)}; --quick: tiny)")
     p.add_argument("--size", type=int, default=None, help="case side in pixels (default 256; --quick: 64)")
-    p.add_argument("--cases", default=None, help="first N cases, or a glob on the case name")
+    p.add_argument("--cases", default=None, help="first N cases, or comma-separated globs on the case or file name")
     p.add_argument("--iters", type=_int_list, default=None,
                    help=f"evaluated iteration counts of one training run (default {','.join(map(str, DEFAULT_ITERS))})")
     p.add_argument("--time-budget", type=float, default=None, help="training seconds per run (default: none)")

@@ -1,8 +1,8 @@
 """Evidence for the ground-truth conventions: fit the Des18 input panels with the project renderer.
 
 Each Des18 test file holds a rendered flash photo (the input panel) next to the maps it was rendered from. For
-every file and each of four ways to read the maps (normal +y up / down x diffuse and specular panels linear /
-sRGB-encoded), this fits the scene the renderer cannot know (camera and light positions, camera distance,
+every file and each of five ways to read the maps (normal +y up / down x diffuse and specular panels linear /
+sRGB-encoded, plus +y up with only the diffuse panel sRGB-encoded), this fits the scene the renderer cannot know (camera and light positions, camera distance,
 exposure, strength of the distance fall-off) by Adam, in the Deschaintre convention (diffuse x (1 - rho_s),
 45 deg field of view to start from), and reports the sRGB RMSE between the fitted rendering and the input panel.
 The reading that the renderer reproduces best is the file's convention.
@@ -20,7 +20,7 @@ Usage::
     python -m svbrdf.trainer.tools.fit_des18 [--data ../shared/data] [--size 144] [--steps 300]
 
 Prints Markdown tables (per-file RMSE, wins and mean per variant; curl ratios). About 1 s per fit at 144 px on
-one CPU core (80 fits).
+one CPU core (100 fits).
 """
 
 from __future__ import annotations
@@ -45,7 +45,8 @@ from svbrdf.trainer.render import render_maps
 DEFAULT_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 DES18_DIR = Path("weiyi-auxrender") / "test_data" / "Des18" / "gt-material"
 #: (normal_y, maps_encoding) of each variant, in table order.
-VARIANTS: Tuple[Tuple[str, str], ...] = (("up", "linear"), ("up", "srgb"), ("down", "linear"), ("down", "srgb"))
+VARIANTS: Tuple[Tuple[str, str], ...] = (
+    ("up", "linear"), ("up", "srgb"), ("down", "linear"), ("down", "srgb"), ("up", "srgb-diffuse"))
 
 
 def _variant_name(v: Tuple[str, str]) -> str:
