@@ -15,11 +15,15 @@ Decoding (the evidence is in ``docs/conventions.md``; the defaults follow it):
 * normals are stored as ``(n + 1) / 2``; they are decoded to unit vectors and converted to the project's
   OpenGL frame (:mod:`svbrdf.runtime.maps`). ``normal_y="up"`` means the file already stores +y up the image
   (green up, OpenGL); ``"down"`` flips y (DirectX files).
-* diffuse and specular panels are used as stored (``maps_encoding="linear"``, what the authors' renderers do;
-  dielectric specular sits at 10/255 ~ 0.04, a linear F0) or decoded with the sRGB curve (``"srgb"``).
+* ``maps_encoding`` says how the diffuse and specular panels are stored: ``"srgb-diffuse"`` (default: the
+  diffuse panel is sRGB-encoded and decoded on read, the specular panel is linear; the usual texture
+  convention, and the reading under which the project renderer reproduces the Des18 input panels best;
+  dielectric specular sits at 10/255 ~ 0.04, a linear F0), ``"linear"`` (both used as stored, what the
+  Deschaintre et al. code does) or ``"srgb"`` (both decoded).
 * roughness and specular panels are stored as RGB; the reader takes the **mean of the three channels**
   (they are grey in Des18/Des19; the Xuejiao specular panel is tinted and the project's specular is grey).
-  Roughness is kept in [0, 1]; roughness 0 (two Des19 files) is valid, the renderer clamps alpha = r^2.
+  Albedos and roughness are kept in [0, 1]; roughness 0 (two Des19 files) is valid, the renderer clamps
+  alpha = r^2.
 * the Des18 input panel is a gamma-encoded rendering; it is returned decoded to linear with the project's sRGB
   curve (:func:`svbrdf.runtime.colour.srgb_to_linear`).
 
@@ -75,6 +79,9 @@ IMAGE_EXTENSIONS = frozenset(
 )
 
 _NORMAL_LIKE_FRACTION = 0.9
+#: Reader defaults, chosen from the evidence in docs/conventions.md (Des18 fits, normal integrability).
+DEFAULT_NORMAL_Y = "up"
+DEFAULT_MAPS_ENCODING = "srgb-diffuse"
 
 
 @dataclass(frozen=True)
@@ -112,6 +119,12 @@ def _fits(fmt: str, height: int, width: int) -> bool:
     return fmt == "photo" or width == len(LAYOUTS[fmt]) * height
 
 
+def _size_error(path: Path, fmt: str, height: int, width: int) -> ImageError:
+    k = len(LAYOUTS[fmt])
+    return ImageError(f"{path}: {width}x{height} does not fit the {fmt} layout "
+                      f"({k} square panels, width = {k} x height)")
+
+
 def _is_normal_panel(panel: np.ndarray) -> bool:
     n = panel.astype(np.float32) * 2.0 - 1.0
     length = np.sqrt(np.sum(n * n, axis=-1))
@@ -143,8 +156,7 @@ def detect_format(path: PathLike, format: Optional[str] = None) -> str:
     h, w = _size(path)
     if format is not None:
         if not _fits(format, h, w):
-            k = len(LAYOUTS[format])
-            raise ImageError(f"{path}: {w}x{h} does not fit the {format} layout ({k} square panels, width = {k} x height)")
+            raise _size_error(path, format, h, w)
         return format
     if w == 5 * h:
         return "des18"
@@ -164,8 +176,7 @@ def _read_panels(path: PathLike, fmt: str, normal_y: str, maps_encoding: str) ->
     h, w = raw.shape[:2]
     names = LAYOUTS[fmt]
     if not _fits(fmt, h, w):
-        raise ImageError(f"{path}: {w}x{h} does not fit the {fmt} layout "
-                         f"({len(names)} square panels, width = {len(names)} x height)")
+        raise _size_error(path, fmt, h, w)
     panel = {name: raw[:, i * h:(i + 1) * h] for i, name in enumerate(names)}
 
     normal = decode_normal(panel["normal"])
@@ -176,9 +187,10 @@ def _read_panels(path: PathLike, fmt: str, normal_y: str, maps_encoding: str) ->
         diffuse = srgb_to_linear(diffuse)
     if maps_encoding == "srgb":
         specular = srgb_to_linear(specular)
+    # Integer files are in [0, 1] already; a float (EXR) panel set may not be.
     maps = Maps(
-        diffuse=diffuse,
-        specular=np.mean(specular, axis=-1, keepdims=True),
+        diffuse=np.clip(diffuse, 0.0, 1.0),
+        specular=np.clip(np.mean(specular, axis=-1, keepdims=True), 0.0, 1.0),
         roughness=np.clip(np.mean(panel["roughness"], axis=-1, keepdims=True), 0.0, 1.0),
         normal=normal,
         meta={"source": str(path), "format": fmt, "normal_y": normal_y, "maps_encoding": maps_encoding},
@@ -187,13 +199,16 @@ def _read_panels(path: PathLike, fmt: str, normal_y: str, maps_encoding: str) ->
     return maps, photo
 
 
-def read_des18(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "linear") -> Tuple[Maps, np.ndarray]:
+def read_des18(
+    path: PathLike, *, normal_y: str = DEFAULT_NORMAL_Y, maps_encoding: str = DEFAULT_MAPS_ENCODING
+) -> Tuple[Maps, np.ndarray]:
     """Read a Deschaintre 2018 test file (5 panels: input, normal, diffuse, roughness, specular).
 
     Args:
         path: the (5H x H) image.
         normal_y: ``"up"`` (the file stores +y up, OpenGL) or ``"down"`` (DirectX; y is flipped on read).
-        maps_encoding: diffuse/specular panels are ``"linear"`` (used as stored) or ``"srgb"`` (decoded).
+        maps_encoding: how the diffuse/specular panels are stored: ``"srgb-diffuse"`` (diffuse sRGB-encoded,
+            specular linear), ``"linear"`` (both used as stored) or ``"srgb"`` (both sRGB-encoded).
 
     Returns:
         ``(maps, photo)``: :class:`~svbrdf.runtime.maps.Maps` of (H, H) maps, and the input panel as an
@@ -205,7 +220,9 @@ def read_des18(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "li
     return _read_panels(path, "des18", normal_y, maps_encoding)
 
 
-def read_des19(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "linear") -> Maps:
+def read_des19(
+    path: PathLike, *, normal_y: str = DEFAULT_NORMAL_Y, maps_encoding: str = DEFAULT_MAPS_ENCODING
+) -> Maps:
     """Read a Deschaintre 2019 map set (4 panels: normal, diffuse, roughness, specular).
 
     Same options and errors as :func:`read_des18` (width must be 4 x height); returns the maps only.
@@ -213,7 +230,9 @@ def read_des19(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "li
     return _read_panels(path, "des19", normal_y, maps_encoding)[0]
 
 
-def read_xuejiao(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "linear") -> Maps:
+def read_xuejiao(
+    path: PathLike, *, normal_y: str = DEFAULT_NORMAL_Y, maps_encoding: str = DEFAULT_MAPS_ENCODING
+) -> Maps:
     """Read a Xuejiao et al. map set (4 panels: diffuse, specular, roughness, normal).
 
     Same options and errors as :func:`read_des18` (width must be 4 x height); returns the maps only.
@@ -222,7 +241,11 @@ def read_xuejiao(path: PathLike, *, normal_y: str = "up", maps_encoding: str = "
 
 
 def read_gt(
-    path: PathLike, format: Optional[str] = None, *, normal_y: str = "up", maps_encoding: str = "linear"
+    path: PathLike,
+    format: Optional[str] = None,
+    *,
+    normal_y: str = DEFAULT_NORMAL_Y,
+    maps_encoding: str = DEFAULT_MAPS_ENCODING,
 ) -> Tuple[Maps, Optional[np.ndarray]]:
     """Read any ground-truth panel set; the format is detected unless given.
 
@@ -298,5 +321,6 @@ def find_cases(root: PathLike, format: Optional[str] = None) -> List[Case]:
     return sorted(cases, key=lambda c: c.name)
 
 
-__all__ = ["Case", "FORMATS", "LAYOUTS", "IMAGE_EXTENSIONS", "detect_format", "find_cases", "read_des18",
+__all__ = ["Case", "FORMATS", "LAYOUTS", "MAPS_ENCODINGS", "DEFAULT_NORMAL_Y", "DEFAULT_MAPS_ENCODING",
+           "IMAGE_EXTENSIONS", "detect_format", "find_cases", "read_des18",
            "read_des19", "read_xuejiao", "read_gt", "normal_curl_ratio"]

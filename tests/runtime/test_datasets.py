@@ -67,7 +67,8 @@ def test_readers_decode_every_panel(tmp_path, panels, fmt):
     maps, photo = out if fmt == "des18" else (out, None)
     assert maps.shape == (S, S)
     np.testing.assert_allclose(maps.normal, normal, atol=1e-3)
-    np.testing.assert_allclose(maps.diffuse, _quantised(stored["diffuse"]), atol=2e-5)  # linear: as stored
+    # Default encoding "srgb-diffuse": diffuse decoded, specular and roughness as stored.
+    np.testing.assert_allclose(maps.diffuse, _srgb_decode(_quantised(stored["diffuse"])), atol=1e-4)
     np.testing.assert_allclose(maps.roughness[..., 0], _quantised(stored["roughness"]).mean(-1), atol=2e-5)
     np.testing.assert_allclose(maps.specular[..., 0], _quantised(stored["specular"]).mean(-1), atol=2e-5)
     assert maps.meta["format"] == fmt and maps.meta["source"] == str(path)
@@ -79,16 +80,18 @@ def test_readers_decode_every_panel(tmp_path, panels, fmt):
     assert (gt_photo is None) == (fmt != "des18")
 
 
-def test_normal_y_down_flips_y_and_srgb_maps_are_decoded(tmp_path, panels):
+@pytest.mark.parametrize("encoding", ["linear", "srgb"])
+def test_normal_y_down_and_maps_encodings(tmp_path, panels, encoding):
     stored, normal = panels
     path = _write(tmp_path / "set.png", stored, ORDERS["des19"])
-    maps = read_des19(path, normal_y="down", maps_encoding="srgb")
+    maps = read_des19(path, normal_y="down", maps_encoding=encoding)
     np.testing.assert_allclose(maps.normal, normal * [1, -1, 1], atol=1e-3)
-    np.testing.assert_allclose(maps.diffuse, _srgb_decode(_quantised(stored["diffuse"])), atol=1e-4)
-    # Specular: decoded per channel, then averaged. Roughness is data: never decoded.
-    np.testing.assert_allclose(maps.specular[..., 0], _srgb_decode(_quantised(stored["specular"])).mean(-1),
-                               atol=1e-4)
+    decode = _srgb_decode if encoding == "srgb" else (lambda a: a)
+    np.testing.assert_allclose(maps.diffuse, decode(_quantised(stored["diffuse"])), atol=1e-4)
+    # Specular: decoded per channel (if at all), then averaged. Roughness is data: never decoded.
+    np.testing.assert_allclose(maps.specular[..., 0], decode(_quantised(stored["specular"])).mean(-1), atol=1e-4)
     np.testing.assert_allclose(maps.roughness[..., 0], _quantised(stored["roughness"]).mean(-1), atol=2e-5)
+    assert maps.meta["maps_encoding"] == encoding and maps.meta["normal_y"] == "down"
 
 
 def test_bad_options(tmp_path, panels):

@@ -59,7 +59,7 @@ def test_lambertian_plane_closed_form(falloff, fov):
     expected = rho / math.pi * intensity * cos_theta[..., None]
     if falloff:
         expected = expected * (d * d / r2)[..., None]  # normalised so the centre of the photo is unchanged
-    np.testing.assert_allclose(img, expected, rtol=2e-5, atol=1e-7)
+    np.testing.assert_allclose(img, expected, rtol=1e-6)
 
 
 def test_diffuse_conservation_scales_diffuse_by_one_minus_specular():

@@ -33,7 +33,6 @@ ratio would blow up).
 Run with ``-s`` to see the measured differences.
 """
 
-import math
 from pathlib import Path
 
 import numpy as np

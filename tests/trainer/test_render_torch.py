@@ -54,8 +54,8 @@ def test_torch_matches_numpy_float32(config, light_pos):
     ref = render(maps, light_pos, config)
     geo = FlashGeometry(16, 24, config, light_pos=light_pos)
     out = geo.render(_packed(maps))[0].permute(1, 2, 0).numpy()
-    # float32 rounding differs between the numpy and torch kernels: 1e-5 of the image's peak, and a few
-    # ulps-level relative errors on the sharpest highlights.
+    # float32 rounding differs between the numpy and torch kernels (measured: <= 1.4e-5 of the image's peak,
+    # <= 4e-5 relative on single pixels of the sharpest highlights); the float64 test above checks the formula.
     tol = dict(rtol=1e-4, atol=1e-5 * float(np.abs(ref).max()))
     np.testing.assert_allclose(out, ref, **tol)
     # A tile rendered with the cropped geometry equals the crop of the whole render.

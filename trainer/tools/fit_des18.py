@@ -2,15 +2,18 @@
 
 Each Des18 test file holds a rendered flash photo (the input panel) next to the maps it was rendered from. For
 every file and each of five ways to read the maps (normal +y up / down x diffuse and specular panels linear /
-sRGB-encoded, plus +y up with only the diffuse panel sRGB-encoded), this fits the scene the renderer cannot know (camera and light positions, camera distance,
-exposure, strength of the distance fall-off) by Adam, in the Deschaintre convention (diffuse x (1 - rho_s),
-45 deg field of view to start from), and reports the sRGB RMSE between the fitted rendering and the input panel.
+sRGB-encoded, plus +y up with only the diffuse panel sRGB-encoded), this fits the scene the renderer cannot
+know (camera and light positions, camera distance, exposure, strength of the distance fall-off) by Adam, in the
+Deschaintre convention (diffuse x (1 - rho_s), 45 deg field of view to start from), and reports the sRGB RMSE
+between the fitted rendering and the input panel.
 The reading that the renderer reproduces best is the file's convention.
 
 Scene parameters (scene units: the photo spans x in [-1, 1]; the maps stay texel-aligned with the photo):
 camera at (cx, cy, d), light at (lx, ly, d) (a phone flash sits in the camera plane), exposure e, and fall-off
-exponent g in [0, 6]: radiance = e * render(falloff off) * (d^2 / |light - p|^2)^g. Start: camera and light
-above the brightest point of the (blurred) input panel, d = 1 / tan(22.5 deg), e from the mean ratio, g = 1.
+exponent g in [0, 6]: radiance = e * render(falloff off) * (d^2 / |light - p|^2)^g (g = 1: inverse square;
+a flash cone cos^k on top of it is g = 1 + k/2, since cos = d / |light - p| for a light pointing down).
+Start: camera and light above the brightest point of the (blurred) input panel, d = 1 / tan(22.5 deg),
+e from the mean ratio, g = 1.
 
 A second table gives an independent, fit-free check of the normal convention:
 :func:`svbrdf.runtime.datasets.normal_curl_ratio` of every ground-truth set (Des18, Des19, Xuejiao).
@@ -19,8 +22,8 @@ Usage::
 
     python -m svbrdf.trainer.tools.fit_des18 [--data ../shared/data] [--size 144] [--steps 300]
 
-Prints Markdown tables (per-file RMSE, wins and mean per variant; curl ratios). About 1 s per fit at 144 px on
-one CPU core (100 fits).
+Prints Markdown tables (per-file RMSE, wins and mean per variant; curl ratios). About 2 s of CPU per fit at 144 px
+(one thread; 100 fits).
 """
 
 from __future__ import annotations
@@ -124,9 +127,10 @@ def fit(maps: torch.Tensor, target: torch.Tensor, steps: int, start: Tuple[float
         sched.step()
     with torch.no_grad():
         rmse = math.sqrt(float(loss_fn()))
-    params = {"camera": cam.tolist(), "light": light.tolist(), "distance": float(log_d.detach().exp()),
-              "fov_deg": math.degrees(2 * math.atan(1 / float(log_d.detach().exp()))), "exposure": float(log_e.detach().exp()),
-              "falloff": float(falloff.detach().clamp(0, 6))}
+        d = float(log_d.exp())
+        params = {"camera": cam.tolist(), "light": light.tolist(), "distance": d,
+                  "fov_deg": math.degrees(2 * math.atan(1 / d)), "exposure": float(log_e.exp()),
+                  "falloff": float(falloff.clamp(0, 6))}
     return rmse, params
 
 
