@@ -221,6 +221,7 @@ def estimate(
     Raises:
         ImageError: unreadable photo, bad array, or an image smaller than 8 px (before or after downsizing).
         ModelError: no usable model (when ``session`` is None).
+        SvbrdfError: the model returned NaN/Inf maps (float photos with absurd values, near the float32 limit).
         ValueError: invalid ``max_size``, ``tile`` or ``overlap``.
     """
     if max_size < MIN_SIZE or tile < MIN_SIZE or not 0 <= 2 * overlap <= tile:
@@ -246,6 +247,9 @@ def estimate(
     t = time.perf_counter()
     packed = tiled_apply(session.run, image, tile, overlap)
     timings["infer"] = time.perf_counter() - t
+    if not np.isfinite(packed).all():  # e.g. float photos near the float32 limit overflow inside the graph
+        raise SvbrdfError(f"{name}: the model returned NaN/Inf maps (photo values up to {float(image.max()):.3g}; "
+                          f"expected linear RGB of order 1)")
 
     t = time.perf_counter()
     meta = {

@@ -172,7 +172,7 @@ def test_thin_images_run_in_one_pass_and_in_tiles(session, h, w):
     _assert_valid_maps(whole, (h, w))
     tiled = estimate(photo, session, tile=64, overlap=16)
     _assert_valid_maps(tiled, (h, w))
-    assert tiled.meta["tiles"] == len(range(0, max(h, w) - 64, 48)) + 1 if max(h, w) > 64 else 1
+    assert (tiled.meta["tiles"] > 1) == (max(h, w) > 64)
 
 
 def test_downsizing_below_the_minimum_is_refused(session):
