@@ -101,7 +101,9 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
     planes = []
     for plane in x.reshape(-1, h, w):  # one channel at a time bounds the peak memory for large photos
         mean = blur(plane)
-        std = blur((plane - mean) ** 2).clamp_min(0.0).sqrt()  # FFT round-off can go below 0
+        # The floor (a std of 1e-12, far below eps) absorbs FFT round-off below 0 and keeps the gradient finite
+        # where the local variance is 0 (flat or clipped regions), since d sqrt(v) / dv is infinite at 0.
+        std = blur((plane - mean) ** 2).clamp_min(1e-24).sqrt()
         z = (plane - mean) / (std + eps)
         planes.append((z - z.min()) / (z.max() - z.min() + eps))
     return torch.stack(planes).reshape(x.shape).clamp(0.0, 1.0).to(_f32(photo).dtype)
