@@ -13,6 +13,7 @@ checkpoint is saved after the current iteration; ``--resume`` continues exactly 
 from __future__ import annotations
 
 import argparse
+import shutil
 import signal
 import sys
 import time
@@ -25,15 +26,14 @@ PROG = "svbrdf-train"
 CHECKPOINT = "checkpoint.pt"
 LOG = "train_log.jsonl"
 
-PRESET_HELP = """training presets:
+PRESET_HELP = """training presets (cost: seconds per iteration measured on one thread of a shared AMX CPU core):
   paper  the published setup: paper-size networks, 256 px tiles, per iteration 5 normal/roughness-decoder
          + 1 diffuse/specular-decoder + 1 discriminator updates, Adam 2e-5 (0, 0.9),
-         loss 0.1 GAN + L_d + 0.1 Fourier + 0.2 perceptual; 10k / 3k / 20k iterations
-         (pretrain / finetune / fit). Measured on a 2-core CPU: about 21 s/it fp32, 7.5 s/it --bf16 at
-         256 px, i.e. days for a full run: use a GPU.
-  zhao   paper without the Fourier and perceptual losses (Zhao et al. 2020).
-  fast   quarter-width networks, 128 px tiles, schedule 1:1:1, lr 1e-4: about 0.10 s/it fp32 on a 2-core
-         CPU (3k iterations in ~5 min). A first guess; the benchmark tunes it.
+         loss 0.1 GAN + L_d + 0.1 Fourier + 0.2 perceptual; 10k / 3k / 20k iterations (pretrain / finetune /
+         fit). ~45 s/it fp32, ~15 s/it --bf16 (10 / 4 s/it with --tile 128): a GPU job.
+  zhao   paper without the Fourier and perceptual losses (Zhao et al. 2020): ~31 s/it fp32, ~12 s/it --bf16.
+  fast   quarter-width networks, 128 px tiles, schedule 1:1:1, lr 1e-4 (a first guess, tuned by the
+         benchmark): ~1.6 s/it fp32, ~0.5 s/it --bf16; with --perceptual pyramid 0.35 / 0.16 s/it.
   tiny   toy networks for tests (32 px tiles, 20 iterations).
 """
 
@@ -138,7 +138,8 @@ class _Progress:
             line = f"it {rec['step']}/{trainer.iters} {self.rate:.2f} it/s {losses}"
             if rec.get("skipped"):
                 line += f" skipped={rec['skipped']}"
-            if self.tty:
+            if self.tty:  # one line, cut to the terminal width so that \r can rewrite it
+                line = line[:max(20, shutil.get_terminal_size().columns - 1)]
                 sys.stderr.write("\r\033[K" + line)
                 sys.stderr.flush()
             else:

@@ -89,8 +89,9 @@ class VGG19Features(nn.Module):
             Kaiming-normal weights (zero biases) drawn from a local generator seeded with ``seed``.
         seed: seed of the random weights (the global RNG is not touched).
 
-    Input (B, 3, H, W) linear RGB (any range; clamped to [0, 1]); output: list of the five tapped
-    activations, (B, 64, H, W), (B, 128, H/2, W/2), (B, 256, H/4, W/4), (B, 512, H/8, W/8), (B, 512, H/16, W/16).
+    Input (B, 3, H, W) linear RGB (any range; clamped to [0, 1]), H, W >= 16 (else ValueError); output: list of
+    the five tapped activations, (B, 64, H, W), (B, 128, H/2, W/2), (B, 256, H/4, W/4), (B, 512, H/8, W/8),
+    (B, 512, H/16, W/16).
     """
 
     layer_names: Tuple[str, ...] = tuple(VGG19_TAPS)
@@ -114,6 +115,8 @@ class VGG19Features(nn.Module):
         self._taps = frozenset(VGG19_TAPS.values())
 
     def forward(self, x: torch.Tensor) -> List[torch.Tensor]:
+        if min(x.shape[-2:]) < 16:  # four 2x2 max-pools come before relu5_1
+            raise ValueError(f"VGG-19 features need images of at least 16 x 16 px, got {x.shape[-2]} x {x.shape[-1]}")
         x = (_to_srgb(x) - self.mean) / self.std
         out = []
         for i, layer in enumerate(self.features):

@@ -38,7 +38,8 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.losses import (diffuse_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse)
-from svbrdf.trainer.models import DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig, pack_maps
+from svbrdf.trainer.models import (DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
+                                   pack_maps)
 from svbrdf.trainer.perceptual import PerceptualLoss
 from svbrdf.trainer.render import FlashGeometry
 
@@ -158,7 +159,8 @@ class Trainer:
     """Train G and D on one photo.
 
     Args:
-        photo: (1, 3, H, W) linear RGB photo (values >= 0), H, W >= the discriminator's minimum (16 px).
+        photo: (1, 3, H, W) linear RGB photo (values >= 0), H, W >= :meth:`min_tile` (32 px for the 4-layer
+            PatchGAN).
         config: training settings.
         stage: "pretrain", "finetune" or "fit" (names the run; sets the default iteration count).
         iters: iterations to reach (default: ``config.iters(stage)``).
@@ -198,6 +200,9 @@ class Trainer:
         self.photo = photo.to(self.device, torch.float32)
         h, w = self.photo.shape[-2:]
         self.tile = min(config.tile, h, w)
+        if self.tile < self.min_tile():  # the photo passed the same check, so config.tile is too small
+            raise ValueError(f"tile {config.tile} px is too small: training needs tiles of at least "
+                             f"{self.min_tile()} px")
         if self.tile < config.tile:
             self.notes.append(f"tile {config.tile} px clipped to the photo: {self.tile} px")
 
@@ -247,12 +252,17 @@ class Trainer:
         self._snapshot: Optional[Dict[str, Any]] = None
 
     # ------------------------------------------------------------------ setup helpers
+    def min_tile(self) -> int:
+        """Smallest training tile (and photo side), px: the discriminator's last instance norm sees
+        ``tile // 2**n_layers`` px per side and needs at least 2; VGG-19 needs 16."""
+        return max(16, 2 ** (self.config.discriminator.n_layers + 1))
+
     def _check_photo(self, photo: torch.Tensor, info: Optional[Mapping[str, Any]]) -> torch.Tensor:
         name = (info or {}).get("name", "photo")
         if not isinstance(photo, torch.Tensor) or photo.ndim != 4 or photo.shape[:2] != (1, 3):
             raise ImageError(f"{name}: photo must be a (1, 3, H, W) tensor, got "
                              f"{tuple(photo.shape) if isinstance(photo, torch.Tensor) else type(photo).__name__}")
-        need = max(16, 2 ** self.config.discriminator.n_layers)
+        need = self.min_tile()
         h, w = photo.shape[-2:]
         if min(h, w) < need:
             raise ImageError(f"{name}: photo is {w}x{h} px; training needs at least {need} px per side")

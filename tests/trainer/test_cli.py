@@ -31,7 +31,7 @@ def error_lines(capsys):
 
 def test_fit_writes_checkpoint_log_and_maps(tmp_path, photo, capsys):
     out = tmp_path / "out"
-    assert cli.main(["fit", str(photo), *TINY, "--iters", "3", "--out", str(out)]) == 0
+    assert cli.main(["fit", str(photo), *TINY, "--iters", "3", "--out", str(out), "--maps-every", "2"]) == 0
     err = capsys.readouterr().err
     assert "perceptual loss: pyramid" in err and "done: 3 iterations" in err
     ckpt = torch.load(out / "checkpoint.pt", weights_only=True)
@@ -42,6 +42,7 @@ def test_fit_writes_checkpoint_log_and_maps(tmp_path, photo, capsys):
     stem = photo.stem
     for suffix in ("_basecolor.png", "_normal.png", "_roughness.png", "_specular.png", ".json", "_relit.png"):
         assert (out / f"{stem}{suffix}").is_file(), suffix
+    assert (out / "maps" / "step_000002" / f"{stem}_basecolor.png").is_file()  # --maps-every
     sidecar = json.loads((out / f"{stem}.json").read_text())
     assert sidecar["meta"]["stage"] == "fit" and sidecar["meta"]["step"] == 3
 

@@ -31,6 +31,15 @@ UNIT = st.floats(0.0, 1.0, width=32)
 BIG = float(np.float32(1e30))  # |logit| bound of the GAN-loss stress (exactly a float32)
 
 
+@pytest.fixture(autouse=True, scope="module")
+def one_thread():
+    """Tiny tensors: on a busy 2-core machine two spinning OpenMP threads are up to 100x slower than one."""
+    before = torch.get_num_threads()
+    torch.set_num_threads(1)
+    yield
+    torch.set_num_threads(before)
+
+
 def _tile(kind: str, h: int, w: int, seed: int = 0) -> torch.Tensor:
     """(1, 3, h, w) float32 linear photo tile of the given kind."""
     g = torch.Generator().manual_seed(seed)
@@ -96,6 +105,11 @@ def _assert_finite_grad(*tensors):
     conservation=st.booleans(),
     target=st.sampled_from([0.0, 1.0, 1e4]),
 )
+# A mirror (roughness 0) facing the flash exactly: the centre pixel of an odd-sized photo, where n.h = 1.
+@example(diffuse=np.ones((3, 3, 4), np.float32), specular=np.ones((1, 3, 4), np.float32),
+         roughness=np.zeros((1, 3, 4), np.float32), tilt=np.zeros((3, 4), np.float32),
+         azimuth=np.zeros((3, 4), np.float32), zero_normal=False, photo=(3, 5), where=(0.0, 0.0), intensity=1e4,
+         fov=66.0, light=None, geometry="schlick", fresnel="schlick", falloff=True, conservation=False, target=0.0)
 def test_render_maps_finite_values_and_gradients_over_the_box(diffuse, specular, roughness, tilt, azimuth,
                                                               zero_normal, photo, where, intensity, fov, light,
                                                               geometry, fresnel, falloff, conservation, target):
@@ -321,22 +335,25 @@ def _assert_sane_run(trainer, history, name):
     assert last <= 1.1 * first + 1e-3, (name, first, last)
 
 
-def _train_all(h, w, iters):
+def _train_all(h, w, iters, bf16):
     for name, photo in _extreme_photos(h, w).items():
-        trainer = Trainer(photo, resolve("tiny", iters_fit=iters, eval_every=4, guard_snapshot_every=4), threads=1)
+        config = resolve("tiny", iters_fit=iters, eval_every=4, guard_snapshot_every=4, bf16=bf16)
+        trainer = Trainer(photo, config, threads=1)
         history = trainer.run()
         assert len(history) == iters
         _assert_sane_run(trainer, history, name)
 
 
-def test_training_on_extreme_photos_fast():
-    _train_all(32, 36, iters=8)
+@pytest.mark.parametrize("bf16", [False, True])  # bf16 falls back to float32 on CPUs without it
+def test_training_on_extreme_photos_fast(bf16):
+    _train_all(32, 36, iters=8, bf16=bf16)
 
 
 @pytest.mark.slow
-def test_training_on_extreme_photos_long():
+@pytest.mark.parametrize("bf16", [False, True])
+def test_training_on_extreme_photos_long(bf16):
     """A couple hundred iterations in total (5 photos x 50) at 40 x 48 px."""
-    _train_all(40, 48, iters=50)
+    _train_all(40, 48, iters=50, bf16=bf16)
 
 
 def test_smallest_accepted_photo_and_tile_train():
