@@ -51,8 +51,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="starting set of settings (see below; default paper)")
     g.add_argument("--iters", type=int, help="iterations of this stage (with --quality auto: the maximum)")
     g.add_argument("--tile", type=int, help="training tile size in pixels")
-    g.add_argument("--bf16", action="store_true", default=None,
-                   help="bfloat16 autocast (2-3x faster on CPUs with AMX/AVX512-BF16; falls back to fp32)")
+    g.add_argument("--bf16", action=argparse.BooleanOptionalAction, default=None,
+                   help="bfloat16 autocast (2-3x faster on CPUs with AMX/AVX512-BF16; falls back to fp32 where "
+                        "the CPU lacks it; default: on in the fast preset, off otherwise)")
     g.add_argument("--fourier", choices=("complex", "magnitude", "off"), help="Fourier loss variant or off")
     g.add_argument("--perceptual", choices=("auto", "vgg19", "vgg19-random", "pyramid", "off"),
                    help="perceptual loss backend or off (auto: VGG-19 if weights are found, else random VGG-19)")

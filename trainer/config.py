@@ -185,7 +185,9 @@ def _presets() -> Dict[str, TrainConfig]:
     return {
         "paper": _preset("paper", "paper"),
         "zhao": _preset("zhao", "paper", lambda_fourier=0.0, lambda_perceptual=0.0),
-        "fast": _preset("fast", "fast", tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4),
+        "fast": _preset("fast", "fast", tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4,
+                        perceptual="pyramid", bf16=True, iters_pretrain=6000, iters_finetune=600,
+                        iters_fit=6000, eval_every=50, checkpoint_every=250, maps_every=0),
         "tiny": _preset("tiny", "tiny", tile=32, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-3,
                         perceptual="pyramid", iters_pretrain=20, iters_finetune=10, iters_fit=20,
                         checkpoint_every=10, maps_every=0, eval_every=5, eval_tiles=2, plateau_window=3,
