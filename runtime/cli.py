@@ -35,6 +35,10 @@ Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name
 """
 
 
+# Kept in step with svbrdf.runtime.targets.TARGETS (a test checks); listed here so --help stays import-free.
+_TARGETS = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
+
+
 def _positive(text: str) -> int:
     try:
         value = int(text)
@@ -68,6 +72,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="downsize photos whose long side exceeds N pixels (default: 2048)")
     p.add_argument("--tile", metavar="N", type=_positive, default=1024,
                    help="process larger images in overlapping N x N tiles to bound memory (default: 1024)")
+    p.add_argument("--target", choices=_TARGETS, default="generic",
+                   help="output preset: file names, normal convention, packing and material document "
+                        "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--refine", action="store_true",
                    help="fine-tune the model's training checkpoint on each photo with torch before predicting")
@@ -117,6 +124,7 @@ def _refine(image, session, args, name: str):
 def _process(photo: Path, session, config, args, out_dir: Path) -> str:
     """Estimate (or refine), render and write one texture set; returns the report line."""
     from .session import DEFAULT_OVERLAP, estimate
+    from .targets import write_target
     from .texture_set import relit_panel, write_texture_set
 
     start = time.perf_counter()
@@ -138,13 +146,19 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.meta["render_config"] = config.to_dict()
     relit = relit_panel(maps, config)
-    write_texture_set(maps, out_dir, name, normal="dx" if args.normal == "dx" else "opengl", fmt=args.format,
-                      force=args.force, extra_meta={"tool": f"{PROG} {__version__}"}, relit=relit)
+    extra = {"tool": f"{PROG} {__version__}"}
+    if args.target == "generic":
+        write_texture_set(maps, out_dir, name, normal="dx" if args.normal == "dx" else "opengl", fmt=args.format,
+                          force=args.force, extra_meta=extra, relit=relit)
+    else:
+        write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra, relit=relit)
     h, w = maps.shape
     return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail})"
 
 
 def _run(args) -> int:
+    if args.target != "generic" and (args.normal != "gl" or args.format != "png"):
+        raise SvbrdfError("--normal and --format apply to --target generic only; the other targets fix them")
     if args.refine:
         try:  # before any work: every photo would fail the same way
             import torch  # noqa: F401

@@ -180,3 +180,18 @@ def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
     assert "refined 1 it" in out
     meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
     assert meta["refine"]["iterations"] == 1 and meta["refine"]["checkpoint"] == str(tiny_model.with_suffix(".pt"))
+
+
+def test_target_choices_match_targets_module():
+    from svbrdf.runtime import cli, targets
+
+    assert tuple(cli._TARGETS) == tuple(targets.TARGETS)
+
+
+def test_target_gltf_writes_a_material(photo, tiny_model, tmp_path, capsys):
+    out_dir = tmp_path / "gl"
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--target", "gltf")
+    assert code == 0, err
+    assert list(out_dir.glob("*.gltf")), sorted(p.name for p in out_dir.iterdir())
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "x", "--target", "usd", "--normal", "dx")
+    assert code == 1 and "apply to --target generic only" in err

@@ -148,8 +148,8 @@ def run_benchmark(
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise SvbrdfError(f"unknown method(s) {', '.join(unknown)}; expected some of {', '.join(METHODS)}")
-    if size < 16:
-        raise SvbrdfError(f"--size must be >= 16, got {size}")
+    if size < 32:
+        raise SvbrdfError(f"--size must be >= 32, got {size}")
     if renderer not in RENDERERS:
         raise SvbrdfError(f"--renderer must be one of {', '.join(RENDERERS)}, got {renderer!r}")
     if renderer == "mitsuba" and not mitsuba_available():
