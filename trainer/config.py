@@ -10,6 +10,8 @@ Presets (``resolve(name, **overrides)``):
 * ``"zhao"``: ``"paper"`` without the Fourier and perceptual losses (Zhao et al. 2020's objective).
 * ``"fast"``: the light generator/discriminator, 128 px tiles, schedule 1:1:1, lr 1e-4 (a first guess that
   the benchmark tunes).
+* ``"fast-no-fourier"``, ``"fast-no-perceptual"``, ``"fast-zhao"``: ``"fast"`` with L_F, L_P or both off
+  (ablations).
 * ``"tiny"``: a toy model for tests (32 px tiles, a few iterations, pyramid perceptual loss).
 """
 
@@ -181,13 +183,20 @@ def _preset(name: str, model: str, **kw) -> TrainConfig:
                        discriminator=dataclasses.replace(DISC_PRESETS[model]), **kw)
 
 
+_FAST = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4, perceptual="pyramid", bf16=True,
+             iters_pretrain=6000, iters_finetune=600, iters_fit=6000, eval_every=50, checkpoint_every=250,
+             maps_every=0)
+
+
 def _presets() -> Dict[str, TrainConfig]:
     return {
         "paper": _preset("paper", "paper"),
         "zhao": _preset("zhao", "paper", lambda_fourier=0.0, lambda_perceptual=0.0),
-        "fast": _preset("fast", "fast", tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4,
-                        perceptual="pyramid", bf16=True, iters_pretrain=6000, iters_finetune=600,
-                        iters_fit=6000, eval_every=50, checkpoint_every=250, maps_every=0),
+        "fast": _preset("fast", "fast", **_FAST),
+        # Ablations of the fast preset (the benchmark compares them side by side).
+        "fast-no-fourier": _preset("fast-no-fourier", "fast", **{**_FAST, "lambda_fourier": 0.0}),
+        "fast-no-perceptual": _preset("fast-no-perceptual", "fast", **{**_FAST, "lambda_perceptual": 0.0}),
+        "fast-zhao": _preset("fast-zhao", "fast", **{**_FAST, "lambda_fourier": 0.0, "lambda_perceptual": 0.0}),
         "tiny": _preset("tiny", "tiny", tile=32, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-3,
                         perceptual="pyramid", iters_pretrain=20, iters_finetune=10, iters_fit=20,
                         checkpoint_every=10, maps_every=0, eval_every=5, eval_tiles=2, plateau_window=3,
