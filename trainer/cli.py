@@ -72,6 +72,8 @@ def build_parser() -> argparse.ArgumentParser:
                         "changing (--iters is the maximum)")
     o = common.add_argument_group("output and machine")
     o.add_argument("--out", metavar="DIR", help="output folder (default ./<photo stem>-<stage>)")
+    o.add_argument("--target", choices=("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx"),
+                   default="generic", help="final texture set layout and material document (docs/targets.md)")
     o.add_argument("--resume", action="store_true", help="continue the run saved in --out exactly where it stopped")
     o.add_argument("--force", action="store_true", help="start over in an existing output folder")
     o.add_argument("--checkpoint-every", type=int, metavar="N", help="iterations between checkpoints")
@@ -157,8 +159,10 @@ class _Progress:
             sys.stderr.flush()
 
 
-def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[dict] = None) -> Dict[str, Path]:
-    from svbrdf.runtime.texture_set import relit_panel, write_texture_set
+def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[dict] = None,
+                target: str = "generic") -> Dict[str, Path]:
+    from svbrdf.runtime.targets import write_target
+    from svbrdf.runtime.texture_set import relit_panel
     from svbrdf.trainer.train import to_maps
 
     cfg = trainer.config
@@ -167,7 +171,7 @@ def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[
             "stage": trainer.stage, "step": trainer.step, "preset": cfg.preset,
             "perceptual_backend": trainer.perceptual_backend, **(extra or {})}
     panel = relit_panel(maps, cfg.render_config) if relit else None
-    return write_texture_set(maps, out_dir, name, force=True, extra_meta=meta, relit=panel)
+    return write_target(maps, out_dir, name, target, force=True, extra_meta=meta, relit=panel)
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -279,8 +283,10 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     if c["nonfinite_skips"] or c["rollbacks"]:
         log(f"note: {c['nonfinite_skips']} non-finite steps skipped, {c['rollbacks']} rollbacks")
     paths = _write_maps(trainer, out, photo_path.stem, relit=True,
-                        extra={"checkpoint": CHECKPOINT, "train_seconds": round(seconds, 1)})
-    log(f"done: {trainer.step} iterations in {seconds:.1f} s; maps in {out} ({paths['basecolor'].name}, ...); "
+                        extra={"checkpoint": CHECKPOINT, "train_seconds": round(seconds, 1)}, target=args.target)
+    names = sorted(p.name for p in paths.values())
+    log(f"done: {trainer.step} iterations in {seconds:.1f} s; {args.target} texture set in {out} "
+        f"({names[0]}, ... {len(names)} files); "
         f"checkpoint {ckpt_path}")
     return 0
 

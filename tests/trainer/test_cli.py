@@ -130,3 +130,10 @@ def test_ctrl_c_saves_and_exits_130(tmp_path, photo, monkeypatch, capsys):
     assert "--resume" in err and "interrupted at iteration 2/10" in err
     assert torch.load(out / "checkpoint.pt", weights_only=True)["step"] == 2
     assert signal.getsignal(signal.SIGINT) is signal.default_int_handler  # handler restored
+
+
+def test_target_preset_for_the_final_texture_set(tmp_path, photo, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["fit", str(photo), *TINY, "--iters", "1", "--out", str(out), "--target", "usd"]) == 0
+    assert "usd texture set" in capsys.readouterr().err
+    assert list(out.glob("*.usda")), sorted(p.name for p in out.iterdir())
