@@ -259,6 +259,12 @@ def test_cli_quick_writes_every_output(tmp_path):
     assert "svbrdf-bench --quick" in md and "pareto.png" in md and "preview" in md
     # Outputs exist now: a second run refuses without --force, before doing any work.
     assert main(["--quick", "--data", str(data), "--out", str(out), "--quiet"]) == 2
+    # --report re-derives the outputs from the recorded runs: same records, same summary, the command noted.
+    (out / "summary.json").unlink()
+    assert main(["--report", str(out / "results.json"), "--quiet"]) == 0
+    assert json.loads((out / "summary.json").read_text()) == summary
+    assert "Report re-derived from the recorded runs" in (out / "results.md").read_text()
+    assert json.loads((out / "results.json").read_text())["records"] == doc["records"]
 
 
 def test_time_budget_truncates_without_extrapolating(tmp_path):

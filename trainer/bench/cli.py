@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
+import json
 import datetime as _dt
 import os
 import platform
@@ -317,6 +318,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pipeline check: 2 small cases at 64 px, tiny preset, iterations 0,2,4")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--report", metavar="RESULTS_JSON",
+                   help="rewrite results.md, pareto.png and summary.json of an earlier run from its records "
+                        "(after a change of the report code; nothing is re-run; output beside the JSON or --out)")
     return p
 
 
@@ -346,6 +350,14 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             raise SvbrdfError(f"--time-budget must be > 0, got {args.time_budget}")
         if args.noise < 0:
             raise SvbrdfError(f"--noise must be >= 0, got {args.noise}")
+        if args.report is not None:  # re-derive the report of an earlier run from its records, no re-run
+            doc = json.loads(Path(args.report).read_text())
+            doc["summary"] = report.summarize(doc["records"], doc["settings"]["presets"])
+            doc["report_command"] = shlex.join(["svbrdf-bench"] + argv)
+            written = write_outputs(doc, args.out or Path(args.report).parent, None, force=True)
+            for p in written.values():
+                say(f"wrote {p}")
+            return 0
         quick = args.quick
         data = args.data or default_data()
         if args.data is None and not data.exists():

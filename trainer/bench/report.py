@@ -142,14 +142,20 @@ def _error_key(rows: Sequence[Mapping[str, Any]]) -> Tuple[str, str]:
 
 
 def _curve(rows, kind, metric, method, preset) -> List[Tuple[int, float, float]]:
-    """Complete evaluation points (iterations, mean seconds, mean error) of one run type, by iterations."""
+    """Evaluation points (iterations, mean seconds, mean error) of one run type, by iterations; a time-budget
+    point counts at the largest iteration count its runs reached."""
     out = []
     for r in rows:
-        if (r["kind"], r["method"], r["preset"]) != (kind, method, preset) or r["iterations"] in (BUDGET,):
+        if (r["kind"], r["method"], r["preset"]) != (kind, method, preset):
             continue
         if r.get(metric) is None or r.get("seconds") is None:
             continue
-        it = -1 if r["iterations"] == "-" else int(r["iterations"])
+        if r["iterations"] == BUDGET:  # where the time budget stopped the runs: their last, best-trained point
+            if not r["iterations_stats"]:
+                continue
+            it = r["iterations_stats"]["max"]
+        else:
+            it = -1 if r["iterations"] == "-" else int(r["iterations"])
         out.append((it, r["seconds"]["mean"], r[metric]["mean"]))
     return sorted(out)
 
@@ -294,6 +300,8 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
         "```",
         doc["command"],
         "```",
+        *([f"Report re-derived from the recorded runs by `{doc['report_command']}`.", ""]
+          if doc.get("report_command") else []),
         "",
         f"- date: {doc['date']}",
         f"- machine: {m.get('cpu')} ({m.get('cores')} cores visible), {m.get('platform')}",
