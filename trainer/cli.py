@@ -238,8 +238,17 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if out.exists():  # --force: remove only this tool's files; the texture set is overwritten at the end
             for p in (ckpt_path, last_good_path(ckpt_path), out / LOG):
                 p.unlink(missing_ok=True)
+        created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
-        trainer = Trainer(photo, config, stage=args.stage, **kw)
+        try:
+            trainer = Trainer(photo, config, stage=args.stage, **kw)
+        except BaseException:
+            if created:  # a refused photo or setting leaves no empty folder behind
+                try:
+                    out.rmdir()
+                except OSError:
+                    pass
+            raise
         if init is not None:
             trainer.notes.extend(notes)
             trainer.load_init(init, args.init)

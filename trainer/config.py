@@ -119,13 +119,19 @@ class TrainConfig:
             raise ValueError(f"unknown stage {stage!r}; expected one of {', '.join(STAGES)}")
         return getattr(self, f"iters_{stage}")
 
+    @property
+    def min_tile(self) -> int:
+        """Smallest training tile (and photo side), px: the discriminator's last instance norm sees
+        ``tile // 2**n_layers`` px per side and needs at least 2; VGG-19 needs 16."""
+        return max(16, 2 ** (self.discriminator.n_layers + 1))
+
     def validate(self) -> None:
         """Raise ValueError on an inconsistent setting."""
         def need(ok: bool, msg: str) -> None:
             if not ok:
                 raise ValueError(msg)
 
-        need(self.tile >= 8, f"tile must be >= 8 px, got {self.tile}")
+        need(self.tile >= self.min_tile, f"tile must be >= {self.min_tile} px, got {self.tile}")
         for name in ("nr_updates", "ds_updates", "d_updates", "iters_pretrain", "iters_finetune", "iters_fit",
                      "checkpoint_every", "maps_every", "eval_every"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")

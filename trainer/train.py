@@ -253,9 +253,8 @@ class Trainer:
 
     # ------------------------------------------------------------------ setup helpers
     def min_tile(self) -> int:
-        """Smallest training tile (and photo side), px: the discriminator's last instance norm sees
-        ``tile // 2**n_layers`` px per side and needs at least 2; VGG-19 needs 16."""
-        return max(16, 2 ** (self.config.discriminator.n_layers + 1))
+        """Smallest training tile (and photo side), px (see :attr:`TrainConfig.min_tile`)."""
+        return self.config.min_tile
 
     def _check_photo(self, photo: torch.Tensor, info: Optional[Mapping[str, Any]]) -> torch.Tensor:
         name = (info or {}).get("name", "photo")

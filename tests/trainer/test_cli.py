@@ -63,6 +63,12 @@ def test_bad_photo_is_one_line_error(tmp_path, capsys):
     assert cli.main(["fit", str(tmp_path / "missing.png"), *TINY, "--out", str(tmp_path / "o")]) == 1
     assert len(error_lines(capsys)) == 1
     assert not (tmp_path / "o").exists()
+    small = tmp_path / "small.png"  # readable, but below the 32 px the discriminator needs
+    write_image(small, np.full((24, 24, 3), 0.5, np.float32), bits=8)
+    assert cli.main(["fit", str(small), *TINY, "--out", str(tmp_path / "o")]) == 1
+    lines = error_lines(capsys)
+    assert len(lines) == 1 and "small.png" in lines[0] and "32 px" in lines[0]
+    assert not (tmp_path / "o").exists()  # no empty folder left behind
 
 
 def test_existing_output_needs_force(tmp_path, photo, capsys):
