@@ -35,6 +35,11 @@ Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name
 """
 
 
+# --refine --quality auto skips the fine-tune when the preview's sRGB RMSE under the input flash is already at or
+# below this: the mean that 200 fast fine-tune iterations reach on the 12 Henzler photos
+# (docs/benchmarks/finetune-henzler/results.md: 0.117).
+SKIP_REFINE_RMSE = 0.117
+
 # Kept in step with svbrdf.runtime.targets.TARGETS (a test checks); listed here so --help stays import-free.
 _TARGETS = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
 
@@ -136,9 +141,25 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
         from .imageio import read_image
         from .session import resize_long_side
 
-        maps = _refine(resize_long_side(read_image(photo), args.max_size), session, args, photo.name)
+        image = resize_long_side(read_image(photo), args.max_size)
+        maps, preview_rmse = None, None
+        if args.quality == "auto":  # skip the fine-tune when the instant preview already explains the photo
+            from svbrdf.trainer.bench.metrics import rerender_rmse
+
+            preview = estimate(image, session, max_size=args.max_size, tile=args.tile,
+                               overlap=min(DEFAULT_OVERLAP, args.tile // 4))
+            preview_rmse = rerender_rmse(preview, image, [None], config)
+            if preview_rmse <= SKIP_REFINE_RMSE:
+                maps = preview
+                maps.meta["refine"] = {"skipped": True, "preview_input_rmse": preview_rmse,
+                                       "threshold": SKIP_REFINE_RMSE}
+                detail = f"refine skipped: the preview explains the photo (RMSE {preview_rmse:.3f})"
+        if maps is None:
+            maps = _refine(image, session, args, photo.name)
+            if preview_rmse is not None:
+                maps.meta["refine"]["preview_input_rmse"] = preview_rmse
+            detail = f"refined {maps.meta['refine']['iterations']} it"
         maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256})
-        detail = f"refined {maps.meta['refine']['iterations']} it"
     else:
         overlap = min(DEFAULT_OVERLAP, args.tile // 4)
         maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, overlap=overlap)

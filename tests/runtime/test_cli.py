@@ -195,3 +195,25 @@ def test_target_gltf_writes_a_material(photo, tiny_model, tmp_path, capsys):
     assert list(out_dir.glob("*.gltf")), sorted(p.name for p in out_dir.iterdir())
     code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "x", "--target", "usd", "--normal", "dx")
     assert code == 1 and "apply to --target generic only" in err
+
+
+def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, tiny_model, tmp_path, capsys,
+                                                                         monkeypatch):
+    pytest.importorskip("torch")
+    from svbrdf.runtime import cli
+
+    monkeypatch.setattr(cli, "SKIP_REFINE_RMSE", 10.0)  # any preview passes
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "a", "--refine", "--quality", "auto",
+                          "--threads", "1")
+    assert code == 0, err
+    assert "refine skipped" in out
+    meta = json.loads((tmp_path / "a" / "wood.json").read_text())["meta"]
+    assert meta["refine"]["skipped"] is True and meta["refine"]["preview_input_rmse"] <= 10.0
+
+    monkeypatch.setattr(cli, "SKIP_REFINE_RMSE", 0.0)  # no preview passes: the fine-tune runs
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "b", "--refine", "--quality", "auto",
+                          "--threads", "1")
+    assert code == 0, err
+    assert "refined" in out
+    meta = json.loads((tmp_path / "b" / "wood.json").read_text())["meta"]
+    assert meta["refine"]["preview_input_rmse"] > 0.0 and meta["refine"]["iterations"] >= 1
