@@ -40,7 +40,7 @@ from typing import Any, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .maps import MAP_NAMES, Maps
+from .maps import Maps
 
 ALPHA_MIN = 1e-3
 COS_EPS = 1e-4
@@ -262,5 +262,5 @@ def novel_lights(config: RenderConfig = ZHAO, grid: int = 3, spread: float = 0.6
 
 __all__ = [
     "RenderConfig", "ZHAO", "DESCHAINTRE", "shade", "render", "light_vectors", "plane_positions",
-    "camera_position", "novel_lights", "ALPHA_MIN", "COS_EPS", "MAP_NAMES",
+    "camera_position", "novel_lights", "ALPHA_MIN", "COS_EPS",
 ]

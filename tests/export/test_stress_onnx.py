@@ -52,17 +52,11 @@ def _photo(kind: str, h: int, w: int, seed: int) -> np.ndarray:
     return photo.astype(np.float32)
 
 
-@pytest.fixture(autouse=True, scope="module")
-def one_thread():
-    """Small tensors: on a busy 2-core machine two spinning OpenMP threads are far slower than one."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 @pytest.fixture(scope="module")
-def exported(one_thread, tmp_path_factory):
+def exported(one_torch_thread, tmp_path_factory):
     torch.manual_seed(3)
     generator = Generator(MODEL_PRESETS["tiny"]).eval()
     path = tmp_path_factory.mktemp("stress_onnx") / "stress.onnx"

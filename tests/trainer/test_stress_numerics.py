@@ -31,13 +31,7 @@ UNIT = st.floats(0.0, 1.0, width=32)
 BIG = float(np.float32(1e30))  # |logit| bound of the GAN-loss stress (exactly a float32)
 
 
-@pytest.fixture(autouse=True, scope="module")
-def one_thread():
-    """Tiny tensors: on a busy 2-core machine two spinning OpenMP threads are up to 100x slower than one."""
-    before = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(before)
+pytestmark = pytest.mark.usefixtures("one_torch_thread")
 
 
 def _tile(kind: str, h: int, w: int, seed: int = 0) -> torch.Tensor:
