@@ -191,8 +191,9 @@ def test_aggregate_and_summary_definitions():
     ]
     s = report.summarize(recs, ["paper", "fast"])
     assert s["speedup_vs_paper"] == pytest.approx(100.0 / 20.0)  # fast first reaches 0.2 at 20 s
-    assert s["details"]["two_stage_speedup"]["fast"]["speedup"] == pytest.approx(30.0 / 10.0)
-    assert s["two_stage_speedup"] == pytest.approx(3.0)  # paper has no scratch run: fast is the reference
+    # 0.3 is crossed between fast's points (1 s, 0.5) and (10 s, 0.25): at 1 + 9 * 0.2 / 0.25 = 8.2 s.
+    assert s["details"]["two_stage_speedup"]["fast"]["finetune_seconds"] == pytest.approx(8.2)
+    assert s["two_stage_speedup"] == pytest.approx(30.0 / 8.2)  # paper has no scratch run: fast is the reference
     assert s["preview_time_ratio"] == pytest.approx(0.5 / 100.0)  # against finetune paper, its last point
     assert s["preview_error_ratio"] == pytest.approx(0.4 / 0.2)
     assert s["early_stop_saving"] is None  # no run facts recorded
@@ -202,6 +203,29 @@ def test_aggregate_and_summary_definitions():
     assert row["n"] == 2
     assert row["seconds"]["mean"] == pytest.approx(200.0) and row["seconds"]["std"] == pytest.approx(100.0)
     assert row["rerender_rmse"]["min"] == pytest.approx(0.2) and row["rerender_rmse"]["max"] == pytest.approx(0.4)
+
+
+def test_speedup_vs_paper_needs_the_paper_burn_in_too():
+    recs = [_rec("finetune", "paper", 16, 200.0, 0.3, burn_in=0.5),
+            _rec("finetune", "fast", 0, 1.0, 0.25, burn_in=0.9),   # error reached, burn-in not yet
+            _rec("finetune", "fast", 20, 4.0, 0.2, burn_in=0.4)]
+    s = report.summarize(recs, ["fast", "paper"])
+    assert s["speedup_vs_paper"] == pytest.approx(200.0 / 4.0)
+    ref = s["details"]["speedup_vs_paper"]["reference"]
+    assert ref["burn_in"] == pytest.approx(0.5) and ref["error"] == pytest.approx(0.3)
+    never = [recs[0], _rec("finetune", "fast", 0, 1.0, 0.25, burn_in=0.9)]
+    assert report.summarize(never, ["fast", "paper"])["speedup_vs_paper"] is None
+
+
+def test_methods_restricted_to_presets(tmp_path):
+    pytest.importorskip("torch")
+    data = tmp_path / "data"
+    _make_data(data)
+    opts = BenchOptions(iters=[0], repeats=1)
+    doc = run_benchmark(data, methods=["finetune:tiny", "scratch:tiny"], presets=["tiny", "fast"],
+                        size=32, cases="gt/*", opts=opts, quick=True)
+    assert doc["errors"] == []
+    assert {(r["method"], r["preset"]) for r in doc["records"]} == {("finetune", "tiny"), ("scratch", "tiny")}
 
 
 def test_early_stop_saving_from_run_facts():

@@ -126,7 +126,8 @@ def run_benchmark(
 
     Args:
         data: folder (or file) searched by :func:`svbrdf.runtime.datasets.find_cases`.
-        methods: names in :data:`svbrdf.trainer.bench.methods.METHODS`.
+        methods: names in :data:`svbrdf.trainer.bench.methods.METHODS`; a training method may name its own
+            presets, ``"scratch:fast+zhao"`` (default: ``presets``).
         presets: training presets for the training methods.
         size: side of every case, pixels.
         cases: selection (see :func:`svbrdf.trainer.bench.cases.select_cases`); with ``quick`` and no
@@ -146,6 +147,12 @@ def run_benchmark(
     """
     opts = opts or BenchOptions()
     say = progress or (lambda _msg: None)
+    only = {}  # "scratch:fast+zhao" runs that training method with those presets only
+    for spec in methods:
+        name, sep, sub = spec.partition(":")
+        if sep:
+            only[name] = [p for p in sub.split("+") if p]
+    methods = [m.partition(":")[0] for m in methods]
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise SvbrdfError(f"unknown method(s) {', '.join(unknown)}; expected some of {', '.join(METHODS)}")
@@ -161,7 +168,7 @@ def run_benchmark(
     if torch_available() and any(METHODS[m].uses_presets for m in methods):
         from svbrdf.trainer.config import TRAIN_PRESETS
 
-        bad = [p for p in presets if p not in TRAIN_PRESETS]
+        bad = [p for p in list(presets) + [q for v in only.values() for q in v] if p not in TRAIN_PRESETS]
         if bad:
             raise SvbrdfError(f"unknown preset(s) {', '.join(bad)}; expected some of {', '.join(TRAIN_PRESETS)}")
 
@@ -198,7 +205,7 @@ def run_benchmark(
     errors: List[Dict[str, Any]] = []
     for name in methods:
         method = METHODS[name]
-        for preset in (presets if method.uses_presets else [None]):
+        for preset in (only.get(name, presets) if method.uses_presets else [None]):
             reason = method.unavailable(opts, preset)
             if reason:
                 skipped.append({"method": name, "preset": preset, "reason": reason})
@@ -297,7 +304,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="folder of ground-truth sets and/or photos (default: ../shared/data next to the repo)")
     p.add_argument("--out", type=Path, default=None, help="output folder (default: docs/benchmarks of the repo)")
     p.add_argument("--json", type=Path, default=None, help="records JSON (default: OUT/results.json)")
-    p.add_argument("--methods", type=_names, default=None, help=f"comma list of {', '.join(METHODS)} (default: all)")
+    p.add_argument("--methods", type=_names, default=None, help=f"comma list of {', '.join(METHODS)} (default: all); "
+                   "METHOD:P1+P2 restricts a training method to those presets, e.g. scratch:fast")
     p.add_argument("--presets", type=_names, default=None,
                    help=f"training presets (default: {','.join(DEFAULT_PRESETS)}; --quick: tiny)")
     p.add_argument("--size", type=int, default=None, help="case side in pixels (default 256; --quick: 64)")

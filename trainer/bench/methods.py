@@ -291,7 +291,7 @@ class Training(Method):
 
         warmup = self._warm_up(make_trainer, preset, cfg, case.photo.shape)
         budget = opts.time_budget
-        state = {"paused": 0.0, "plateau": None}
+        state = {"paused": 0.0, "plateau": None, "evals": []}
         t0 = time.perf_counter()
 
         def train_seconds() -> float:
@@ -307,8 +307,11 @@ class Training(Method):
             state["paused"] += time.perf_counter() - t_pause
 
         def callback(trainer, rec) -> bool:
-            if state["plateau"] is None and rec.get("eval/render_l1") is not None and trainer.plateaued():
-                state["plateau"] = {"step": trainer.step, "train_seconds": train_seconds()}
+            if rec.get("eval/render_l1") is not None:
+                state["evals"].append({"step": trainer.step, "train_seconds": train_seconds(),
+                                       "render_l1": rec["eval/render_l1"], "map_change": rec.get("eval/map_change")})
+                if state["plateau"] is None and trainer.plateaued():
+                    state["plateau"] = {"step": trainer.step, "train_seconds": train_seconds()}
             over = budget is not None and train_seconds() > budget and trainer.step < last
             if trainer.step in targets or over:
                 evaluate(trainer, over)
@@ -328,6 +331,7 @@ class Training(Method):
             "run_train_seconds": train_seconds(),
             "final_step": final,
             "plateau": state["plateau"],
+            "evals": state["evals"],
             "notes": list(notes) + list(trainer.notes),
             "counters": dict(trainer.counters),
             "threads": int(torch.get_num_threads()),

@@ -14,10 +14,13 @@ A *reference preset* is the first preset in ``--presets`` order for which the ne
 per-preset value is kept under ``details``. A value is null when the runs it needs did not happen.
 
 * ``speedup_vs_paper``: reference = ``finetune`` with preset ``paper`` at its largest evaluated iteration count
-  (``E_ref``, ``T_ref``). For every other ``finetune`` preset, ``T`` = the seconds of its first evaluation point
-  with ``E <= E_ref``; speedup = ``T_ref / T``. The value is the best of them (null if none reaches ``E_ref``).
+  (error ``E_ref``, mean burn-in ``B_ref``, time ``T_ref``). For every other ``finetune`` preset, ``T`` = the
+  seconds of its first evaluation point with both ``E <= E_ref`` and ``B <= B_ref`` (no interpolation: the
+  conservative, later point); speedup = ``T_ref / T``. The value is that of the first preset of ``--presets``
+  other than ``paper`` (all kept under ``details``; null if it never reaches the reference).
 * ``two_stage_speedup``: for a preset, target = the ``scratch`` run's error at its largest iteration count;
-  ``T_scratch`` / ``T_finetune`` = seconds of the first point of each run whose ``E <= target``.
+  ``T_scratch`` / ``T_finetune`` = the time at which each run's mean error curve first reaches the target,
+  linearly interpolated in time between the two evaluation points around the crossing.
 * ``preview_time_ratio`` / ``preview_error_ratio``: ``preview`` time (median of repeats) and error divided by
   those of ``finetune`` at its largest iteration count (reference preset).
 * ``early_stop_saving``: for ``finetune`` runs (reference preset), the fraction of training time the trainer's
@@ -141,9 +144,9 @@ def _error_key(rows: Sequence[Mapping[str, Any]]) -> Tuple[str, str]:
     return "photo", "input_rmse"
 
 
-def _curve(rows, kind, metric, method, preset) -> List[Tuple[int, float, float]]:
-    """Evaluation points (iterations, mean seconds, mean error) of one run type, by iterations; a time-budget
-    point counts at the largest iteration count its runs reached."""
+def _curve(rows, kind, metric, method, preset) -> List[Tuple[int, float, float, Optional[float]]]:
+    """Evaluation points (iterations, mean seconds, mean error, mean burn-in) of one run type, by iterations; a
+    time-budget point counts at the largest iteration count its runs reached."""
     out = []
     for r in rows:
         if (r["kind"], r["method"], r["preset"]) != (kind, method, preset):
@@ -156,14 +159,25 @@ def _curve(rows, kind, metric, method, preset) -> List[Tuple[int, float, float]]
             it = r["iterations_stats"]["max"]
         else:
             it = -1 if r["iterations"] == "-" else int(r["iterations"])
-        out.append((it, r["seconds"]["mean"], r[metric]["mean"]))
+        burn = r["burn_in"]["mean"] if r.get("burn_in") else None
+        out.append((it, r["seconds"]["mean"], r[metric]["mean"], burn))
     return sorted(out)
 
 
-def _first_reach(curve, target: float) -> Optional[float]:
-    for _, t, e in curve:
-        if e <= target * (1 + 1e-9):
+def _first_reach(curve, target: float, burn: Optional[float] = None) -> Optional[float]:
+    """Seconds at which ``curve`` first reaches error ``target``: interpolated linearly in time between the last
+    point above it and the first at or below it; with ``burn``, the first evaluated point that also has a
+    burn-in score <= ``burn`` (not interpolated)."""
+    tol = 1 + 1e-9
+    prev = None
+    for point in curve:
+        _, t, e, b = point
+        if e <= target * tol and (burn is None or (b is not None and b <= burn * tol)):
+            if burn is None and prev is not None and prev[2] > e:
+                _, t0, e0, _ = prev
+                return t0 + (t - t0) * (e0 - target) / (e0 - e)
             return t
+        prev = point
     return None
 
 
@@ -185,17 +199,18 @@ def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> D
     speedup = None
     paper = curve("finetune", "paper")
     if paper:
-        _, t_ref, e_ref = paper[-1]
+        _, t_ref, e_ref, b_ref = paper[-1]
         per = {}
         for p in presets:
             if p == "paper" or not curve("finetune", p):
                 continue
-            per[p] = _ratio(t_ref, _first_reach(curve("finetune", p), e_ref))
+            t = _first_reach(curve("finetune", p), e_ref, burn=b_ref if b_ref is not None else math.inf)
+            per[p] = {"seconds": t, "speedup": _ratio(t_ref, t)}
         details["speedup_vs_paper"] = {"reference": {"iterations": paper[-1][0], "seconds": t_ref, "error": e_ref,
+                                                     "burn_in": b_ref,
                                                      "truncated": ("finetune", "paper") in truncated},
                                        "per_preset": per}
-        found = [v for v in per.values() if v is not None]
-        speedup = max(found) if found else None
+        speedup = next((v["speedup"] for v in per.values()), None)
 
     # two_stage_speedup
     two = {}
@@ -213,7 +228,7 @@ def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> D
     prev, time_ratio, err_ratio = curve("preview"), None, None
     ref = next((p for p in presets if curve("finetune", p)), None)
     if prev and ref:
-        _, t_ft, e_ft = curve("finetune", ref)[-1]
+        _, t_ft, e_ft, _ = curve("finetune", ref)[-1]
         time_ratio, err_ratio = _ratio(prev[0][1], t_ft), _ratio(prev[0][2], e_ft)
         details["preview"] = {"reference_preset": ref, "preview_seconds": prev[0][1], "preview_error": prev[0][2],
                               "finetune_seconds": t_ft, "finetune_error": e_ft}
