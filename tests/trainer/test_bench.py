@@ -342,3 +342,17 @@ def test_preview_method_with_an_exported_model(tmp_path):
     assert not doc["skipped"] and not doc["errors"]
     assert len(doc["records"]) == 2 and all(r["eval_seconds"] > 0 for r in doc["records"])
     assert doc["records"][0]["run"]["model"] == str(model)
+
+
+def test_skip_refine_summary_uses_the_cli_threshold():
+    from svbrdf.runtime.cli import SKIP_REFINE_RMSE
+
+    low, high = SKIP_REFINE_RMSE * 0.5, SKIP_REFINE_RMSE * 2
+    recs = [_rec("preview", None, None, 1.0, 0.2, case="a", input_rmse=low),
+            _rec("preview", None, None, 1.0, 0.3, case="b", input_rmse=high),
+            _rec("finetune", "fast", 0, 1.0, 0.2, case="a"), _rec("finetune", "fast", 100, 21.0, 0.1, case="a"),
+            _rec("finetune", "fast", 100, 19.0, 0.15, case="b")]
+    sk = report.summarize(recs, ["fast"])["details"]["skip_refine"]
+    assert (sk["cases"], sk["skipped"]) == (2, 1)
+    assert sk["saving"] == pytest.approx((21.0 - 1.0) / 40.0)
+    assert sk["error_ratio_on_skipped"] == pytest.approx(2.0)

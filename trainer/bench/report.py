@@ -28,6 +28,8 @@ per-preset value is kept under ``details``. A value is null when the runs it nee
   the same run) would have saved: mean over cases of ``1 - t_plateau / t_run`` (0 when the rule never fired).
   ``details.early_stop_error_ratio`` gives the price: mean over cases of ``E`` at the first evaluation point at
   or after the plateau step divided by ``E`` at the end of the run.
+* ``details.skip_refine``: the ``--quality auto`` rule that skips the fine-tune when the preview already explains
+  the photo (:func:`_skip_refine`).
 """
 
 from __future__ import annotations
@@ -187,6 +189,30 @@ def _ratio(a: Optional[float], b: Optional[float]) -> Optional[float]:
     return a / b
 
 
+def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[str, Any]]:
+    """What ``svbrdf-preview --refine --quality auto``'s skip rule (preview input-flash RMSE <= the CLI's
+    ``SKIP_REFINE_RMSE``, a label-free test) does on these cases: how many it skips, the fine-tune time it saves
+    (fraction of the summed fine-tune seconds at each run's last point) and the error price on the skipped cases
+    (mean preview error / fine-tuned error)."""
+    from svbrdf.runtime.cli import SKIP_REFINE_RMSE
+
+    prev = {r["case"]: r for r in records if r["method"] == "preview" and r["kind"] == kind}
+    last: Dict[str, Mapping[str, Any]] = {}
+    for r in records:
+        if r["method"] == "finetune" and r.get("preset") == preset and r["kind"] == kind and r["case"] in prev:
+            if r["case"] not in last or r["iterations"] > last[r["case"]]["iterations"]:
+                last[r["case"]] = r
+    if not last:
+        return None
+    skipped = [c for c in last if prev[c].get("input_rmse") is not None and prev[c]["input_rmse"] <= SKIP_REFINE_RMSE]
+    total = sum(r["seconds"] for r in last.values())
+    saved = sum(last[c]["seconds"] - prev[c]["seconds"] for c in skipped)
+    prices = [prev[c][metric] / last[c][metric] for c in skipped if prev[c].get(metric) and last[c].get(metric)]
+    return {"threshold_input_rmse": SKIP_REFINE_RMSE, "cases": len(last), "skipped": len(skipped),
+            "saving": saved / total if total > 0 else None,
+            "error_ratio_on_skipped": float(np.mean(prices)) if prices else None}
+
+
 def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> Dict[str, Any]:
     """Headline numbers (see the module docstring); every value is a float or None, with ``details``."""
     rows = aggregate(records)
@@ -232,6 +258,10 @@ def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> D
         time_ratio, err_ratio = _ratio(prev[0][1], t_ft), _ratio(prev[0][2], e_ft)
         details["preview"] = {"reference_preset": ref, "preview_seconds": prev[0][1], "preview_error": prev[0][2],
                               "finetune_seconds": t_ft, "finetune_error": e_ft}
+
+    # skip the fine-tune when the preview explains the photo (svbrdf-preview --refine --quality auto)
+    if ref:
+        details["skip_refine"] = _skip_refine(records, kind, metric, ref)
 
     # early_stop_saving
     saving = None
