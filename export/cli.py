@@ -1,4 +1,5 @@
-"""``svbrdf-export``: training checkpoint -> ONNX preview model + manifest (see :mod:`svbrdf.export.onnx`).
+"""``svbrdf-export``: training checkpoint -> ONNX preview model, its part graphs and a manifest (see
+:mod:`svbrdf.export.onnx`).
 
 Exit codes: 0 success, 2 usage error, 1 failure (one line ``svbrdf-export: error: <message>`` on stderr;
 ``--verbose`` adds the traceback).
@@ -23,9 +24,12 @@ examples:
   {PROG} runs/wood/checkpoint.pt                    writes runs/wood/checkpoint.onnx + checkpoint.json
   {PROG} runs/pretrain/final.pt -o models/svbrdf-v1.onnx --force
 
-The export is checked (onnx.checker, then onnxruntime against torch at 64x64, 75x101 and 96x160) before
-anything is written. To ship a model as the packaged default, copy NAME.onnx, NAME.json and the checkpoint into
-models/ and copy NAME.json to models/manifest.json.
+Besides NAME.onnx (all four maps) it writes one graph per decoder, NAME.normal_roughness.onnx and
+NAME.diffuse_specular.onnx, so that `svbrdf-preview --maps` runs only the decoder it needs; NAME.json lists them
+with their sha256. Every graph is checked (onnx.checker, then onnxruntime against torch at 64x64, 75x101 and
+96x160) before anything is written; if any output file exists, nothing is written without --force. To ship a
+model as the packaged default, put the three .onnx files and the checkpoint into models/ and rename NAME.json
+to models/manifest.json.
 """
 
 
@@ -39,11 +43,13 @@ def _version() -> str:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog=PROG, description="Export a trained generator to a single-file ONNX model.",
+    p = argparse.ArgumentParser(prog=PROG, description="Export a trained generator to single-file ONNX models "
+                                                       "(the full graph and one per decoder).",
                                 epilog=EXAMPLES, formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("checkpoint", metavar="CKPT", type=Path, help="training checkpoint (.pt) from svbrdf-train")
     p.add_argument("-o", "--out", metavar="PATH", type=Path,
-                   help="output .onnx file (default: CKPT with the suffix .onnx); the manifest goes beside it")
+                   help="output .onnx file (default: CKPT with the suffix .onnx); the part graphs and the manifest "
+                        "go beside it")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--opset", metavar="N", type=int, default=None, help="ONNX opset (default: 18)")
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
@@ -83,9 +89,11 @@ def main(argv: Optional[List[str]] = None) -> int:
             traceback.print_exc()
         return 1
     if not args.quiet:
+        parts = ", ".join(f"{p['path'].name} {p['bytes'] / 1e6:.1f} MB (max |diff| {p['max_abs_diff']:.1e})"
+                          for p in report["parts"].values())
         print(f"{report['path']}: {report['bytes'] / 1e6:.1f} MB, opset {report['opset']}, sha256 "
-              f"{report['sha256'][:12]}, onnxruntime vs torch max |diff| {report['max_abs_diff']:.1e}; "
-              f"manifest {report['manifest_path']} ({report['seconds']:.1f} s)")
+              f"{report['sha256'][:12]}, onnxruntime vs torch max |diff| {report['max_abs_diff']:.1e}; parts "
+              f"{parts}; manifest {report['manifest_path']} ({report['seconds']:.1f} s)")
     return 0
 
 

@@ -9,10 +9,17 @@ The graph (torch.onnx dynamo exporter, opset :data:`OPSET`, one file: ``external
   :mod:`svbrdf.runtime.maps`: diffuse 0:3 linear [0, 1], specular 3:4 linear [0, 1], roughness 4:5 [0, 1],
   normal 5:8 unit OpenGL).
 
-Provenance goes twice: into the ONNX ``metadata_props`` (every manifest key except ``file``/``sha256``, values
-JSON-encoded) and into a manifest ``NAME.json`` beside ``NAME.onnx`` (schema
-:data:`svbrdf.runtime.models.MANIFEST_SCHEMA`, with the file's sha256 and the parity result), which the
-runtime verifies at load. Both files are written atomically and only after the checks pass.
+Part graphs (maps on demand): beside ``NAME.onnx`` the same generator is exported once per decoder,
+``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.models.PARTS` (encoder + that decoder only; the
+other decoder's weights are not in the file). Same input and output contract, the channels of the maps a part
+does not compute are NaN (specified in :mod:`svbrdf.runtime.models`). Each part is checked like the full graph
+(checker; onnxruntime against torch on its own channels, NaN on the others).
+
+Provenance goes twice: into the ONNX ``metadata_props`` (every manifest key except ``file``/``sha256``/
+``parts``, values JSON-encoded; a part adds ``"part": {"name", "maps"}``) and into a manifest ``NAME.json``
+beside ``NAME.onnx`` (schema :data:`svbrdf.runtime.models.MANIFEST_SCHEMA`, with the file's sha256, the parity
+result and the ``"parts"`` entry), which the runtime verifies at load. Every file is written atomically, and
+none before all the checks pass; existing files are refused (all of them) unless ``force``.
 """
 
 from __future__ import annotations
@@ -31,10 +38,13 @@ import torch
 from torch import nn
 
 from svbrdf.runtime.errors import ModelError, SvbrdfError
+from svbrdf.runtime.maps import MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES
 from svbrdf.runtime.models import (
-    INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, input_contract, map_layout, sha256_file,
+    INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, input_contract, map_layout, part_file_name,
+    sha256_file,
 )
 from svbrdf.runtime.render import ZHAO, RenderConfig
+from svbrdf.trainer.models import pack_maps
 
 #: ONNX opset written. 18 is torchlib's native opset in torch 2.13
 #: (``torch.onnx._internal.exporter._constants.TORCHLIB_OPSET``): no version-conversion pass is involved.
@@ -48,14 +58,23 @@ PathLike = Union[str, os.PathLike]
 
 
 class _Graph(nn.Module):
-    """Fixes the graph signature: one input named ``image``, the Generator's packed maps out."""
+    """Fixes the graph signature: one input named ``image``, the Generator's packed maps out.
 
-    def __init__(self, generator: nn.Module):
+    With ``maps`` a part's maps, only the decoder of those maps runs and the other channels are NaN.
+    """
+
+    def __init__(self, generator: nn.Module, maps: Tuple[str, ...] = MAP_NAMES):
         super().__init__()
         self.generator = generator
+        self.maps = tuple(maps)
 
     def forward(self, image: torch.Tensor) -> torch.Tensor:
-        return self.generator(image)
+        if self.maps == MAP_NAMES:
+            return self.generator(image)
+        g = self.generator
+        done = g.decode(g.forward_features(image), maps=self.maps, size=(image.shape[-2], image.shape[-1]))
+        blank = torch.full_like(next(iter(done.values()))[:, :1], float("nan"))
+        return pack_maps({**{n: blank.expand(-1, MAP_CHANNELS[n], -1, -1) for n in MAP_NAMES}, **done})
 
 
 def _versions() -> Dict[str, str]:
@@ -93,24 +112,69 @@ def _provenance(meta: Mapping[str, Any], generator: nn.Module) -> Dict[str, Any]
     }
 
 
-def _parity(path: Path, generator: nn.Module, sizes: Sequence[Tuple[int, int]]) -> list:
+def _parity(path: Path, generator: nn.Module, sizes: Sequence[Tuple[int, int]],
+            maps: Tuple[str, ...] = MAP_NAMES) -> list:
+    """onnxruntime against torch on the channels of ``maps``; the other channels must be NaN."""
     import onnxruntime as ort
 
     so = ort.SessionOptions()
     so.enable_cpu_mem_arena = False
     sess = ort.InferenceSession(str(path), so, providers=["CPUExecutionProvider"])
     rng = np.random.default_rng(0)
+    own = np.zeros(N_CHANNELS, bool)
+    for n in maps:
+        own[SLICES[n]] = True
     out = []
     for h, w in sizes:
         x = rng.random((1, 3, h, w), dtype=np.float32)
         with torch.inference_mode():
             ref = generator(torch.from_numpy(x)).numpy()
         got = sess.run([OUTPUT_NAME], {INPUT_NAME: x})[0]
-        if got.shape != (1, 8, h, w):
+        if got.shape != (1, N_CHANNELS, h, w):
             raise ModelError(f"{path}: exported graph returns {got.shape} for a {h}x{w} input, "
-                             f"expected (1, 8, {h}, {w})")
-        out.append({"size": [h, w], "max_abs_diff": float(np.abs(got - ref).max())})
+                             f"expected (1, {N_CHANNELS}, {h}, {w})")
+        if not np.isnan(got[:, ~own]).all():
+            raise ModelError(f"{path}: channels of maps the graph does not compute are not NaN")
+        out.append({"size": [h, w], "max_abs_diff": float(np.abs(got[:, own] - ref[:, own]).max())})
     return out
+
+
+def _export(graph: nn.Module, tmp: Path, opset: int, source: Any) -> onnx.ModelProto:
+    """Trace ``graph`` to ``tmp`` with dynamic H, W and return the loaded model (output sizes named H, W)."""
+    dim = torch.export.Dim
+    example = torch.rand(1, 3, 64, 64)
+    try:
+        torch.onnx.export(
+            graph, (example,), str(tmp), input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
+            dynamic_shapes={"image": {2: dim("H", min=MIN_SIZE), 3: dim("W", min=MIN_SIZE)}},
+            opset_version=opset, dynamo=True, external_data=False, verbose=False,
+        )
+    except Exception as exc:
+        first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
+        raise ModelError(f"{source}: ONNX export failed ({first[:200]})") from exc
+    model = onnx.load(str(tmp))
+    # The exporter names the output sizes after its symbolic padding arithmetic (Min(H, 4*...)); they
+    # equal the input's, so say so.
+    for axis, name in ((2, "H"), (3, "W")):
+        model.graph.output[0].type.tensor_type.shape.dim[axis].dim_param = name
+    return model
+
+
+def _check(tmp: Path, out: Path, generator: nn.Module, sizes, maps: Tuple[str, ...]) -> list:
+    """onnx.checker then :func:`_parity`; ModelError naming ``out`` on failure; returns the parity results."""
+    try:
+        onnx.checker.check_model(str(tmp), full_check=True)
+    except onnx.checker.ValidationError as exc:
+        first = (str(exc).strip().splitlines() or ["invalid model"])[0]
+        raise ModelError(f"{out}: exported graph fails onnx.checker ({first[:200]})") from None
+    parity = _parity(tmp, generator, sizes, maps)
+    worst = max(parity, key=lambda p: p["max_abs_diff"])
+    if not worst["max_abs_diff"] <= PARITY_ATOL:
+        raise ModelError(
+            f"{out}: onnxruntime and torch differ by {worst['max_abs_diff']:.2e} at "
+            f"{worst['size'][0]}x{worst['size'][1]} (tolerance {PARITY_ATOL:g})"
+        )
+    return parity
 
 
 def export_generator(
@@ -123,7 +187,8 @@ def export_generator(
     force: bool = False,
     meta: Optional[Mapping[str, Any]] = None,
 ) -> Dict[str, Any]:
-    """Export a generator to ``out_path`` (one ``.onnx`` file) plus its manifest ``out_path.with_suffix('.json')``.
+    """Export a generator to ``out_path`` (one ``.onnx`` file), its part graphs ``NAME.<part>.onnx`` and its
+    manifest ``out_path.with_suffix('.json')``.
 
     Args:
         source: a training checkpoint path (read with :func:`svbrdf.trainer.checkpoint.load_generator`; its
@@ -132,7 +197,7 @@ def export_generator(
         out_path: the ``.onnx`` file to write.
         opset: ONNX opset (default :data:`OPSET`).
         check: run ``onnx.checker.check_model(full_check=True)`` and the onnxruntime-vs-torch parity check on
-            ``sizes``; the export fails if any |difference| exceeds :data:`PARITY_ATOL`.
+            ``sizes`` for every graph; the export fails if any |difference| exceeds :data:`PARITY_ATOL`.
         sizes: (H, W) input sizes of the parity check, each >= 8.
         force: replace existing output files.
         meta: checkpoint-style metadata for a module ``source`` (keys ``train_config``, ``stage``, ``step``,
@@ -140,10 +205,11 @@ def export_generator(
 
     Returns:
         Report: ``path``, ``manifest_path``, ``sha256``, ``bytes``, ``opset``, ``parity`` (list of
-        ``{"size", "max_abs_diff"}``, empty without ``check``), ``max_abs_diff`` (or None), ``seconds``.
+        ``{"size", "max_abs_diff"}``, empty without ``check``), ``max_abs_diff`` (or None) of the full graph,
+        ``parts`` (``{part: {"path", "sha256", "bytes", "max_abs_diff"}}``), ``seconds``.
 
     Raises:
-        SvbrdfError: an output exists and not ``force``.
+        SvbrdfError: an output exists and not ``force`` (nothing is written then).
         ModelError: unreadable checkpoint, export failure, checker failure or parity above tolerance.
     """
     start = time.perf_counter()
@@ -151,8 +217,10 @@ def export_generator(
     manifest_path = out.with_suffix(".json")
     if out.suffix != ".onnx":
         raise SvbrdfError(f"{out}: the output file name must end in .onnx")
+    graphs = {"full": (out, MAP_NAMES),
+              **{p: (out.with_name(part_file_name(out.name, p)), m) for p, m in PARTS.items()}}
     if not force:
-        for p in (out, manifest_path):
+        for p in [path for path, _ in graphs.values()] + [manifest_path]:
             if p.exists():
                 raise SvbrdfError(f"{p}: exists (use --force to overwrite)")
     if (check and not sizes) or any(min(s) < MIN_SIZE for s in sizes):
@@ -169,29 +237,12 @@ def export_generator(
         checkpoint = {"file": Path(source).name, "path": str(Path(source).resolve()),
                       "sha256": sha256_file(source)}
     generator = generator.eval()
-    graph = _Graph(generator).eval()
 
     out.parent.mkdir(parents=True, exist_ok=True)
     token = secrets.token_hex(4)
-    tmp, manifest_tmp = (p.with_name(f".{p.name}.{token}.tmp") for p in (out, manifest_path))
+    tmps = {g: path.with_name(f".{path.name}.{token}.tmp") for g, (path, _) in graphs.items()}
+    manifest_tmp = manifest_path.with_name(f".{manifest_path.name}.{token}.tmp")
     try:
-        dim = torch.export.Dim
-        example = torch.rand(1, 3, 64, 64)
-        try:
-            torch.onnx.export(
-                graph, (example,), str(tmp), input_names=[INPUT_NAME], output_names=[OUTPUT_NAME],
-                dynamic_shapes={"image": {2: dim("H", min=MIN_SIZE), 3: dim("W", min=MIN_SIZE)}},
-                opset_version=opset, dynamo=True, external_data=False, verbose=False,
-            )
-        except Exception as exc:
-            first = (str(exc).strip().splitlines() or [type(exc).__name__])[0]
-            raise ModelError(f"{source}: ONNX export failed ({first[:200]})") from exc
-
-        model = onnx.load(str(tmp))
-        # The exporter names the output sizes after its symbolic padding arithmetic (Min(H, 4*...)); they
-        # equal the input's, so say so.
-        for axis, name in ((2, "H"), (3, "W")):
-            model.graph.output[0].type.tensor_type.shape.dim[axis].dim_param = name
         manifest: Dict[str, Any] = {
             "schema": MANIFEST_SCHEMA,
             "file": out.name,
@@ -204,42 +255,42 @@ def export_generator(
             "exporter": _versions(),
             "created": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         }
-        onnx.helper.set_model_props(
-            model, {k: json.dumps(v) for k, v in manifest.items() if k not in ("file", "sha256")}
-        )
-        onnx.save(model, str(tmp))
-
-        parity: list = []
-        if check:
-            try:
-                onnx.checker.check_model(str(tmp), full_check=True)
-            except onnx.checker.ValidationError as exc:
-                first = (str(exc).strip().splitlines() or ["invalid model"])[0]
-                raise ModelError(f"{out}: exported graph fails onnx.checker ({first[:200]})") from None
-            parity = _parity(tmp, generator, sizes)
-            worst = max(parity, key=lambda p: p["max_abs_diff"])
-            if not worst["max_abs_diff"] <= PARITY_ATOL:
-                raise ModelError(
-                    f"{out}: onnxruntime and torch differ by {worst['max_abs_diff']:.2e} at "
-                    f"{worst['size'][0]}x{worst['size'][1]} (tolerance {PARITY_ATOL:g})"
-                )
-        manifest["sha256"] = sha256_file(tmp)
-        manifest["parity"] = {"atol": PARITY_ATOL, "results": parity}
-        size = tmp.stat().st_size
+        props = {k: json.dumps(v) for k, v in manifest.items() if k not in ("file", "sha256")}
+        results: Dict[str, Dict[str, Any]] = {}
+        for g, (path, maps) in graphs.items():
+            model = _export(_Graph(generator, maps).eval(), tmps[g], opset, source)
+            part = {} if g == "full" else {"part": json.dumps({"name": g, "maps": list(maps)})}
+            onnx.helper.set_model_props(model, {**props, **part})
+            onnx.save(model, str(tmps[g]))
+            parity = _check(tmps[g], path, generator, sizes, maps) if check else []
+            results[g] = {"path": path, "sha256": sha256_file(tmps[g]), "bytes": tmps[g].stat().st_size,
+                          "parity": parity, "max_abs_diff": max((p["max_abs_diff"] for p in parity), default=None)}
+        full = results["full"]
+        manifest["sha256"] = full["sha256"]
+        manifest["parity"] = {"atol": PARITY_ATOL, "results": full["parity"]}
+        manifest["parts"] = {
+            p: {"file": results[p]["path"].name, "sha256": results[p]["sha256"], "maps": list(PARTS[p]),
+                "parity": {"atol": PARITY_ATOL, "results": results[p]["parity"]}}
+            for p in PARTS
+        }
         manifest_tmp.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
-        os.replace(tmp, out)
+        for g, (path, _) in graphs.items():  # the graphs before the manifest that lists their sha256
+            if g != "full":
+                os.replace(tmps[g], path)
+        os.replace(tmps["full"], out)
         os.replace(manifest_tmp, manifest_path)
     finally:
-        tmp.unlink(missing_ok=True)
-        manifest_tmp.unlink(missing_ok=True)
+        for tmp in (*tmps.values(), manifest_tmp):
+            tmp.unlink(missing_ok=True)
     return {
         "path": out,
         "manifest_path": manifest_path,
-        "sha256": manifest["sha256"],
-        "bytes": size,
+        "sha256": full["sha256"],
+        "bytes": full["bytes"],
         "opset": opset,
-        "parity": parity,
-        "max_abs_diff": max((p["max_abs_diff"] for p in parity), default=None),
+        "parity": full["parity"],
+        "max_abs_diff": full["max_abs_diff"],
+        "parts": {p: {k: results[p][k] for k in ("path", "sha256", "bytes", "max_abs_diff")} for p in PARTS},
         "seconds": time.perf_counter() - start,
     }
 

@@ -18,6 +18,7 @@ from typing import List, Optional
 
 from . import __version__
 from .errors import SvbrdfError
+from .maps import MAP_NAMES, select_maps
 
 PROG = "svbrdf-preview"
 TORCH_HINT = '--refine needs torch: pip install "svbrdf[train]"'
@@ -29,9 +30,11 @@ examples:
   {PROG} tiles.png --normal dx --format exr --max-size 4096
   {PROG} wood.jpg --model my.onnx      a model of your own (or set SVBRDF_MODEL)
   {PROG} wood.jpg --refine --iters 300 fine-tune the model on this photo first (needs torch)
+  {PROG} wood.jpg --maps normal        only the normal map (runs only the normal/roughness decoder)
 
 Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name>_specular (.png 16-bit or
-.exr), <name>.json (sidecar) and <name>_relit.png (renders under the flash and two other lights).
+.exr), <name>.json (sidecar) and <name>_relit.png (renders under the flash and two other lights). With
+--maps only those maps' files and the sidecar are written (no relit panel: it needs all four maps).
 """
 
 
@@ -52,6 +55,14 @@ def _positive(text: str) -> int:
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
     return value
+
+
+def _map_list(text: str) -> tuple:
+    """``--maps``: comma list of map names (or aliases) -> names in packing order."""
+    try:
+        return select_maps(part.strip() for part in text.split(",") if part.strip())
+    except SvbrdfError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -80,6 +91,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--target", choices=_TARGETS, default="generic",
                    help="output preset: file names, normal convention, packing and material document "
                         "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
+    p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES,
+                   help="comma list of the maps to compute and write: diffuse (or basecolor), specular, roughness, "
+                        "normal (default: all). roughness/normal alone run only the normal-roughness decoder, "
+                        "diffuse/specular only the diffuse-specular one; no relit panel; --target generic only")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--refine", action="store_true",
                    help="fine-tune the model's training checkpoint on each photo with torch before predicting")
@@ -149,7 +164,7 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
             from svbrdf.trainer.bench.metrics import rerender_rmse
 
             preview = estimate(image, session, max_size=args.max_size, tile=args.tile,
-                               overlap=min(DEFAULT_OVERLAP, args.tile // 4))
+                               overlap=min(DEFAULT_OVERLAP, args.tile // 4), maps=MAP_NAMES)
             preview_rmse = rerender_rmse(preview, image, [None], config)
             if preview_rmse <= SKIP_REFINE_RMSE:
                 maps = preview
@@ -161,14 +176,17 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
             if preview_rmse is not None:
                 maps.meta["refine"]["preview_input_rmse"] = preview_rmse
             detail = f"refined {maps.meta['refine']['iterations']} it"
-        maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256})
+        # The fine-tune trains (and its losses render) every map; only the requested ones are written.
+        maps = maps.subset(args.maps)
+        maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256},
+                         maps=list(args.maps))
     else:
         overlap = min(DEFAULT_OVERLAP, args.tile // 4)
-        maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, overlap=overlap)
+        maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, overlap=overlap, maps=args.maps)
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.meta["render_config"] = config.to_dict()
-    relit = relit_panel(maps, config)
+    relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
     extra = {"tool": f"{PROG} {__version__}"}
     if args.target == "generic":
         write_texture_set(maps, out_dir, name, normal="dx" if args.normal == "dx" else "opengl", fmt=args.format,
@@ -189,7 +207,7 @@ def _run(args) -> int:
             raise SvbrdfError(TORCH_HINT) from None
     from .session import load_session
 
-    session = load_session(args.model, threads=args.threads)
+    session = load_session(args.model, threads=args.threads, maps=args.maps)
     config = session.render_config
     if args.fov is not None:
         config = config.replace(fov_deg=args.fov)
@@ -197,7 +215,9 @@ def _run(args) -> int:
         info = session.info
         state = "verified" if info.verified else info.note
         print(f"model: {info.path} ({info.source}, sha256 {info.sha256[:12]}, {state}); "
-              f"{', '.join(session.providers)}, {session.threads} threads")
+              f"{', '.join(session.providers)}, {session.threads} threads; graph {session.graph_for()}")
+    if args.maps != MAP_NAMES and not args.quiet:
+        print(f"{PROG}: note: no relit panel with --maps (it renders all four maps)", file=sys.stderr)
 
     failed = 0
     seen = {}
@@ -237,6 +257,8 @@ def main(argv: Optional[List[str]] = None) -> int:
         return _usage(parser, "--max-size and --tile must be >= 8")
     if (args.iters or args.quality) and not args.refine:
         return _usage(parser, "--iters and --quality need --refine")
+    if args.maps != MAP_NAMES and args.target != "generic":
+        return _usage(parser, f"--maps needs --target generic: the {args.target} preset converts all four maps")
     try:
         return _run(args)
     except KeyboardInterrupt:

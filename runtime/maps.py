@@ -22,14 +22,20 @@ Packed layouts:
 * torch (trainer): channel-first ``(B, 8, H, W)``.
 
 Use :data:`SLICES` (or :func:`channel_slice`) rather than bare indices.
+
+Subsets ("maps on demand"): a caller may ask for some of the maps only (:func:`select_maps` validates the
+names). A :class:`Maps` then holds ``None`` for the others; a packed array keeps the full 8-channel layout and
+the channels of maps that were not computed are NaN (see :mod:`svbrdf.runtime.models` for the part graphs).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, Iterator, Mapping, Tuple
+from typing import Dict, Iterable, Iterator, Mapping, Optional, Tuple, Union
 
 import numpy as np
+
+from .errors import SvbrdfError
 
 #: Map names in packing order.
 MAP_NAMES: Tuple[str, ...] = ("diffuse", "specular", "roughness", "normal")
@@ -67,6 +73,36 @@ MAP_COLOUR_SPACES: Mapping[str, str] = {
 NORMAL_CONVENTION = "opengl"  # +x right, +y up the image, +z out of the surface
 
 SUPPORTED_NORMAL_CONVENTIONS = ("opengl", "dx")
+
+#: Other accepted names of a map: the file role of the diffuse map in a texture set (``<name>_basecolor.png``).
+MAP_ALIASES: Mapping[str, str] = {"basecolor": "diffuse"}
+
+
+def select_maps(names: Union[None, str, Iterable[str]] = None) -> Tuple[str, ...]:
+    """Validate a request for some of the maps.
+
+    Args:
+        names: map names (or :data:`MAP_ALIASES`), in any order, duplicates allowed; one name as a string;
+            ``None`` = all maps.
+
+    Returns:
+        The distinct names in :data:`MAP_NAMES` order (:data:`MAP_NAMES` itself for all four).
+
+    Raises:
+        SvbrdfError: an unknown name (the message lists the valid ones) or an empty request.
+    """
+    if names is None:
+        return MAP_NAMES
+    names = [names] if isinstance(names, str) else list(names)
+    unknown = [n for n in names if n not in MAP_NAMES and n not in MAP_ALIASES]
+    if unknown:
+        aliases = ", ".join(f"{a} (= {n})" for a, n in MAP_ALIASES.items())
+        raise SvbrdfError(f"unknown map name {', '.join(map(repr, unknown))}; valid names: "
+                          f"{', '.join(MAP_NAMES)}; aliases: {aliases}")
+    want = {MAP_ALIASES.get(n, n) for n in names}
+    if not want:
+        raise SvbrdfError(f"no maps requested; valid names: {', '.join(MAP_NAMES)}")
+    return tuple(n for n in MAP_NAMES if n in want)
 
 
 def channel_slice(name: str) -> slice:
@@ -115,7 +151,7 @@ def decode_normal(encoded: np.ndarray) -> np.ndarray:
 
 @dataclass
 class Maps:
-    """An SVBRDF texture set as numpy arrays, channel-last, float32.
+    """An SVBRDF texture set as numpy arrays, channel-last, float32: all four maps, or a subset of them.
 
     Attributes:
         diffuse: (H, W, 3) linear diffuse albedo in [0, 1].
@@ -123,17 +159,23 @@ class Maps:
         roughness: (H, W, 1) perceptual roughness r in [0, 1]; alpha = r**2.
         normal: (H, W, 3) unit normals, OpenGL convention (see module docstring).
         meta: free-form provenance (source file, timings, ...), copied into sidecars.
+
+    A map that was not computed is ``None`` (at least one is present; :attr:`names` lists them). What needs
+    every map (:meth:`pack`, rendering, the relit panel, the ``--target`` conversions) checks with
+    :meth:`require`.
     """
 
-    diffuse: np.ndarray
-    specular: np.ndarray
-    roughness: np.ndarray
-    normal: np.ndarray
+    diffuse: Optional[np.ndarray] = None
+    specular: Optional[np.ndarray] = None
+    roughness: Optional[np.ndarray] = None
+    normal: Optional[np.ndarray] = None
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         shape = None
         for name in MAP_NAMES:
+            if getattr(self, name) is None:
+                continue
             arr = np.asarray(getattr(self, name), dtype=np.float32)
             if arr.ndim == 2:
                 arr = arr[..., None]
@@ -144,27 +186,56 @@ class Maps:
             elif arr.shape[:2] != shape:
                 raise ValueError(f"map {name!r} is {arr.shape[:2]}, expected {shape}")
             setattr(self, name, arr)
+        if shape is None:
+            raise ValueError(f"a texture set needs at least one of the maps {', '.join(MAP_NAMES)}")
+
+    @property
+    def names(self) -> Tuple[str, ...]:
+        """Names of the maps present, in :data:`MAP_NAMES` order."""
+        return tuple(n for n in MAP_NAMES if getattr(self, n) is not None)
+
+    @property
+    def complete(self) -> bool:
+        """True when all four maps are present."""
+        return self.names == MAP_NAMES
+
+    def require(self, names: Iterable[str] = MAP_NAMES, what: str = "this operation") -> None:
+        """Raise ``ValueError`` (one line naming ``what``) unless every map in ``names`` is present."""
+        missing = [n for n in MAP_NAMES if n in set(names) and getattr(self, n) is None]
+        if missing:
+            raise ValueError(f"{what} needs the {', '.join(missing)} map(s); this texture set has only "
+                             f"{', '.join(self.names)}")
 
     @property
     def shape(self) -> Tuple[int, int]:
         """(H, W) of every map."""
-        return self.diffuse.shape[:2]
+        return getattr(self, self.names[0]).shape[:2]
 
     def items(self) -> Iterator[Tuple[str, np.ndarray]]:
-        for name in MAP_NAMES:
+        """(name, array) of the maps present, in :data:`MAP_NAMES` order."""
+        for name in self.names:
             yield name, getattr(self, name)
 
     def pack(self) -> np.ndarray:
-        """(H, W, 8) float32 array in :data:`MAP_NAMES` order."""
+        """(H, W, 8) float32 array in :data:`MAP_NAMES` order (needs all four maps)."""
+        self.require(what="pack()")
         return np.concatenate([getattr(self, n) for n in MAP_NAMES], axis=-1)
 
     @classmethod
-    def unpack(cls, packed: np.ndarray, meta: dict | None = None) -> "Maps":
-        """Inverse of :meth:`pack` for a channel-last (H, W, 8) array."""
+    def unpack(cls, packed: np.ndarray, meta: dict | None = None,
+               maps: Union[None, str, Iterable[str]] = None) -> "Maps":
+        """Inverse of :meth:`pack` for a channel-last (H, W, 8) array; ``maps`` keeps only those maps
+        (:func:`select_maps`; default all), e.g. the channels a part graph computed."""
         packed = np.asarray(packed, dtype=np.float32)
         if packed.ndim != 3 or packed.shape[-1] != N_CHANNELS:
             raise ValueError(f"packed maps must be (H, W, {N_CHANNELS}), got {packed.shape}")
-        return cls(**{n: packed[..., SLICES[n]] for n in MAP_NAMES}, meta=dict(meta or {}))
+        return cls(**{n: packed[..., SLICES[n]] for n in select_maps(maps)}, meta=dict(meta or {}))
+
+    def subset(self, maps: Union[str, Iterable[str]]) -> "Maps":
+        """The same set restricted to ``maps`` (:func:`select_maps`), which must be present; meta copied."""
+        names = select_maps(maps)
+        self.require(names, "subset()")
+        return Maps(**{n: getattr(self, n) for n in names}, meta=dict(self.meta))
 
     def crop(self, y0: int, x0: int, h: int, w: int) -> "Maps":
         return Maps(**{n: a[y0:y0 + h, x0:x0 + w] for n, a in self.items()}, meta=dict(self.meta))
@@ -172,11 +243,12 @@ class Maps:
     def clipped(self) -> "Maps":
         """Copy with every map clipped to its valid range and unit normals."""
         out = {n: np.clip(a, *MAP_RANGES[n]) for n, a in self.items()}
-        out["normal"] = normalize_normals(out["normal"])
+        if "normal" in out:
+            out["normal"] = normalize_normals(out["normal"])
         return Maps(**out, meta=dict(self.meta))
 
     def save(self, out_dir, name: str, **kwargs):
-        """Write this texture set; see :func:`svbrdf.runtime.texture_set.write_texture_set`."""
+        """Write this texture set (only the maps present); see :func:`svbrdf.runtime.texture_set.write_texture_set`."""
         from .texture_set import write_texture_set
 
         return write_texture_set(self, out_dir, name, **kwargs)
@@ -184,6 +256,7 @@ class Maps:
 
 __all__ = [
     "MAP_NAMES", "MAP_CHANNELS", "SLICES", "N_CHANNELS", "MAP_RANGES", "MAP_COLOUR_SPACES", "NORMAL_CONVENTION",
-    "Maps", "channel_slice", "normal_gl_to_dx", "normal_dx_to_gl", "normalize_normals", "encode_normal",
+    "MAP_ALIASES", "Maps", "select_maps", "channel_slice", "normal_gl_to_dx", "normal_dx_to_gl", "normalize_normals",
+    "encode_normal",
     "decode_normal",
 ]

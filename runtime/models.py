@@ -18,6 +18,16 @@ When a manifest is found, the sha256 of the model file must match it and its map
 runtime's (:func:`map_layout`), else :class:`ModelError`. A model found through a path or the environment
 variable may come without a manifest: it is loaded unverified and :attr:`ModelInfo.note` says so (the
 session then reads the layout from the embedded metadata). The packaged model always needs its manifest.
+
+Part graphs (maps on demand). onnxruntime runs the whole graph whatever outputs are fetched, so
+``svbrdf-export`` also writes one graph per decoder of the generator, ``NAME.<part>.onnx`` for each part of
+:data:`PARTS`: the encoder plus that decoder only. A part has the same input and output names and shapes as the
+full graph (``image`` (1, 3, H, W) -> ``maps`` (1, 8, H, W), layout :data:`~svbrdf.runtime.maps.SLICES`):
+the channels of its own maps equal the full graph's, **the channels of the other maps are NaN**. The
+manifest lists them under ``"parts"``: ``{part: {"file", "sha256", "maps", "parity"}}``, file names relative to
+the manifest's folder; each part file is verified against its sha256 when it is first used
+(:meth:`ModelInfo.verify_part`). A model without ``"parts"`` (an older export) works as before with the full
+graph. Each part file also embeds the manifest keys plus ``"part": {"name", "maps"}`` in its metadata.
 """
 
 from __future__ import annotations
@@ -28,7 +38,7 @@ import os
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
-from typing import Optional, Union
+from typing import Dict, Mapping, Optional, Tuple, Union
 
 from .errors import ModelError
 from .maps import MAP_COLOUR_SPACES, MAP_NAMES, MAP_RANGES, NORMAL_CONVENTION, SLICES
@@ -41,9 +51,14 @@ MODEL_ENV = "SVBRDF_MODEL"
 INPUT_NAME = "image"
 OUTPUT_NAME = "maps"
 MIN_SIZE = 8
+#: Part graphs written beside every exported model: part name -> the maps it computes (:data:`MAP_NAMES` order).
+#: One part per decoder of the generator (``svbrdf.trainer.models.DECODER_MAPS``).
+PARTS: Mapping[str, Tuple[str, ...]] = {"normal_roughness": ("roughness", "normal"),
+                                        "diffuse_specular": ("diffuse", "specular")}
 
 __all__ = [
-    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "ModelInfo", "find_model",
+    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "PARTS", "part_file_name",
+    "ModelInfo", "find_model",
     "manifest_path_for", "read_manifest", "sha256_file", "map_layout", "input_contract", "check_layout",
     "find_checkpoint",
 ]
@@ -73,6 +88,33 @@ class ModelInfo:
     def verified(self) -> bool:
         """True when the file's sha256 matched a manifest."""
         return self.manifest is not None
+
+    @property
+    def parts(self) -> Dict[str, dict]:
+        """Part graphs listed in the manifest (``{part: {"file", "sha256", "maps", ...}}``; empty without)."""
+        return dict((self.manifest or {}).get("parts") or {})
+
+    def part_path(self, part: str) -> Path:
+        """Where the file of a listed part graph is (beside the model); not checked."""
+        return self.path.parent / self.parts[part]["file"]
+
+    def verify_part(self, part: str) -> Path:
+        """The file of a listed part graph, checked against its sha256 in the manifest.
+
+        Raises:
+            ModelError: the file is missing or its sha256 differs.
+        """
+        path = self.part_path(part)
+        if not path.is_file():
+            raise ModelError(f"{path}: part graph listed in {self.manifest_path.name} is missing")
+        if sha256_file(path) != self.parts[part]["sha256"]:
+            raise ModelError(f"{path}: sha256 does not match the {part} part recorded in {self.manifest_path.name}")
+        return path
+
+
+def part_file_name(model_file: str, part: str) -> str:
+    """File name of a part graph of ``model_file``: ``NAME.onnx`` -> ``NAME.<part>.onnx``."""
+    return f"{Path(model_file).stem}.{part}.onnx"
 
 
 def map_layout() -> list:
@@ -124,6 +166,15 @@ def read_manifest(path: Union[str, Path]) -> dict:
     for key in ("file", "sha256"):
         if not isinstance(data.get(key), str):
             raise ModelError(f"{path}: model manifest has no {key!r}")
+    parts = data.get("parts")
+    if parts is not None and not (
+        isinstance(parts, dict)
+        and all(name in PARTS and isinstance(e, dict) and isinstance(e.get("file"), str)
+                and isinstance(e.get("sha256"), str) and e.get("maps") == list(PARTS[name])
+                for name, e in parts.items())
+    ):
+        raise ModelError(f"{path}: invalid 'parts' entry (expected some of {', '.join(PARTS)} with file, sha256 "
+                         f"and this runtime's maps)")
     return data
 
 

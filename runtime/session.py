@@ -4,6 +4,7 @@
 
     session = load_session()                     # model lookup: see svbrdf.runtime.models
     maps = estimate("photo.jpg", session)        # Maps, linear, OpenGL normals, meta with timings
+    normal = estimate("photo.jpg", session, maps=["normal"]).normal   # runs only the normal decoder
 
 Pipeline of :func:`estimate`:
 
@@ -11,11 +12,12 @@ Pipeline of :func:`estimate`:
 2. if its long side exceeds ``max_size``, downsize it with OpenImageIO ``ImageBufAlgo.resize`` and the
    ``"blackman-harris"`` filter (:data:`RESIZE_FILTER`): a non-negative kernel, so a linear photo stays >= 0
    and a flash highlight does not ring into negative values as with the default lanczos3;
-3. run the model in one pass when the image fits in one ``tile`` x ``tile`` window, else in overlapping
-   tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's inference).
-   The generator uses instance normalisation, so tiles see their own statistics: expect differences from a
-   single pass that are small for stationary materials but not only at the seams;
-4. clip every map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`).
+3. run the model (the full graph, or the part graph of the one decoder the requested maps need: see
+   :meth:`PreviewSession.graph_for`) in one pass when the image fits in one ``tile`` x ``tile`` window, else
+   in overlapping tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's
+   inference). The generator uses instance normalisation, so tiles see their own statistics: expect
+   differences from a single pass that are small for stationary materials but not only at the seams;
+4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`).
 
 The session uses ``enable_cpu_mem_arena=False``: the default arena roughly doubles peak memory at large
 sizes for no speed gain (measured in the platform notes).
@@ -26,14 +28,17 @@ from __future__ import annotations
 import json
 import os
 import time
+import warnings
 from pathlib import Path
-from typing import Optional, Union
+from typing import Iterable, Optional, Tuple, Union
 
 import numpy as np
 
 from .errors import ImageError, ModelError, SvbrdfError
-from .maps import N_CHANNELS, Maps
-from .models import INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, ModelInfo, check_layout, find_model
+from .maps import N_CHANNELS, SLICES, Maps, select_maps
+from .models import (
+    INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, ModelInfo, check_layout, find_model,
+)
 from .render import ZHAO, RenderConfig
 from .tiling import tile_boxes, tiled_apply
 
@@ -42,9 +47,11 @@ RESIZE_FILTER = "blackman-harris"
 DEFAULT_MAX_SIZE = 2048
 DEFAULT_TILE = 1024
 DEFAULT_OVERLAP = 64
+#: Name of the complete graph (both decoders) among :attr:`PreviewSession.loaded` and ``meta["model"]["graph"]``.
+FULL = "full"
 
 __all__ = ["PreviewSession", "load_session", "estimate", "resize_long_side", "RESIZE_FILTER",
-           "DEFAULT_MAX_SIZE", "DEFAULT_TILE", "DEFAULT_OVERLAP"]
+           "DEFAULT_MAX_SIZE", "DEFAULT_TILE", "DEFAULT_OVERLAP", "FULL"]
 
 
 def _first_line(exc: BaseException) -> str:
@@ -60,14 +67,22 @@ def _cpu_count() -> int:
 
 
 class PreviewSession:
-    """An onnxruntime session on an exported generator, with what its manifest says about it.
+    """onnxruntime sessions on an exported generator, with what its manifest says about it.
+
+    A session may hold up to three onnxruntime sessions: the full graph and the part graphs of
+    :data:`~svbrdf.runtime.models.PARTS`, each created on first use (:meth:`graph_for` picks the graph for a
+    set of maps). The graph the session's default ``maps`` need is created at once, so a file onnxruntime
+    cannot load fails here.
 
     Args:
         info: the located model (:func:`svbrdf.runtime.models.find_model`).
         threads: intra-op threads (default: every core this process may run on).
+        maps: the maps :func:`estimate` computes by default (:func:`~svbrdf.runtime.maps.select_maps`;
+            default all four).
 
     Attributes:
         info: :class:`~svbrdf.runtime.models.ModelInfo` (path, sha256, manifest, note).
+        maps: the default maps, in :data:`~svbrdf.runtime.maps.MAP_NAMES` order.
         metadata: the manifest, or the metadata embedded in the ONNX file when there is no manifest.
         render_config: :class:`RenderConfig` the model was trained with (``ZHAO`` if unrecorded).
         providers: onnxruntime execution providers in use.
@@ -75,14 +90,37 @@ class PreviewSession:
 
     Raises:
         ModelError: onnxruntime cannot load the file, the graph is not ``image (1,3,H,W) -> maps (1,8,H,W)``,
-            or a model without manifest carries no svbrdf metadata / a different map layout.
+            a model without manifest carries no svbrdf metadata / a different map layout / is a part graph,
+            or a part file does not match the manifest.
+        SvbrdfError: unknown map names.
     """
 
-    def __init__(self, info: ModelInfo, threads: Optional[int] = None):
-        import onnxruntime as ort
-
+    def __init__(self, info: ModelInfo, threads: Optional[int] = None,
+                 maps: Union[None, str, Iterable[str]] = None):
         self.info = info
         self.threads = int(threads or _cpu_count())
+        self.maps = select_maps(maps)
+        self.providers: list = []
+        self._sessions: dict = {}  # graph name (FULL or a part) -> onnxruntime session, created on first use
+        self._noted = False
+        if info.manifest is not None:
+            self.metadata = info.manifest
+        else:
+            self.metadata = self._embedded_metadata(self._session(FULL))
+            check_layout(self.metadata, str(info.path))
+        try:
+            render = self.metadata.get("render_config")
+            self.render_config = RenderConfig(**render) if render else ZHAO
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"{info.path}: invalid render_config in the model metadata ({exc})") from None
+        self._session(self.graph_for(self.maps))
+
+    def _session(self, graph: str):
+        if graph in self._sessions:
+            return self._sessions[graph]
+        import onnxruntime as ort
+
+        path = self.info.path if graph == FULL else self.info.verify_part(graph)
         so = ort.SessionOptions()
         so.enable_cpu_mem_arena = False
         so.intra_op_num_threads = self.threads
@@ -91,31 +129,22 @@ class PreviewSession:
         cuda = "CUDAExecutionProvider" in ort.get_available_providers()
         providers = ["CUDAExecutionProvider", "CPUExecutionProvider"] if cuda else ["CPUExecutionProvider"]
         try:
-            self._session = ort.InferenceSession(str(info.path), so, providers=providers)
+            session = ort.InferenceSession(str(path), so, providers=providers)
         except Exception as exc:  # onnxruntime raises its own pybind classes (InvalidProtobuf, Fail, ...)
-            raise ModelError(f"{info.path}: onnxruntime cannot load the model ({_first_line(exc)})") from None
-        self.providers = self._session.get_providers()
-
-        inputs, outputs = self._session.get_inputs(), self._session.get_outputs()
+            raise ModelError(f"{path}: onnxruntime cannot load the model ({_first_line(exc)})") from None
+        inputs, outputs = session.get_inputs(), session.get_outputs()
         if ([i.name for i in inputs] != [INPUT_NAME] or [o.name for o in outputs] != [OUTPUT_NAME]
                 or len(inputs[0].shape) != 4):
             raise ModelError(
-                f"{info.path}: not an svbrdf generator (expected input {INPUT_NAME!r} (1, 3, H, W) and output "
+                f"{path}: not an svbrdf generator (expected input {INPUT_NAME!r} (1, 3, H, W) and output "
                 f"{OUTPUT_NAME!r}, got {[i.name for i in inputs]} -> {[o.name for o in outputs]})"
             )
-        if info.manifest is not None:
-            self.metadata = info.manifest
-        else:
-            self.metadata = self._embedded_metadata()
-            check_layout(self.metadata, str(info.path))
-        try:
-            render = self.metadata.get("render_config")
-            self.render_config = RenderConfig(**render) if render else ZHAO
-        except (TypeError, ValueError) as exc:
-            raise ModelError(f"{info.path}: invalid render_config in the model metadata ({exc})") from None
+        self.providers = session.get_providers()
+        self._sessions[graph] = session
+        return session
 
-    def _embedded_metadata(self) -> dict:
-        props = self._session.get_modelmeta().custom_metadata_map
+    def _embedded_metadata(self, session) -> dict:
+        props = session.get_modelmeta().custom_metadata_map
         try:
             meta = {k: json.loads(v) for k, v in props.items()}
         except ValueError:
@@ -124,25 +153,58 @@ class PreviewSession:
             raise ModelError(
                 f"{self.info.path}: no manifest and no svbrdf metadata in the file; re-export it with svbrdf-export"
             )
+        if meta.get("part"):
+            raise ModelError(f"{self.info.path}: a part graph ({', '.join(meta['part'].get('maps') or [])} only); "
+                             f"pass the full model file")
         return meta
 
     @property
     def path(self) -> Path:
         return self.info.path
 
-    def run(self, image: np.ndarray) -> np.ndarray:
-        """One forward pass.
+    @property
+    def loaded(self) -> Tuple[str, ...]:
+        """Graphs created so far (``"full"`` and/or part names), in creation order."""
+        return tuple(self._sessions)
+
+    def graph_for(self, maps: Union[None, str, Iterable[str]] = None) -> str:
+        """The cheapest graph that computes ``maps`` (default: the session's): the part whose maps include
+        them all when the model has its file, else ``"full"`` (also for maps of both decoders: one encoder pass
+        then costs less than two parts)."""
+        want = set(self.maps if maps is None else select_maps(maps))
+        part = next((p for p, names in PARTS.items() if want <= set(names)), None)
+        if part is None or part not in self.info.parts or not self.info.part_path(part).is_file():
+            return FULL
+        return part
+
+    def _fallback_note(self, maps: Tuple[str, ...], graph: str) -> None:
+        """Warn once per session when a subset runs the full graph only because the part graph is missing."""
+        if self._noted or graph != FULL or not any(set(maps) <= set(n) for n in PARTS.values()):
+            return
+        self._noted = True
+        why = "was exported without part graphs" if not self.info.parts else "has its part graph file missing"
+        warnings.warn(f"{self.info.path.name} {why}: computing all maps to return {', '.join(maps)} "
+                      f"(re-export it with svbrdf-export to run only the decoder needed)", stacklevel=3)
+
+    def run(self, image: np.ndarray, maps: Union[None, str, Iterable[str]] = None) -> np.ndarray:
+        """One forward pass of the graph :meth:`graph_for` ``maps`` picks.
 
         Args:
             image: (H, W, 3) float32 linear RGB, H, W >= 8.
+            maps: the maps wanted (default: the session's).
 
         Returns:
-            (H, W, 8) float32 packed maps (layout of :mod:`svbrdf.runtime.maps`), not yet clipped.
+            (H, W, 8) float32 packed maps (layout of :mod:`svbrdf.runtime.maps`), not yet clipped; a part graph
+            leaves the channels of the other maps NaN.
         """
+        names = self.maps if maps is None else select_maps(maps)
+        graph = self.graph_for(names)
+        self._fallback_note(names, graph)
+        session = self._session(graph)
         h, w = image.shape[:2]
         x = np.ascontiguousarray(image.transpose(2, 0, 1)[None], dtype=np.float32)
         try:
-            y = self._session.run([OUTPUT_NAME], {INPUT_NAME: x})[0]
+            y = session.run([OUTPUT_NAME], {INPUT_NAME: x})[0]
         except Exception as exc:  # onnxruntime's RuntimeException / allocation failures
             raise SvbrdfError(f"{self.info.path}: inference failed on a {w}x{h} input ({_first_line(exc)})") from None
         if y.shape != (1, N_CHANNELS, h, w):
@@ -150,13 +212,19 @@ class PreviewSession:
         return y[0].transpose(1, 2, 0)
 
 
-def load_session(model: Union[str, os.PathLike, None] = None, threads: Optional[int] = None) -> PreviewSession:
+def load_session(model: Union[str, os.PathLike, None] = None, threads: Optional[int] = None,
+                 maps: Union[None, str, Iterable[str]] = None) -> PreviewSession:
     """Find, verify and load a model (lookup order in :mod:`svbrdf.runtime.models`).
 
+    ``maps`` (default all) are the maps :func:`estimate` computes by default; only the graph they need is
+    loaded now (a part graph for the maps of one decoder, when the model has it), others on first use.
+
     Raises:
+        SvbrdfError: unknown map names (checked first).
         ModelError: no model, missing file, sha256/manifest mismatch, or a file onnxruntime cannot load.
     """
-    return PreviewSession(find_model(model), threads=threads)
+    maps = select_maps(maps)
+    return PreviewSession(find_model(model), threads=threads, maps=maps)
 
 
 def resize_long_side(image: np.ndarray, max_size: int) -> np.ndarray:
@@ -201,8 +269,9 @@ def estimate(
     max_size: int = DEFAULT_MAX_SIZE,
     tile: int = DEFAULT_TILE,
     overlap: int = DEFAULT_OVERLAP,
+    maps: Union[None, str, Iterable[str]] = None,
 ) -> Maps:
-    """SVBRDF maps of one flash photo (all four maps: the graph computes them in one pass).
+    """SVBRDF maps of one flash photo: all four, or only ``maps`` (running only the decoder they need).
 
     Args:
         photo: image file path, or an (H, W, 3) float32 **linear** RGB array; at least 8 x 8 pixels.
@@ -211,22 +280,31 @@ def estimate(
         tile: images whose long side (after downsizing) exceeds ``tile`` are processed in ``tile`` x ``tile``
             windows; ``tile >= 8``.
         overlap: overlap of neighbouring windows, ``0 <= 2 * overlap <= tile``.
+        maps: the maps to compute, names of :data:`~svbrdf.runtime.maps.MAP_NAMES` (or aliases; see
+            :func:`~svbrdf.runtime.maps.select_maps`); default: the session's ``maps`` (all four unless the
+            session was loaded for a subset). The maps of one decoder (``roughness``/``normal`` or
+            ``diffuse``/``specular``) run that decoder's part graph when the model has it; a model exported
+            without parts runs the full graph and warns once (``UserWarning``).
 
     Returns:
-        :class:`Maps` at the processed size: diffuse (H, W, 3) linear [0, 1], specular and roughness (H, W, 1)
-        [0, 1], normal (H, W, 3) unit OpenGL. ``meta`` holds ``source``, ``model`` (path, sha256, verified),
-        ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``, ``overlap``, ``threads``,
-        ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and ``render_config``.
+        :class:`Maps` at the processed size with the requested maps (the others ``None``): diffuse (H, W, 3)
+        linear [0, 1], specular and roughness (H, W, 1) [0, 1], normal (H, W, 3) unit OpenGL. ``meta`` holds
+        ``source``, ``model`` (path, sha256, verified, ``graph``: ``"full"`` or the part that ran), ``maps``
+        (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
+        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
+        ``render_config``.
 
     Raises:
         ImageError: unreadable photo, bad array, or an image smaller than 8 px (before or after downsizing).
-        ModelError: no usable model (when ``session`` is None).
-        SvbrdfError: the model returned NaN/Inf maps (float photos with absurd values, near the float32 limit).
+        ModelError: no usable model (when ``session`` is None), or a part file that does not match the manifest.
+        SvbrdfError: unknown map names, or the model returned NaN/Inf maps (float photos with absurd values, near
+            the float32 limit).
         ValueError: invalid ``max_size``, ``tile`` or ``overlap``.
     """
     if max_size < MIN_SIZE or tile < MIN_SIZE or not 0 <= 2 * overlap <= tile:
         raise ValueError(f"need max_size >= {MIN_SIZE}, tile >= {MIN_SIZE} and 0 <= 2 * overlap <= tile; "
                          f"got max_size={max_size}, tile={tile}, overlap={overlap}")
+    names = None if maps is None else select_maps(maps)
     timings = {}
     t = time.perf_counter()
     name, image = _as_image(photo)
@@ -235,7 +313,9 @@ def estimate(
         raise ImageError(f"{name}: image is {in_w}x{in_h} pixels; the model needs at least {MIN_SIZE}x{MIN_SIZE}")
     timings["read"] = time.perf_counter() - t
     if session is None:
-        session = load_session()
+        session = load_session(maps=names)
+    names = names or session.maps
+    graph = session.graph_for(names)
 
     t = time.perf_counter()
     image = resize_long_side(image, max_size)
@@ -245,16 +325,21 @@ def estimate(
     timings["resize"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    packed = tiled_apply(session.run, image, tile, overlap)
+    packed = tiled_apply(lambda x: session.run(x, names), image, tile, overlap)
     timings["infer"] = time.perf_counter() - t
-    if not np.isfinite(packed).all():  # e.g. float photos near the float32 limit overflow inside the graph
+    computed = np.concatenate([np.arange(N_CHANNELS)[SLICES[n]] for n in names])
+    # A part graph leaves the other maps' channels NaN; overflow shows in the computed ones (e.g. float photos near
+    # the float32 limit).
+    if not np.isfinite(packed[..., computed]).all():
         raise SvbrdfError(f"{name}: the model returned NaN/Inf maps (photo values up to {float(image.max()):.3g}; "
                           f"expected linear RGB of order 1)")
 
     t = time.perf_counter()
     meta = {
         "source": name,
-        "model": {"path": str(session.path), "sha256": session.info.sha256, "verified": session.info.verified},
+        "model": {"path": str(session.path), "sha256": session.info.sha256, "verified": session.info.verified,
+                  "graph": graph},
+        "maps": list(names),
         "input_size": [in_h, in_w],
         "size": [h, w],
         "resized": (h, w) != (in_h, in_w),
@@ -264,7 +349,7 @@ def estimate(
         "threads": session.threads,
         "render_config": session.render_config.to_dict(),
     }
-    maps = Maps.unpack(packed, meta).clipped()
+    out = Maps.unpack(packed, meta, maps=names).clipped()
     timings["post"] = time.perf_counter() - t
-    maps.meta["timings"] = timings
-    return maps
+    out.meta["timings"] = timings
+    return out

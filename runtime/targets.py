@@ -315,7 +315,8 @@ def write_target(
         Paths written, keyed by role (:func:`target_files`).
 
     Raises:
-        ValueError: unknown target (and the argument errors of :func:`write_texture_set`).
+        ValueError: unknown target, a subset of the maps for a target other than ``generic`` (and the argument
+            errors of :func:`write_texture_set`).
         ImageError: a target file exists (and not ``force``), bad name or folder, NaN/Inf in a map, or a write
             failed. Nothing is left behind in these cases.
     """
@@ -323,6 +324,7 @@ def write_target(
         raise ValueError(f"unknown target {target!r}; expected one of {', '.join(TARGETS)}")
     if target == "generic":
         return write_texture_set(maps, out_dir, name, force=force, extra_meta=extra_meta, relit=relit)
+    maps.require(what=f"target {target!r}")  # every preset's base colour / packing converts all four maps
     preset = PRESETS[target]
     out_dir = Path(out_dir)
     if not name or name in (".", "..") or "/" in name or os.sep in name:

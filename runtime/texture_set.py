@@ -15,7 +15,8 @@ file                    content                                      encoding
 ======================  ===========================================  ======================================
 
 ``<ext>`` is ``png`` (16-bit) by default or ``exr`` (32-bit float). Maps are clipped to their valid range
-(:meth:`Maps.clipped`) before writing.
+(:meth:`Maps.clipped`) before writing. A :class:`Maps` holding a subset of the maps writes only their files;
+the sidecar's ``"maps"`` lists the maps written.
 
 Safety: every target is checked before anything is written; if one exists and ``force`` is false, an
 :class:`~svbrdf.runtime.errors.ImageError` names it and nothing is written. The files are first written into
@@ -95,7 +96,8 @@ def write_texture_set(
     """Write a texture set (see the module docstring for the files), all or nothing.
 
     Args:
-        maps: the texture set; ``maps.meta`` is copied into the sidecar. A ``"render_config"`` entry
+        maps: the texture set (all four maps or a subset: only the maps present are written); ``maps.meta``
+            is copied into the sidecar. A ``"render_config"`` entry
             (:class:`RenderConfig` or its dict) selects the BRDF described in the sidecar (default: ``ZHAO``).
         out_dir: output folder, created (with parents) if missing.
         name: base name of the files (no path separators).
@@ -107,7 +109,8 @@ def write_texture_set(
             written as ``<name>_relit.png``.
 
     Returns:
-        Paths written, keyed ``basecolor``, ``normal``, ``roughness``, ``specular``, ``sidecar`` (and ``relit``).
+        Paths written, keyed ``basecolor``, ``normal``, ``roughness``, ``specular`` (those present), ``sidecar``
+        (and ``relit``).
 
     Raises:
         ImageError: a target exists (and not ``force``), bad name, ``out_dir`` is not a folder, NaN/Inf in a
@@ -137,6 +140,7 @@ def write_texture_set(
         "specular": (f"{name}_specular.{fmt}", "specular", dict(bits=data_bits),
                      {"map": "specular", "colour_space": "linear", "bits": data_bits}),
     }
+    plan = {role: p for role, p in plan.items() if p[1] in maps.names}
     names = {role: p[0] for role, p in plan.items()}
     names["sidecar"] = f"{name}.json"
     if relit is not None:
@@ -164,14 +168,14 @@ def write_texture_set(
     h, w = maps.shape
     clipped = maps.clipped()
     arrays = {role: getattr(clipped, p[1]) for role, p in plan.items()}
-    if normal == "dx":
-        arrays["normal"] = normal_gl_to_dx(arrays["normal"])
-    arrays["normal"] = encode_normal(arrays["normal"])
+    if "normal" in arrays:
+        arrays["normal"] = encode_normal(normal_gl_to_dx(arrays["normal"]) if normal == "dx" else arrays["normal"])
 
     sidecar = {
         "format_version": SIDECAR_VERSION,
         "name": name,
         "size": {"width": w, "height": h},
+        "maps": list(maps.names),
         "brdf": _brdf_description(config),
         "normal_convention": {"name": normal, "axes": _NORMAL_AXES[normal]},
         "files": {role: {"file": plan[role][0], **plan[role][3]} for role in plan},
@@ -221,7 +225,7 @@ def relit_panel(
     """Renders of a texture set under several point lights, side by side, ready to save as an sRGB PNG.
 
     Args:
-        maps: the texture set, (H, W) maps.
+        maps: the texture set, (H, W) maps; all four are needed (``ValueError`` otherwise).
         config: renderer settings (:func:`svbrdf.runtime.render.render`).
         lights: light positions (scene units), ``None`` entries meaning the camera flash. Default: the flash,
             then two novel lights at camera height from the upper left and the lower right (the corner
@@ -233,6 +237,7 @@ def relit_panel(
     Returns:
         (H, N * W, 3) float32, sRGB-encoded in [0, 1]: ``linear_to_srgb(clip(exposure * render_i, 0, 1))``.
     """
+    maps.require(what="the relit panel")
     if lights is None:
         corners = novel_lights(config)
         lights = (None, corners[0], corners[-1])

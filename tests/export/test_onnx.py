@@ -15,10 +15,11 @@ from svbrdf.export import onnx as export_onnx  # noqa: E402
 from svbrdf.export.cli import main  # noqa: E402
 from svbrdf.export.onnx import OPSET, export_generator  # noqa: E402
 from svbrdf.runtime.errors import ModelError, SvbrdfError  # noqa: E402
-from svbrdf.runtime.models import MANIFEST_SCHEMA, map_layout, sha256_file  # noqa: E402
+from svbrdf.runtime.maps import MAP_NAMES, SLICES  # noqa: E402
+from svbrdf.runtime.models import MANIFEST_SCHEMA, PARTS, map_layout, sha256_file  # noqa: E402
 from svbrdf.trainer.checkpoint import build_checkpoint, save_checkpoint  # noqa: E402
 from svbrdf.trainer.config import resolve  # noqa: E402
-from svbrdf.trainer.models import MODEL_PRESETS, Generator  # noqa: E402
+from svbrdf.trainer.models import DECODER_MAPS, MODEL_PRESETS, Generator  # noqa: E402
 
 SIZES = ((32, 32), (33, 45), (40, 64))
 
@@ -64,7 +65,9 @@ def test_graph_contract(exported):
     dims = lambda v: [d.dim_param or d.dim_value for d in v.type.tensor_type.shape.dim]  # noqa: E731
     assert [i.name for i in model.graph.input] == ["image"] and dims(model.graph.input[0]) == [1, 3, "H", "W"]
     assert [o.name for o in model.graph.output] == ["maps"] and dims(model.graph.output[0]) == [1, 8, "H", "W"]
-    assert sorted(p.name for p in out.parent.iterdir()) == ["tiny.json", "tiny.onnx"]  # one file, no .data
+    # one file per graph, no .data
+    assert sorted(p.name for p in out.parent.iterdir()) == [
+        "tiny.diffuse_specular.onnx", "tiny.json", "tiny.normal_roughness.onnx", "tiny.onnx"]
 
 
 def test_metadata_and_manifest(exported):
@@ -83,7 +86,49 @@ def test_metadata_and_manifest(exported):
     assert manifest["checkpoint"] is None  # exported from a module, not a file
     props = {p.key: json.loads(p.value) for p in onnx.load(str(out)).metadata_props}
     assert "sha256" not in props and "file" not in props
-    assert props == {k: v for k, v in manifest.items() if k not in ("sha256", "file", "parity")}
+    assert props == {k: v for k, v in manifest.items() if k not in ("sha256", "file", "parity", "parts")}
+
+
+def _channels(maps):
+    own = np.zeros(8, bool)
+    for n in maps:
+        own[SLICES[n]] = True
+    return own
+
+
+def test_parts_are_one_decoder_each_and_match_the_full_graph(exported):
+    out, generator, report = exported
+    manifest = json.loads(out.with_suffix(".json").read_text())
+    assert set(manifest["parts"]) == set(PARTS) == set(report["parts"])
+    full = ort.InferenceSession(str(out), providers=["CPUExecutionProvider"])
+    full_weights = sum(t.ByteSize() for t in onnx.load(str(out)).graph.initializer)
+    rng = np.random.default_rng(11)
+    photos = [rng.random((1, 3, h, w), dtype=np.float32) for h, w in ((32, 32), (9, 130), (45, 33))]
+    for part, maps in PARTS.items():
+        entry = manifest["parts"][part]
+        path = out.with_name(entry["file"])
+        assert entry["file"] == f"tiny.{part}.onnx" and entry["maps"] == list(maps)
+        assert entry["sha256"] == sha256_file(path) == report["parts"][part]["sha256"]
+        assert [p["size"] for p in entry["parity"]["results"]] == [list(s) for s in SIZES]
+        model = onnx.load(str(path))
+        onnx.checker.check_model(model, full_check=True)
+        props = {p.key: json.loads(p.value) for p in model.metadata_props}
+        assert props["part"] == {"name": part, "maps": list(maps)} and props["maps"] == map_layout()
+        # The other decoder is not in the file: about half the full graph's weights.
+        assert sum(t.ByteSize() for t in model.graph.initializer) < 0.7 * full_weights
+        sess = ort.InferenceSession(str(path), providers=["CPUExecutionProvider"])
+        own = _channels(maps)
+        for x in photos:
+            got = sess.run(["maps"], {"image": x})[0]
+            ref = full.run(["maps"], {"image": x})[0]
+            assert got.shape == ref.shape == (1, 8) + x.shape[2:]
+            np.testing.assert_allclose(got[:, own], ref[:, own], atol=1e-5, rtol=0)
+            assert np.isnan(got[:, ~own]).all()
+
+
+def test_parts_follow_the_generator_decoders():
+    assert sorted(map(sorted, PARTS.values())) == sorted(map(sorted, DECODER_MAPS.values()))
+    assert all(tuple(n for n in MAP_NAMES if n in maps) == maps for maps in PARTS.values())  # packing order
 
 
 def test_refuses_to_overwrite(exported):
@@ -94,6 +139,30 @@ def test_refuses_to_overwrite(exported):
     with pytest.raises(SvbrdfError, match=r"\.onnx"):
         export_generator(generator, out.with_suffix(".bin"))
     assert out.read_bytes() == before
+
+
+def test_an_existing_part_file_blocks_the_whole_export(tmp_path):
+    mine = tmp_path / "m.diffuse_specular.onnx"
+    mine.write_bytes(b"my own file")
+    with pytest.raises(SvbrdfError, match=r"m\.diffuse_specular\.onnx: exists"):
+        export_generator(_generator(), tmp_path / "m.onnx")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.diffuse_specular.onnx"]
+    assert mine.read_bytes() == b"my own file"
+
+
+def test_part_parity_failure_writes_nothing(tmp_path, monkeypatch):
+    real = export_onnx._parity
+
+    def broken_parts(path, generator, sizes, maps=MAP_NAMES):  # the full graph passes, a part does not
+        results = real(path, generator, sizes, maps)
+        return [{**r, "max_abs_diff": 1.0} for r in results] if maps != MAP_NAMES else results
+
+    monkeypatch.setattr(export_onnx, "_parity", broken_parts)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        with pytest.raises(ModelError, match=r"m\.\w+\.onnx: onnxruntime and torch differ"):
+            export_generator(_generator(), tmp_path / "m.onnx", sizes=((16, 16),))
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_parity_failure_writes_nothing(tmp_path, monkeypatch):
@@ -114,7 +183,8 @@ def test_cli(tmp_path, capsys):
     out = tmp_path / "models" / "v1.onnx"
     assert main([str(ckpt_path), "-o", str(out)]) == 0
     stdout = capsys.readouterr().out
-    assert str(out) in stdout and "max |diff|" in stdout
+    assert str(out) in stdout and "max |diff|" in stdout and "normal_roughness" in stdout
+    assert all(out.with_name(f"v1.{p}.onnx").is_file() for p in PARTS)
     manifest = json.loads(out.with_suffix(".json").read_text())
     assert manifest["checkpoint"] == {"file": "ck.pt", "path": str(ckpt_path.resolve()),
                                       "sha256": sha256_file(ckpt_path)}
@@ -123,6 +193,10 @@ def test_cli(tmp_path, capsys):
     assert main([str(ckpt_path), "-o", str(out)]) == 1  # exists, no --force
     err = capsys.readouterr().err
     assert err.strip().splitlines() == [f"svbrdf-export: error: {out}: exists (use --force to overwrite)"]
+    out.unlink()
+    out.with_suffix(".json").unlink()  # only the parts are left: still refused
+    assert main([str(ckpt_path), "-o", str(out)]) == 1
+    assert "v1.normal_roughness.onnx: exists" in capsys.readouterr().err and not out.exists()
     assert main([str(tmp_path / "missing.pt")]) == 1
     assert "no such checkpoint" in capsys.readouterr().err
     assert main([str(ckpt_path), "-o", str(tmp_path / "x.bin")]) == 2

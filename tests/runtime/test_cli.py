@@ -217,3 +217,57 @@ def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, ti
     assert "refined" in out
     meta = json.loads((tmp_path / "b" / "wood.json").read_text())["meta"]
     assert meta["refine"]["preview_input_rmse"] > 0.0 and meta["refine"]["iterations"] >= 1
+
+
+# ------------------------------------------------------------------------------------------ --maps
+def test_maps_subset_writes_only_those_files_and_no_relit_panel(photo, tiny_model, tmp_path, capsys):
+    out_dir = tmp_path / "out"
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--maps", "normal,basecolor",
+                          "--threads", "1")
+    assert code == 0, err
+    assert sorted(p.name for p in out_dir.iterdir()) == ["wood.json", "wood_basecolor.png", "wood_normal.png"]
+    assert err.strip().splitlines() == ["svbrdf-preview: note: no relit panel with --maps (it renders all four maps)"]
+    sidecar = json.loads((out_dir / "wood.json").read_text())
+    assert sidecar["maps"] == ["diffuse", "normal"] and sidecar["meta"]["maps"] == ["diffuse", "normal"]
+    assert sidecar["meta"]["model"]["graph"] == "full"  # maps of both decoders
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "r", "--maps", "roughness", "-q")
+    assert code == 0 and err == ""
+    assert sorted(p.name for p in (tmp_path / "r").iterdir()) == ["wood.json", "wood_roughness.png"]
+    assert json.loads((tmp_path / "r" / "wood.json").read_text())["meta"]["model"]["graph"] == "normal_roughness"
+
+
+def test_maps_usage_errors(photo, tiny_model, tmp_path, capsys):
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "--maps", "normal,albedo")
+    errors = [line for line in err.splitlines() if line.startswith(ERR)]
+    assert code == 2 and out == "" and len(errors) == 1
+    assert "unknown map name 'albedo'" in errors[0] and "diffuse, specular, roughness, normal" in errors[0]
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "--maps", "normal", "--target", "unreal")
+    assert code == 2 and "--maps needs --target generic" in err
+    assert not (photo.parent / "wood_svbrdf").exists()
+
+
+def test_maps_with_a_model_without_parts_warns_once(photo, tiny_model, tmp_path, capsys):
+    for f in tiny_model.parent.glob("tiny.*"):  # main graph, manifest and checkpoint; no part files
+        if f.suffixes in ([".onnx"], [".json"], [".pt"]):
+            (tmp_path / f.name).write_bytes(f.read_bytes())
+    manifest = json.loads((tmp_path / "tiny.json").read_text())
+    del manifest["parts"]
+    (tmp_path / "tiny.json").write_text(json.dumps(manifest))
+    other = tmp_path / "oak.png"
+    other.write_bytes(photo.read_bytes())
+    code, out, err = _run(capsys, photo, other, "--model", tmp_path / "tiny.onnx", "-o", tmp_path / "out",
+                          "--maps", "specular")
+    assert code == 0, err
+    assert err.count("svbrdf-preview: warning: tiny.onnx was exported without part graphs") == 1
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == [
+        "oak.json", "oak_specular.png", "wood.json", "wood_specular.png"]
+
+
+def test_refine_with_maps_writes_only_those(photo, tiny_model, tmp_path, capsys):
+    pytest.importorskip("torch")
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "out", "--refine", "--iters", "1",
+                          "--threads", "1", "--maps", "roughness", "-q")
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["wood.json", "wood_roughness.png"]
+    meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
+    assert meta["maps"] == ["roughness"] and meta["refine"]["iterations"] == 1

@@ -3,9 +3,10 @@
 import numpy as np
 import pytest
 
+from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.maps import (
-    MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES, Maps, channel_slice, decode_normal, encode_normal,
-    normal_dx_to_gl, normal_gl_to_dx, normalize_normals,
+    MAP_ALIASES, MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES, Maps, channel_slice, decode_normal, encode_normal,
+    normal_dx_to_gl, normal_gl_to_dx, normalize_normals, select_maps,
 )
 
 
@@ -110,3 +111,43 @@ def test_unpack_validation():
 def test_save_delegates_to_texture_set(tmp_path):
     paths = _random_maps().save(tmp_path, "m")
     assert paths["sidecar"] == tmp_path / "m.json" and paths["basecolor"].exists()
+
+
+# ------------------------------------------------------------------------------------------ subsets
+def test_select_maps_orders_dedupes_and_resolves_aliases():
+    assert select_maps(None) == MAP_NAMES
+    assert select_maps(["normal", "diffuse", "normal"]) == ("diffuse", "normal")  # packing order, once
+    assert select_maps("roughness") == ("roughness",)  # one name as a string, not its letters
+    assert select_maps(["basecolor"]) == ("diffuse",) and MAP_ALIASES["basecolor"] == "diffuse"
+    with pytest.raises(SvbrdfError) as err:
+        select_maps(["normal", "albedo", "height"])
+    msg = str(err.value)
+    assert "\n" not in msg and "'albedo', 'height'" in msg and all(n in msg for n in MAP_NAMES)
+    with pytest.raises(SvbrdfError, match="no maps requested"):
+        select_maps([])
+
+
+def test_a_subset_holds_only_its_maps():
+    full = _random_maps()
+    part = full.subset(["normal", "diffuse"])
+    assert part.names == ("diffuse", "normal") and not part.complete and full.complete
+    assert part.specular is None and part.roughness is None and part.shape == (5, 7)
+    assert [n for n, _ in part.items()] == ["diffuse", "normal"] and part.meta == full.meta
+    np.testing.assert_array_equal(part.normal, full.normal)
+    with pytest.raises(ValueError, match=r"pack\(\) needs the specular, roughness map\(s\); .* only diffuse, normal"):
+        part.pack()
+    with pytest.raises(ValueError, match="needs the roughness"):
+        part.subset("roughness")
+    wild = Maps(roughness=np.full((2, 3), 4.0)).clipped()  # no normal to renormalise
+    assert wild.names == ("roughness",) and wild.roughness.max() == 1.0 and wild.crop(0, 1, 2, 2).shape == (2, 2)
+    with pytest.raises(ValueError, match="at least one"):
+        Maps(meta={"k": 1})
+
+
+def test_unpack_a_subset_ignores_the_other_channels():
+    packed = _random_maps().pack()
+    packed[..., SLICES["diffuse"]] = np.nan  # what a part graph leaves in the maps it does not compute
+    packed[..., SLICES["specular"]] = np.nan
+    m = Maps.unpack(packed, maps=("roughness", "normal"))
+    assert m.names == ("roughness", "normal") and np.isfinite(m.normal).all()
+    np.testing.assert_array_equal(m.roughness, packed[..., SLICES["roughness"]])

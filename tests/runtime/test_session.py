@@ -2,19 +2,21 @@
 
 import json
 import shutil
+import warnings
 
 import numpy as np
 import pytest
 
-from svbrdf.runtime.errors import ImageError, ModelError
+from svbrdf.runtime.errors import ImageError, ModelError, SvbrdfError
 from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.maps import MAP_NAMES
 from svbrdf.runtime.models import MODEL_ENV, find_checkpoint, find_model, map_layout
 from svbrdf.runtime.tiling import tile_boxes
 
 from .conftest import TINY_FOV
 
 pytest.importorskip("onnxruntime")
-from svbrdf.runtime.session import PreviewSession, estimate, load_session  # noqa: E402
+from svbrdf.runtime.session import FULL, PreviewSession, estimate, load_session  # noqa: E402
 
 
 @pytest.fixture(scope="module")
@@ -184,3 +186,115 @@ def test_tiled_estimate_agrees_with_one_pass_away_from_seams(session):
     assert close(tiled, whole)
     assert not close(estimate(np.roll(photo, 37, axis=1), session), whole)  # the check can fail
 
+
+
+# ------------------------------------------------------------------------------------------ maps on demand
+def _copy_model(tiny_model, folder, parts=True):
+    """The tiny model's files in ``folder``; without ``parts`` its manifest is that of an older export."""
+    for f in tiny_model.parent.glob("tiny*"):
+        if parts or f.suffix != ".onnx" or f == tiny_model:
+            shutil.copy(f, folder / f.name)
+    if not parts:
+        manifest = json.loads(tiny_model.with_suffix(".json").read_text())
+        del manifest["parts"]
+        (folder / "tiny.json").write_text(json.dumps(manifest))
+    return folder / "tiny.onnx"
+
+
+@pytest.mark.parametrize("maps,graph", [
+    (("normal",), "normal_roughness"),
+    (("roughness", "normal"), "normal_roughness"),
+    (("diffuse",), "diffuse_specular"),
+    (("specular", "diffuse"), "diffuse_specular"),
+    (("diffuse", "normal"), FULL),  # both decoders: one encoder pass beats two parts
+])
+def test_a_subset_runs_only_the_graph_it_needs_and_equals_the_full_estimate(tiny_model, session, maps, graph):
+    photo = _texture(40, 56, seed=1)
+    full = estimate(photo, session)
+    sess = load_session(tiny_model, threads=1, maps=maps)
+    assert sess.loaded == (graph,) and sess.graph_for() == graph  # created at load, nothing else
+    got = estimate(photo, sess)
+    assert sess.loaded == (graph,)
+    assert got.names == tuple(n for n in MAP_NAMES if n in maps)
+    assert all(getattr(got, n) is None for n in MAP_NAMES if n not in maps)
+    assert got.meta["maps"] == list(got.names) and got.meta["model"]["graph"] == graph
+    for name, arr in got.items():
+        np.testing.assert_allclose(arr, getattr(full, name), atol=1e-5, err_msg=name)
+
+
+def test_other_graphs_are_created_on_first_use(tiny_model):
+    sess = load_session(tiny_model, threads=1, maps=["normal"])
+    photo = _texture(16, 24)
+    assert estimate(photo, sess).names == ("normal",)  # the session's maps are the default
+    assert estimate(photo, sess, maps="basecolor").names == ("diffuse",)  # alias of diffuse
+    assert sess.loaded == ("normal_roughness", "diffuse_specular")
+    assert estimate(photo, sess, maps=MAP_NAMES).complete
+    assert sess.loaded == ("normal_roughness", "diffuse_specular", FULL)
+    assert estimate(photo, sess, maps=["specular"]).names == ("specular",)  # cached: no new session
+    assert len(sess.loaded) == 3
+
+
+def test_tiled_subset_equals_the_tiled_full_estimate(tiny_model, session):
+    photo = _texture(96, 160, seed=4)
+    full = estimate(photo, session, tile=64, overlap=16)
+    sess = load_session(tiny_model, threads=1, maps=["diffuse", "specular"])
+    got = estimate(photo, sess, tile=64, overlap=16)
+    assert got.meta["tiles"] == full.meta["tiles"] == 6 and sess.loaded == ("diffuse_specular",)
+    assert got.names == ("diffuse", "specular")
+    for name, arr in got.items():
+        np.testing.assert_allclose(arr, getattr(full, name), atol=1e-5, err_msg=name)
+
+
+def test_unknown_map_names_are_one_line_errors(tiny_model, session, tmp_path):
+    with pytest.raises(SvbrdfError, match=r"unknown map name 'albedo'; valid names: diffuse, specular, roughness, "
+                                          r"normal"):
+        load_session(tmp_path / "missing.onnx", maps=["normal", "albedo"])  # checked before the model lookup
+    with pytest.raises(SvbrdfError, match="unknown map name 'height'"):
+        estimate(_texture(16, 16), session, maps=["height"])
+
+
+def test_a_model_without_parts_falls_back_to_the_full_graph_with_one_note(tiny_model, session, tmp_path):
+    model = _copy_model(tiny_model, tmp_path, parts=False)
+    sess = load_session(model, threads=1, maps=["roughness"])
+    assert sess.info.verified and sess.info.parts == {} and sess.loaded == (FULL,)
+    photo = _texture(24, 32)
+    with pytest.warns(UserWarning, match="exported without part graphs: computing all maps to return roughness"):
+        got = estimate(photo, sess)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # once per session
+        again = estimate(photo, sess, maps=["diffuse"])
+    assert got.names == ("roughness",) and again.names == ("diffuse",) and got.meta["model"]["graph"] == FULL
+    np.testing.assert_allclose(got.roughness, estimate(photo, session).roughness, atol=1e-6)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # all four maps, or maps of both decoders, are no fallback
+        load_session(model, threads=1).run(photo)
+        estimate(photo, load_session(model, threads=1), maps=["diffuse", "normal"])
+
+
+def test_a_missing_part_file_falls_back_and_a_corrupt_one_is_refused(tiny_model, tmp_path):
+    model = _copy_model(tiny_model, tmp_path)
+    (tmp_path / "tiny.diffuse_specular.onnx").unlink()
+    sess = load_session(model, threads=1, maps=["diffuse"])
+    assert sess.loaded == (FULL,)
+    with pytest.warns(UserWarning, match="part graph file missing"):
+        assert estimate(_texture(16, 16), sess).names == ("diffuse",)
+
+    part = tmp_path / "tiny.normal_roughness.onnx"
+    data = bytearray(part.read_bytes())
+    data[len(data) // 2] ^= 0xFF
+    part.write_bytes(bytes(data))
+    assert load_session(model, threads=1).loaded == (FULL,)  # parts are verified when first used
+    with pytest.raises(ModelError, match=r"tiny\.normal_roughness\.onnx: sha256 does not match"):
+        load_session(model, threads=1, maps=["normal"])
+
+
+def test_a_part_file_is_not_a_model_and_a_bad_parts_entry_is_refused(tiny_model, tmp_path):
+    shutil.copy(tiny_model.with_name("tiny.normal_roughness.onnx"), tmp_path / "nr.onnx")
+    with pytest.raises(ModelError, match="a part graph .*pass the full model file"):
+        load_session(tmp_path / "nr.onnx")
+    model = _copy_model(tiny_model, tmp_path)
+    manifest = json.loads(model.with_suffix(".json").read_text())
+    manifest["parts"]["normal_roughness"]["maps"] = ["normal"]
+    model.with_suffix(".json").write_text(json.dumps(manifest))
+    with pytest.raises(ModelError, match="invalid 'parts' entry"):
+        find_model(model)

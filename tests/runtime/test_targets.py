@@ -341,3 +341,12 @@ def test_mitsuba_renders_the_usd_files_like_our_renderer(tmp_path):
     ours = render(maps, None, config)
     rel = np.abs(theirs - ours) / np.maximum(ours, 1e-3)
     assert np.median(rel) < 0.01 and np.percentile(rel, 99) < 0.03, (np.median(rel), np.percentile(rel, 99))
+
+
+def test_targets_other_than_generic_need_every_map(tmp_path, maps):
+    part = maps.subset(["diffuse", "normal"])
+    with pytest.raises(ValueError, match="target 'gltf' needs the specular, roughness map"):
+        write_target(part, tmp_path / "gl", "m", "gltf")
+    assert not (tmp_path / "gl").exists()
+    paths = write_target(part, tmp_path / "generic", "m", "generic")  # the project's own layout takes a subset
+    assert set(paths) == {"basecolor", "normal", "sidecar"}

@@ -181,3 +181,20 @@ def test_relit_panel_auto_exposure_and_writing(tmp_path, maps):
     paths = write_texture_set(dark, tmp_path, "m", relit=panel)
     assert paths["relit"].name == "m_relit.png"
     np.testing.assert_allclose(read_image(paths["relit"], raw=True), panel, atol=0.5 / 255 + 1e-6)
+
+
+def test_a_subset_writes_only_its_maps(tmp_path, maps):
+    part = maps.subset(["normal", "basecolor"])
+    paths = part.save(tmp_path, "m", fmt="exr")
+    assert set(paths) == {"basecolor", "normal", "sidecar"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json", "m_basecolor.png", "m_normal.exr"]
+    np.testing.assert_allclose(read_image(paths["normal"], raw=True), (maps.normal + 1) / 2, atol=1e-6)
+    side = json.loads(paths["sidecar"].read_text())
+    assert side["maps"] == ["diffuse", "normal"] and set(side["files"]) == {"basecolor", "normal"}
+    full = json.loads(write_texture_set(maps, tmp_path / "all", "m")["sidecar"].read_text())
+    assert full["maps"] == ["diffuse", "specular", "roughness", "normal"]
+
+
+def test_relit_panel_needs_every_map(maps):
+    with pytest.raises(ValueError, match="relit panel needs the diffuse, specular map"):
+        relit_panel(maps.subset(["roughness", "normal"]))
