@@ -230,7 +230,11 @@ def render(
 
     Returns:
         (H, W, 3) float32 linear radiance (not clamped; may exceed 1).
+
+    Raises:
+        ValueError: ``maps`` lacks one of the four maps (a ``--maps`` subset).
     """
+    maps.require(what="rendering")
     h, w = maps.shape
     fh, fw = full_size if full_size is not None else (h, w)
     v, l, d2 = light_vectors(fh, fw, light_pos, config)

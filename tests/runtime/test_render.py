@@ -196,3 +196,10 @@ def test_maps_normalised_on_the_fly():
     maps = _random_maps(rng, 6, 6)
     scaled = Maps(diffuse=maps.diffuse, specular=maps.specular, roughness=maps.roughness, normal=maps.normal * 0.7)
     np.testing.assert_allclose(render(scaled), render(maps), rtol=1e-4, atol=1e-6)
+
+
+def test_render_refuses_a_subset_with_one_line():
+    part = Maps(diffuse=np.full((8, 8, 3), 0.5, np.float32), specular=np.full((8, 8, 1), 0.04, np.float32),
+                roughness=None, normal=None)
+    with pytest.raises(ValueError, match="rendering needs the roughness, normal"):
+        render(part)
