@@ -118,13 +118,16 @@ def _refine(image, session, args, name: str):
     """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear) and return the trainer's Maps."""
     from svbrdf.trainer import checkpoint as ckpt_io
     from svbrdf.trainer import train
-    from svbrdf.trainer.config import TrainConfig
+    from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
 
     from .models import find_checkpoint
 
     init_path = find_checkpoint(session.info)
     init = ckpt_io.load_checkpoint(init_path)
-    cfg = TrainConfig.from_dict(init["train_config"]).to_dict()
+    # The checkpoint's preset as this version defines it (fine-tune length, stopping rule...); the architecture
+    # comes from the checkpoint itself (train.finetune_config). An unknown preset keeps the recorded settings.
+    preset = init["train_config"].get("preset")
+    cfg = (resolve(preset) if preset in TRAIN_PRESETS else TrainConfig.from_dict(init["train_config"])).to_dict()
     cfg["quality"] = "auto" if args.quality == "auto" else "fixed"
     if args.iters:
         cfg["iters_finetune"] = args.iters

@@ -56,10 +56,10 @@ class TrainConfig:
         reset_optimizers: finetune with fresh Adam states instead of the pretrained ones.
         eval_every, eval_tiles: cadence and number of fixed tiles of the label-free progress signal
             (re-render L1 vs the photo, mean map change between evaluations); 0 = off.
-        quality: "fixed" (run all iterations) or "auto" (stop early on a plateau of both signals).
-        plateau_window: evaluations compared by the plateau test; ``plateau_render_tol``: minimum relative
-            drop of the re-render L1 over the window; ``plateau_change_tol``: minimum mean map change per
-            evaluation over the window. Training stops when both fall below their tolerance.
+        quality: "fixed" (run all iterations) or "auto" (stop early when the re-render L1 stops improving).
+        plateau_window, plateau_render_tol: the ``quality="auto"`` rule
+            (:meth:`svbrdf.trainer.train.Trainer.plateaued`): stop when the best re-render L1 of the last
+            ``plateau_window`` evaluations is not ``plateau_render_tol`` (relative) below the best before them.
         guard_rollback_after: consecutive non-finite optimiser steps before rolling back to the last good
             in-memory snapshot; ``guard_snapshot_every``: iterations between snapshots.
         predict_max_side: photos with a longer side are predicted in overlapping tiles of this size;
@@ -93,9 +93,8 @@ class TrainConfig:
     eval_every: int = 100
     eval_tiles: int = 4
     quality: str = "fixed"
-    plateau_window: int = 5
-    plateau_render_tol: float = 0.01
-    plateau_change_tol: float = 0.002
+    plateau_window: int = 4
+    plateau_render_tol: float = 0.05
     guard_rollback_after: int = 5
     guard_snapshot_every: int = 50
     predict_max_side: int = 1024
@@ -169,8 +168,10 @@ class TrainConfig:
 
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "TrainConfig":
-        """Inverse of :meth:`to_dict`; unknown keys raise ValueError, missing ones take the defaults."""
+        """Inverse of :meth:`to_dict`; unknown keys raise ValueError (:data:`RETIRED_SETTINGS` are dropped), missing
+        ones take the defaults."""
         known = {f.name for f in fields(cls)}
+        d = {k: v for k, v in d.items() if k not in RETIRED_SETTINGS}
         unknown = sorted(set(d) - known)
         if unknown:
             raise ValueError(f"unknown training settings: {', '.join(unknown)}")
@@ -182,6 +183,10 @@ class TrainConfig:
         if "render" in kw:
             kw["render"] = RenderConfig(**kw["render"]).to_dict()
         return cls(**kw)
+
+
+#: Settings of earlier versions that checkpoints may still carry; ignored when read.
+RETIRED_SETTINGS = frozenset({"plateau_change_tol"})
 
 
 def _preset(name: str, model: str, **kw) -> TrainConfig:

@@ -207,25 +207,32 @@ def test_repeated_nonfinite_steps_roll_back(monkeypatch):
 
 # ------------------------------------------------------------------ stopping, stages, inference
 def test_plateau_rule():
-    trainer = Trainer(random_photo(), resolve("tiny", plateau_window=2, plateau_render_tol=0.01,
-                                              plateau_change_tol=0.01), threads=1)
-    flat = [{"eval/render_l1": 0.1, "eval/map_change": c} for c in (None, 0.001, 0.001)]
-    trainer.history = flat
-    assert trainer.plateaued()
-    trainer.history = flat[:2]
+    trainer = Trainer(random_photo(), resolve("tiny", plateau_window=2, plateau_render_tol=0.05), threads=1)
+    evals = lambda *v: [{"eval/render_l1": x, "eval/map_change": 0.01} for x in v]  # noqa: E731
+    trainer.history = evals(0.10, 0.12, 0.099)
+    assert trainer.plateaued()  # best of the last 2 (0.099) is not 5 % below the best before (0.10)
+    trainer.history = evals(0.10, 0.12)
     assert not trainer.plateaued()  # not enough evaluations yet
-    trainer.history = [{"eval/render_l1": v, "eval/map_change": 0.001} for v in (0.2, 0.15, 0.1)]
+    trainer.history = evals(0.20, 0.15, 0.10)
     assert not trainer.plateaued()  # still improving
-    trainer.history = [{"eval/render_l1": 0.1, "eval/map_change": 0.05} for _ in range(3)]
-    assert not trainer.plateaued()  # maps still changing
+    trainer.history = evals(0.10, 0.2, 0.2, 0.094)
+    assert not trainer.plateaued()  # one good evaluation in the window is enough to go on
+    trainer.history = [{"step": 1}] + evals(0.10) + [{"step": 2}] + evals(0.11, 0.10)
+    assert trainer.plateaued()  # records without an evaluation are ignored
 
 
 def test_quality_auto_stops_early():
-    cfg = resolve("tiny", iters_fit=100, eval_every=2, plateau_window=2, quality="auto",
-                  plateau_render_tol=10.0, plateau_change_tol=10.0)
+    cfg = resolve("tiny", iters_fit=100, eval_every=2, plateau_window=2, quality="auto", plateau_render_tol=10.0)
     trainer = Trainer(random_photo(), cfg, threads=1)
     trainer.run()
     assert trainer.stopped_early and trainer.step == 6  # evaluations at 2, 4, 6: window of 2 after the first
+
+
+def test_retired_settings_of_old_checkpoints_are_ignored():
+    d = resolve("tiny").to_dict()
+    assert TrainConfig.from_dict({**d, "plateau_change_tol": 0.002}) == TrainConfig.from_dict(d)
+    with pytest.raises(ValueError, match="unknown training settings: bogus"):
+        TrainConfig.from_dict({**d, "bogus": 1})
 
 
 def test_finetune_starts_from_the_pretrained_state(tmp_path):
