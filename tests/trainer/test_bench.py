@@ -221,11 +221,15 @@ def test_methods_restricted_to_presets(tmp_path):
     pytest.importorskip("torch")
     data = tmp_path / "data"
     _make_data(data)
-    opts = BenchOptions(iters=[0], repeats=1)
-    doc = run_benchmark(data, methods=["finetune:tiny", "scratch:tiny"], presets=["tiny", "fast"],
+    opts = BenchOptions(iters=[0, 1, 3], repeats=1)
+    doc = run_benchmark(data, methods=["finetune:tiny@1", "scratch:tiny"], presets=["tiny", "fast"],
                         size=32, cases="gt/*", opts=opts, quick=True)
     assert doc["errors"] == []
     assert {(r["method"], r["preset"]) for r in doc["records"]} == {("finetune", "tiny"), ("scratch", "tiny")}
+    its = lambda m: sorted(r["iterations"] for r in doc["records"] if r["method"] == m)  # noqa: E731
+    assert its("finetune") == [0, 1] and its("scratch") == [0, 1, 3]
+    with pytest.raises(SvbrdfError, match="iteration cap"):
+        run_benchmark(data, methods=["finetune@many"], presets=["tiny"], size=32, cases="gt/*", opts=opts)
 
 
 def test_early_stop_saving_from_run_facts():

@@ -127,7 +127,8 @@ def run_benchmark(
     Args:
         data: folder (or file) searched by :func:`svbrdf.runtime.datasets.find_cases`.
         methods: names in :data:`svbrdf.trainer.bench.methods.METHODS`; a training method may name its own
-            presets, ``"scratch:fast+zhao"`` (default: ``presets``).
+            presets, ``"scratch:fast+zhao"`` (default: ``presets``), and a cap on its evaluated iteration
+            counts, ``"finetune@600"``.
         presets: training presets for the training methods.
         size: side of every case, pixels.
         cases: selection (see :func:`svbrdf.trainer.bench.cases.select_cases`); with ``quick`` and no
@@ -147,12 +148,18 @@ def run_benchmark(
     """
     opts = opts or BenchOptions()
     say = progress or (lambda _msg: None)
-    only = {}  # "scratch:fast+zhao" runs that training method with those presets only
+    only, caps = {}, {}  # "scratch:fast+zhao@3000": only those presets, iterations up to 3000
     for spec in methods:
+        spec, at, cap = spec.partition("@")
         name, sep, sub = spec.partition(":")
         if sep:
             only[name] = [p for p in sub.split("+") if p]
-    methods = [m.partition(":")[0] for m in methods]
+        if at:
+            try:
+                caps[name] = int(cap)
+            except ValueError:
+                raise SvbrdfError(f"method {spec}@{cap}: the iteration cap must be an integer") from None
+    methods = [m.partition("@")[0].partition(":")[0] for m in methods]
     unknown = [m for m in methods if m not in METHODS]
     if unknown:
         raise SvbrdfError(f"unknown method(s) {', '.join(unknown)}; expected some of {', '.join(METHODS)}")
@@ -211,6 +218,8 @@ def run_benchmark(
                 skipped.append({"method": name, "preset": preset, "reason": reason})
                 say(f"skip {name}{' ' + preset if preset else ''}: {reason}")
                 continue
+            run_opts = opts if name not in caps else \
+                dataclasses.replace(opts, iters=[i for i in opts.iters if i <= caps[name]] or [0])
             for case in bench_cases:
                 run_recs: List[Dict[str, Any]] = []
 
@@ -228,7 +237,7 @@ def run_benchmark(
                         + (" | truncated" if p.truncated else ""))
 
                 try:
-                    run = method.run(case, opts, preset, on_point)
+                    run = method.run(case, run_opts, preset, on_point)
                 except Exception as e:  # one failing run must not lose the others; it is reported
                     msg = f"{type(e).__name__}: {str(e).strip().splitlines()[0] if str(e).strip() else ''}"
                     errors.append({"case": case.name, "method": name, "preset": preset, "error": msg})
@@ -305,7 +314,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--out", type=Path, default=None, help="output folder (default: docs/benchmarks of the repo)")
     p.add_argument("--json", type=Path, default=None, help="records JSON (default: OUT/results.json)")
     p.add_argument("--methods", type=_names, default=None, help=f"comma list of {', '.join(METHODS)} (default: all); "
-                   "METHOD:P1+P2 restricts a training method to those presets, e.g. scratch:fast")
+                   "METHOD:P1+P2 restricts a training method to those presets, METHOD@N caps its iterations, "
+                   "e.g. finetune@600,scratch:fast")
     p.add_argument("--presets", type=_names, default=None,
                    help=f"training presets (default: {','.join(DEFAULT_PRESETS)}; --quick: tiny)")
     p.add_argument("--size", type=int, default=None, help="case side in pixels (default 256; --quick: 64)")
