@@ -47,6 +47,10 @@ class TrainConfig:
         lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".
         lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
             ``vgg_weights``: optional VGG-19 state-dict file.
+        perceptual_min_clipped: photos with a smaller fraction of clipped pixels
+            (:func:`svbrdf.trainer.losses.clipped_fraction`) train without L_P (0 = never skipped). ``fast``:
+            5e-5, i.e. photos without a saturated highlight, where L_P brought no gain for 21 % of the time
+            (docs/benchmarks/no-highlight); L_F is kept there: it lowered error and burn-in.
         iters_pretrain, iters_finetune, iters_fit: iterations of each stage.
         seed: seeds weights and the tile sequence.
         bf16: bfloat16 autocast around the networks (falls back to fp32 where unsupported).
@@ -81,6 +85,7 @@ class TrainConfig:
     lambda_perceptual: float = 0.2
     perceptual: str = "auto"
     vgg_weights: Optional[str] = None
+    perceptual_min_clipped: float = 0.0
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
@@ -139,6 +144,8 @@ class TrainConfig:
              f"got {self.betas}")
         for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
+        need(0 <= self.perceptual_min_clipped <= 1,
+             f"perceptual_min_clipped must be in [0, 1], got {self.perceptual_min_clipped}")
         need(self.fourier_mode in FOURIER_MODES, f"fourier_mode must be one of {FOURIER_MODES}, "
              f"got {self.fourier_mode!r}")
         need(self.perceptual in PERCEPTUAL_BACKENDS, f"perceptual must be one of {PERCEPTUAL_BACKENDS}, "
@@ -194,7 +201,8 @@ def _preset(name: str, model: str, **kw) -> TrainConfig:
                        discriminator=dataclasses.replace(DISC_PRESETS[model]), **kw)
 
 
-_FAST = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4, perceptual="pyramid", bf16=True,
+_FAST = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4, perceptual="pyramid",
+             perceptual_min_clipped=5e-5, bf16=True,
              iters_pretrain=6000, iters_finetune=600, iters_fit=6000, eval_every=50, checkpoint_every=250,
              maps_every=0)
 

@@ -60,6 +60,10 @@ class _FFTBlur:
         return out[2 * p:2 * p + self.h, 2 * p:2 * p + self.w]
 
 
+#: Linear value counted as a clipped (saturated) pixel by :func:`clipped_fraction`.
+CLIP_LEVEL = 0.99
+
+
 def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 101.0, eps: float = 1e-4,
                     padding: str = "zeros") -> torch.Tensor:
     """Zhao et al.'s "guessed diffuse map": local mean/std normalisation of the photo, min-max rescaled.
@@ -252,7 +256,21 @@ class FourierLoss(nn.Module):
         return f"mode={self.mode!r}, eps={self.eps}, include_dc={self.include_dc}"
 
 
+def clipped_fraction(photo: torch.Tensor, level: float = CLIP_LEVEL) -> float:
+    """Fraction of pixels whose brightest channel is at or above ``level``: how much of the photo a saturated
+    flash highlight covers.
+
+    Args:
+        photo: (B, 3, H, W) linear RGB in [0, 1].
+        level: linear value counted as clipped (0.99: sensor saturation after sRGB decoding of 8-bit 253+).
+
+    Returns:
+        float in [0, 1].
+    """
+    return float((photo.amax(dim=1) >= level).float().mean())
+
+
 __all__ = [
-    "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "gan_generator_loss", "gan_discriminator_loss",
+    "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
 ]

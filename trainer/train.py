@@ -36,8 +36,8 @@ from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
-from svbrdf.trainer.losses import (diffuse_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
-                                   guessed_diffuse)
+from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, fourier_loss,
+                                   gan_discriminator_loss, gan_generator_loss, guessed_diffuse)
 from svbrdf.trainer.models import (DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
                                    pack_maps)
 from svbrdf.trainer.perceptual import PerceptualLoss
@@ -217,7 +217,13 @@ class Trainer:
         self.discriminator = Discriminator(config.discriminator).to(self.device)
         self.perceptual: Optional[PerceptualLoss] = None
         self.perceptual_backend: Optional[str] = None
-        if config.lambda_perceptual > 0:
+        self.clipped_fraction = clipped_fraction(self.photo)
+        use_perceptual = config.lambda_perceptual > 0
+        if use_perceptual and self.clipped_fraction < config.perceptual_min_clipped:
+            use_perceptual = False
+            self.notes.append(f"no clipped highlight ({100 * self.clipped_fraction:.3f} % of pixels >= {CLIP_LEVEL}):"
+                              " perceptual loss skipped (it did not help on such photos, docs/benchmarks/no-highlight)")
+        if use_perceptual:
             self.perceptual = PerceptualLoss(config.perceptual, weights_path=config.vgg_weights,
                                              seed=config.seed).to(self.device)
             self.perceptual.requires_grad_(False)

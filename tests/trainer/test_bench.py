@@ -14,7 +14,7 @@ from svbrdf.trainer.bench import cases as bc
 from svbrdf.trainer.bench import metrics as bm
 from svbrdf.trainer.bench import report
 from svbrdf.trainer.bench.cli import main, run_benchmark
-from svbrdf.trainer.bench.methods import BenchOptions
+from svbrdf.trainer.bench.methods import BenchOptions, torch_available
 
 S = 48
 
@@ -314,6 +314,10 @@ def test_bad_input_is_a_clear_error(tmp_path, capsys):
     assert main(["--data", str(tmp_path / "nowhere"), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     assert "does not exist" in capsys.readouterr().err
     assert main(["--data", str(tmp_path), "--out", str(tmp_path / "o"), "--methods", "magic", "--quiet"]) == 2
+    assert main(["--data", str(tmp_path), "--out", str(tmp_path / "o"), "--set", "lr", "--quiet"]) == 2
+    if torch_available():
+        assert main(["--data", str(tmp_path), "--out", str(tmp_path / "o"), "--set", "bogus=1", "--quiet"]) == 2
+        assert "bogus" in capsys.readouterr().err
     (tmp_path / "empty").mkdir()
     assert main(["--data", str(tmp_path / "empty"), "--out", str(tmp_path / "o"), "--quiet"]) == 2
     assert "no image found" in capsys.readouterr().err

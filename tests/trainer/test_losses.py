@@ -6,6 +6,8 @@ import torch
 
 from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer.losses import (
+    CLIP_LEVEL,
+    clipped_fraction,
     DiffuseLoss, FourierLoss, GANDiscriminatorLoss, GANGeneratorLoss, diffuse_loss, fourier_loss,
     gan_discriminator_loss, gan_generator_loss, guessed_diffuse, maps_for_loss,
 )
@@ -243,3 +245,11 @@ def test_black_and_white_photos_give_finite_losses_and_gradients(value, backend)
     assert all(torch.isfinite(x) for x in losses)
     for module in (g.decoder_nr, g.decoder_ds, d):
         assert all(torch.isfinite(p.grad).all() for p in module.parameters())
+
+
+def test_clipped_fraction_counts_saturated_pixels_by_their_brightest_channel():
+    photo = torch.full((1, 3, 10, 10), 0.5)
+    assert clipped_fraction(photo) == 0.0
+    photo[0, 0, :2, :5] = 1.0  # one saturated channel is enough: 10 of 100 pixels
+    photo[0, 1, 9, 9] = CLIP_LEVEL - 1e-3  # just below the level: not counted
+    assert clipped_fraction(photo) == pytest.approx(0.1)

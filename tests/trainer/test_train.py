@@ -299,3 +299,17 @@ def test_log_file_has_one_json_line_per_iteration(tmp_path):
     lines = [json.loads(line) for line in log.read_text().splitlines()]
     assert [l.get("event") for l in (lines[0], lines[-1])] == ["start", "stop"]
     assert [l["step"] for l in lines[1:-1]] == [1, 2, 3]
+
+
+def test_perceptual_term_skipped_on_photos_without_a_clipped_highlight():
+    cfg = resolve("tiny", perceptual_min_clipped=1e-3)
+    dull = Trainer(random_photo(), cfg, threads=1)  # values in [0, 0.5]: nothing clipped
+    assert dull.perceptual is None and any("perceptual loss skipped" in n for n in dull.notes)
+    rec = dull.iteration()
+    assert not any("perceptual" in k for k in rec) and "nr/fourier" in rec  # the Fourier term stays
+    flash = random_photo()
+    flash[..., 20:28, 28:36] = 1.0  # a saturated 8x8 highlight: 2 % of the photo
+    lit = Trainer(flash, cfg, threads=1)
+    assert lit.perceptual is not None and lit.clipped_fraction == pytest.approx(64 / (48 * 64))
+    assert "nr/perceptual" in lit.iteration()
+    assert Trainer(random_photo(), resolve("tiny"), threads=1).perceptual is not None  # 0 = never skipped

@@ -258,6 +258,7 @@ def run_benchmark(
                      "noise": noise, "quantize": quantize, "methods": list(methods), "presets": list(presets),
                      "iters": sorted(set(opts.iters)), "time_budget": opts.time_budget, "threads": opts.threads,
                      "repeats": opts.repeats, "bf16": opts.bf16, "model": opts.model,
+                     "train_overrides": dict(opts.train_overrides),
                      "init": _describe_init(opts.init),
                      "render_config": opts.config.to_dict()},
         "cases": case_docs,
@@ -332,6 +333,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=int, default=None, help="CPU threads for torch and onnxruntime")
     p.add_argument("--repeats", type=int, default=None, help="timed repeats of baseline/preview (default 3)")
     p.add_argument("--bf16", action="store_true", help="bfloat16 autocast in training")
+    p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                   help="training setting for every training run (a TrainConfig field; value parsed as JSON, "
+                        "else text), e.g. --set perceptual_min_clipped=0; repeatable")
     p.add_argument("--quick", action="store_true",
                    help="pipeline check: 2 small cases at 64 px, tiny preset, iterations 0,2,4")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
@@ -340,6 +344,26 @@ def build_parser() -> argparse.ArgumentParser:
                    help="rewrite results.md, pareto.png and summary.json of an earlier run from its records "
                         "(after a change of the report code; nothing is re-run; output beside the JSON or --out)")
     return p
+
+
+def _settings(values: List[str]) -> Dict[str, Any]:
+    out: Dict[str, Any] = {}
+    for v in values:
+        key, sep, text = v.partition("=")
+        if not sep or not key:
+            raise SvbrdfError(f"--set {v!r}: expected KEY=VALUE")
+        try:
+            out[key] = json.loads(text)
+        except ValueError:
+            out[key] = text
+    if out and torch_available():
+        from svbrdf.trainer.config import resolve
+
+        try:
+            resolve("tiny", **out)
+        except (ValueError, TypeError) as e:
+            raise SvbrdfError(f"--set: {str(e).splitlines()[0]}") from None
+    return out
 
 
 def _parse_init(values: Optional[List[str]]):
@@ -394,6 +418,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             threads=args.threads,
             repeats=args.repeats if args.repeats is not None else (QUICK["repeats"] if quick else 3),
             bf16=args.bf16,
+            train_overrides=_settings(args.set),
         )
         if opts.repeats < 1:
             raise SvbrdfError(f"--repeats must be >= 1, got {opts.repeats}")
