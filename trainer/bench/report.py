@@ -406,6 +406,16 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
     out += ["## Summary", "", "| headline | value |", "|---|---|"]
     out += [f"| {k} | {_fmt(summ[k])} |" for k in ("speedup_vs_paper", "two_stage_speedup", "preview_time_ratio",
                                                        "preview_error_ratio", "early_stop_saving")]
+    det = summ.get("details", {})
+    es = det.get("early_stop", {}).get(det.get("early_stop_reference_preset"))
+    if es:
+        out.append(f"| early stop: runs stopped / error ratio at the stop | {es['fired']} of {es['cases']} / "
+                   f"{_fmt(es['early_stop_error_ratio'])} |")
+    sk = det.get("skip_refine")
+    if sk:
+        out.append(f"| skip refine (preview input RMSE <= {sk['threshold_input_rmse']}): cases skipped / time "
+                   f"saved / error ratio on them | {sk['skipped']} of {sk['cases']} / {_fmt(sk['saving'])} / "
+                   f"{_fmt(sk['error_ratio_on_skipped'])} |")
     out += ["", "Definitions: `svbrdf.trainer.bench.report` (module docstring); details in `summary.json`.", ""]
     return "\n".join(out)
 
