@@ -1,0 +1,18 @@
+"""svbrdf.trainer.bench.speed: variants are built and timed side by side (no timing is asserted)."""
+
+import json
+
+from svbrdf.trainer.bench import speed
+
+
+def test_variants_measured_and_written(tmp_path, one_torch_thread):
+    out = tmp_path / "speed"
+    assert speed.main(["--preset", "tiny", "--size", "64", "--iters", "1", "--repeats", "2",
+                       "--variants", "base,fp32,channels_last", "--out", str(out)]) == 0
+    doc = json.loads((out / "results.json").read_text())
+    assert [r["variant"] for r in doc["rows"]] == ["base", "fp32", "channels_last"]
+    assert all(len(r["all"]) == 2 and r["seconds_per_iteration"] > 0 for r in doc["rows"])
+    assert doc["rows"][0]["ratio_to_first"] == 1.0
+    assert "| channels_last |" in (out / "results.md").read_text()
+    assert speed.main(["--preset", "tiny", "--out", str(out)]) == 2  # exists, no --force
+    assert speed.main(["--variants", "warp", "--out", str(tmp_path / "x")]) == 2
