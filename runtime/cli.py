@@ -101,7 +101,8 @@ def build_parser() -> argparse.ArgumentParser:
     how = p.add_mutually_exclusive_group()
     how.add_argument("--iters", metavar="N", type=_positive, help="--refine iterations (default: the checkpoint's)")
     how.add_argument("--quality", choices=("auto",),
-                     help="--refine until the re-render error and the maps stop changing; skipped altogether when "
+                     help="--refine until the label-free re-render error stops improving (at most the preset's "
+                          "length); skipped altogether when "
                           "the preview already re-renders the photo as well as a typical fine-tune "
                           f"(sRGB RMSE <= {SKIP_REFINE_RMSE} under the flash)")
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
