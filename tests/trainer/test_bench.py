@@ -364,3 +364,13 @@ def test_skip_refine_summary_uses_the_cli_threshold():
     assert (sk["cases"], sk["skipped"]) == (2, 1)
     assert sk["saving"] == pytest.approx((21.0 - 1.0) / 40.0)
     assert sk["error_ratio_on_skipped"] == pytest.approx(2.0)
+
+
+def test_markdown_early_stop_table_with_and_without():
+    run = {"run_train_seconds": 100.0, "plateau": {"step": 150, "train_seconds": 40.0},
+           "evals": [{"step": 150, "train_seconds": 40.0, "render_l1": 0.1, "map_change": None}]}
+    recs = [_rec("finetune", "fast", 100, 30.0, 0.3, run=run), _rec("finetune", "fast", 200, 60.0, 0.26, run=run),
+            _rec("finetune", "fast", 300, 100.0, 0.25, run=run)]
+    lines = report._early_stop_table(recs)
+    assert "| fast | c1 | 150 | 40 / 100 | 60 % | 0.26 / 0.25 |" in lines
+    assert report._early_stop_table([_rec("finetune", "fast", 100, 30.0, 0.3)]) == []  # no history recorded

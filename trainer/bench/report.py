@@ -330,6 +330,35 @@ def _table(rows: Sequence[Mapping[str, Any]], columns: Sequence[Tuple[str, str]]
     return "\n".join(lines)
 
 
+def _early_stop_table(records: Sequence[Mapping[str, Any]]) -> List[str]:
+    """Per fine-tune run: where the ``quality="auto"`` rule stopped, against the full run (time and error)."""
+    runs: Dict[Tuple[str, str], List[Mapping[str, Any]]] = {}
+    for r in records:
+        if r["method"] == "finetune" and (r.get("run") or {}).get("evals"):
+            runs.setdefault((r.get("preset") or "", r["case"]), []).append(r)
+    if not runs:
+        return []
+    out = ["## Early stopping per run", "",
+           "Where the label-free `quality=\"auto\"` rule fired in each fine-tune (the run itself went on to its last "
+           "iteration count, so both are measured): training seconds and error with and without the early stop.", "",
+           "| preset | case | stopped at (it) | seconds with / without | saving | error with / without |",
+           "|---|---|---|---|---|---|"]
+    for (preset, case), recs in sorted(runs.items()):
+        recs = sorted(recs, key=lambda r: r["iterations"])
+        run, last = recs[-1]["run"], recs[-1]
+        metric = "rerender_rmse" if last.get("rerender_rmse") is not None else "input_rmse"
+        total, plateau = run.get("run_train_seconds"), run.get("plateau")
+        if plateau is None or not total:
+            out.append(f"| {preset} | {case} | – | {_fmt(total)} / {_fmt(total)} | 0 | {_fmt(last.get(metric))} / "
+                       f"{_fmt(last.get(metric))} |")
+            continue
+        at = next((r for r in recs if r["iterations"] >= plateau["step"]), last)
+        out.append(f"| {preset} | {case} | {plateau['step']} | {_fmt(plateau['train_seconds'])} / {_fmt(total)} | "
+                   f"{100 * (1 - plateau['train_seconds'] / total):.0f} % | {_fmt(at.get(metric))} / "
+                   f"{_fmt(last.get(metric))} |")
+    return out + [""]
+
+
 def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[Mapping[str, str]],
              plot_note: str = "") -> str:
     """The ``results.md`` text of a benchmark document (:func:`svbrdf.trainer.bench.cli.run_benchmark`)."""
@@ -402,6 +431,7 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
             out += [plot_note, ""]
         out += ["| series | colour | marker |", "|---|---|---|"]
         out += [f"| {e['label']} | {e['colour']} | {e['marker']} |" for e in legend] + [""]
+    out += _early_stop_table(doc["records"])
     summ = doc["summary"]
     out += ["## Summary", "", "| headline | value |", "|---|---|"]
     out += [f"| {k} | {_fmt(summ[k])} |" for k in ("speedup_vs_paper", "two_stage_speedup", "preview_time_ratio",
