@@ -28,6 +28,7 @@ STAGES = ("pretrain", "finetune", "fit")
 FOURIER_MODES = ("complex", "magnitude")
 PERCEPTUAL_BACKENDS = ("auto", "vgg19", "vgg19-random", "pyramid")
 QUALITY_MODES = ("fixed", "auto")
+SCHEDULES = ("alternating", "joint")
 
 
 @dataclass
@@ -41,7 +42,13 @@ class TrainConfig:
         tile: side of the random square training tiles, pixels (clipped to the photo).
         nr_updates, ds_updates, d_updates: optimiser steps per iteration of the normal/roughness decoder,
             the diffuse/specular decoder (plus the encoder if trained) and the discriminator, each on a
-            fresh random tile.
+            fresh random tile (``schedule="alternating"``).
+        schedule: "alternating" (the published schedule above: every sub-step runs the generator on its own
+            tile) or "joint" (needs 1:1:1): one tile per iteration, one generator pass with both decoders
+            trained by one backward pass of ``L_GAN + L_d + L_F + L_P`` (the gradient each decoder receives is
+            that of its own published loss, since L_d does not depend on the normal/roughness decoder), then
+            the discriminator step on the same tile and the rendering already made. Same losses, about half the
+            generator passes per iteration (``python -m svbrdf.trainer.bench.speed --variants base,joint``).
         lr, betas: Adam settings shared by the three optimisers.
         lambda_gan: weight of the generator GAN term in both decoder losses.
         lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".
@@ -77,6 +84,7 @@ class TrainConfig:
     nr_updates: int = 5
     ds_updates: int = 1
     d_updates: int = 1
+    schedule: str = "alternating"
     lr: float = 2e-5
     betas: Tuple[float, float] = (0.0, 0.9)
     lambda_gan: float = 0.1
@@ -150,6 +158,9 @@ class TrainConfig:
              f"got {self.fourier_mode!r}")
         need(self.perceptual in PERCEPTUAL_BACKENDS, f"perceptual must be one of {PERCEPTUAL_BACKENDS}, "
              f"got {self.perceptual!r}")
+        need(self.schedule in SCHEDULES, f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
+        need(self.schedule != "joint" or (self.nr_updates, self.ds_updates, self.d_updates) == (1, 1, 1),
+             "schedule 'joint' needs nr_updates = ds_updates = d_updates = 1")
         need(self.quality in QUALITY_MODES, f"quality must be one of {QUALITY_MODES}, got {self.quality!r}")
         need(self.eval_tiles >= 1 and self.plateau_window >= 1, "eval_tiles and plateau_window must be >= 1")
         need(self.quality == "fixed" or self.eval_every > 0, "quality 'auto' needs eval_every > 0")
@@ -201,7 +212,7 @@ def _preset(name: str, model: str, **kw) -> TrainConfig:
                        discriminator=dataclasses.replace(DISC_PRESETS[model]), **kw)
 
 
-_FAST = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-4, perceptual="pyramid",
+_FAST = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, schedule="joint", lr=1e-4, perceptual="pyramid",
              perceptual_min_clipped=5e-5, bf16=True,
              iters_pretrain=6000, iters_finetune=600, iters_fit=6000, eval_every=50, checkpoint_every=250,
              maps_every=0)
@@ -216,6 +227,7 @@ def _presets() -> Dict[str, TrainConfig]:
         "fast-no-fourier": _preset("fast-no-fourier", "fast", **{**_FAST, "lambda_fourier": 0.0}),
         "fast-no-perceptual": _preset("fast-no-perceptual", "fast", **{**_FAST, "lambda_perceptual": 0.0}),
         "fast-zhao": _preset("fast-zhao", "fast", **{**_FAST, "lambda_fourier": 0.0, "lambda_perceptual": 0.0}),
+        "fast-alternating": _preset("fast-alternating", "fast", **{**_FAST, "schedule": "alternating"}),
         "tiny": _preset("tiny", "tiny", tile=32, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-3,
                         perceptual="pyramid", iters_pretrain=20, iters_finetune=10, iters_fit=20,
                         checkpoint_every=10, maps_every=0, eval_every=5, eval_tiles=2, plateau_window=3,
@@ -254,4 +266,4 @@ def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
 
 
 __all__ = ["TrainConfig", "TRAIN_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
-           "QUALITY_MODES"]
+           "QUALITY_MODES", "SCHEDULES"]

@@ -11,6 +11,9 @@ the photo. One iteration is, each sub-step on a fresh random tile:
   + lambda_P L_P``;
 * ``d_updates`` x discriminator: BCE on the photo tile (real) vs the rendering of G's maps (fake, detached).
 
+``schedule="joint"`` runs the same losses on one tile per iteration: one generator pass, one backward pass that
+updates both decoders, then the discriminator on that tile and rendering.
+
 Numerical guard: a step whose loss or gradient is not finite is skipped (and counted); after
 ``guard_rollback_after`` such steps in a row, G, D and the optimisers return to the last good in-memory
 snapshot. Runs are deterministic on the CPU for a given seed, including across checkpoint + resume.
@@ -410,21 +413,26 @@ class Trainer:
             o.load_state_dict(snap["optimizers"][k])
         self.counters["rollbacks"] += 1
 
-    def _apply(self, key: str, loss: torch.Tensor) -> bool:
-        """Backward + step of optimiser ``key`` unless the loss or a gradient is non-finite. True = stepped."""
-        opt, params = self.optimizers[key], self.params[key]
-        opt.zero_grad(set_to_none=True)
+    def _apply(self, keys: Union[str, Tuple[str, ...]], loss: torch.Tensor) -> bool:
+        """Backward + step of optimiser(s) ``keys`` unless the loss or a gradient is non-finite. True = stepped."""
+        keys = (keys,) if isinstance(keys, str) else tuple(keys)
+        opts = [self.optimizers[k] for k in keys]
+        params = [p for k in keys for p in self.params[k]]
+        for opt in opts:
+            opt.zero_grad(set_to_none=True)
         ok = bool(torch.isfinite(loss))
         if ok:
-            # `inputs` limits the backward pass to this optimiser's parameters (no stray grads in the others).
+            # `inputs` limits the backward pass to these optimisers' parameters (no stray grads in the others).
             loss.backward(inputs=params)
             grads = [p.grad for p in params if p.grad is not None]
             ok = bool(torch.stack([torch.isfinite(g).all() for g in grads]).all()) if grads else True
         if ok:
-            opt.step()
+            for opt in opts:
+                opt.step()
             self._consecutive_bad = 0
             return True
-        opt.zero_grad(set_to_none=True)
+        for opt in opts:
+            opt.zero_grad(set_to_none=True)
         self.counters["nonfinite_skips"] += 1
         self._consecutive_bad += 1
         if self._consecutive_bad >= self.config.guard_rollback_after and self._snapshot is not None:
@@ -468,30 +476,70 @@ class Trainer:
         terms[f"{key}/total"].append(total.detach())
         self._apply(key, total)
 
-    def _d_step(self, terms: Dict[str, List[torch.Tensor]]) -> None:
-        y0, x0 = self._draw_tile(self.tile_rng)
-        x = self._crop(self.photo, y0, x0)
-        with torch.no_grad():
-            with self._amp():
-                maps = self.generator(x).float()
-            fake = self.geometry.render(maps, y0, x0)
+    def _d_step(self, terms: Dict[str, List[torch.Tensor]], x: Optional[torch.Tensor] = None,
+                fake: Optional[torch.Tensor] = None) -> None:
+        """Discriminator update on photo tile ``x`` vs rendering ``fake`` (default: a fresh tile and its rendering)."""
+        if x is None or fake is None:
+            y0, x0 = self._draw_tile(self.tile_rng)
+            x = self._crop(self.photo, y0, x0)
+            with torch.no_grad():
+                with self._amp():
+                    maps = self.generator(x).float()
+                fake = self.geometry.render(maps, y0, x0)
         with self._amp():
-            real_logits, fake_logits = self.discriminator(x), self.discriminator(fake)
+            real_logits, fake_logits = self.discriminator(x), self.discriminator(fake.detach())
         loss = gan_discriminator_loss(real_logits.float(), fake_logits.float())
         terms["d/loss"].append(loss.detach())
         self._apply("d", loss)
+
+    def _joint_step(self, terms: Dict[str, List[torch.Tensor]]) -> None:
+        """``schedule="joint"``: both decoders and then D on one tile (see :class:`TrainConfig`)."""
+        cfg = self.config
+        y0, x0 = self._draw_tile(self.tile_rng)
+        x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
+        with self._amp():
+            maps = self.generator(x)
+        maps = maps.float()
+        rendering = self.geometry.render(maps, y0, x0)
+        with self._amp():
+            fake_logits = self.discriminator(rendering)
+        gan = gan_generator_loss(fake_logits.float())
+        shared = cfg.lambda_gan * gan  # the terms both decoders' losses contain
+        ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess)
+        for key in ("nr", "ds"):
+            terms[f"{key}/gan"].append(gan.detach())
+        terms["ds/diffuse"].append(ld.detach())
+        if cfg.lambda_fourier > 0:
+            lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
+            shared = shared + cfg.lambda_fourier * lf
+            for key in ("nr", "ds"):
+                terms[f"{key}/fourier"].append(lf.detach())
+        if self.perceptual is not None:
+            with self._amp():
+                lp = self.perceptual(x, rendering).float()
+            shared = shared + cfg.lambda_perceptual * lp
+            for key in ("nr", "ds"):
+                terms[f"{key}/perceptual"].append(lp.detach())
+        total = shared + ld
+        terms["nr/total"].append(shared.detach())
+        terms["ds/total"].append(total.detach())
+        self._apply(("nr", "ds"), total)
+        self._d_step(terms, x, rendering)
 
     def iteration(self) -> Dict[str, Any]:
         """Run one iteration of the schedule; returns its record (mean of each loss term over its sub-steps)."""
         t0 = time.perf_counter()
         skips0 = self.counters["nonfinite_skips"]
         terms: Dict[str, List[torch.Tensor]] = defaultdict(list)
-        for _ in range(self.config.nr_updates):
-            self._g_step("nr", terms)
-        for _ in range(self.config.ds_updates):
-            self._g_step("ds", terms)
-        for _ in range(self.config.d_updates):
-            self._d_step(terms)
+        if self.config.schedule == "joint":
+            self._joint_step(terms)
+        else:
+            for _ in range(self.config.nr_updates):
+                self._g_step("nr", terms)
+            for _ in range(self.config.ds_updates):
+                self._g_step("ds", terms)
+            for _ in range(self.config.d_updates):
+                self._d_step(terms)
         self.step += 1
         rec: Dict[str, Any] = {"step": self.step}
         for k, v in terms.items():

@@ -1,5 +1,6 @@
 """Training loop: configuration, learning on a synthetic photo, determinism, the non-finite guard, inference."""
 
+import dataclasses
 import json
 import math
 
@@ -65,6 +66,9 @@ def test_paper_and_zhao_presets_are_the_published_schedule():
     assert z.lambda_fourier == 0 and z.lambda_perceptual == 0 and z.generator == p.generator
     f = resolve("fast")
     assert (f.tile, f.nr_updates, f.ds_updates, f.d_updates) == (128, 1, 1, 1) and f.generator.width < 1
+    assert p.schedule == z.schedule == "alternating" and f.schedule == "joint"
+    alt = resolve("fast-alternating")
+    assert alt.schedule == "alternating" and dataclasses.replace(alt, preset="fast", schedule="joint") == f
 
 
 def test_resolve_overrides_and_errors():
@@ -81,18 +85,25 @@ def test_resolve_overrides_and_errors():
         resolve("paper", perceptual="lpips")
     with pytest.raises(ValueError, match="fov"):
         resolve("paper", fov_deg=0.0)
+    with pytest.raises(ValueError, match="schedule 'joint' needs"):
+        resolve("paper", schedule="joint")  # 5:1:1
+    with pytest.raises(ValueError, match="schedule must be"):
+        resolve("fast", schedule="both")
 
 
 # ------------------------------------------------------------------ learning
-def test_tiny_run_losses_finite_and_decreasing():
-    photo = random_photo()
-    trainer = Trainer(photo, resolve("tiny", iters_fit=30, eval_every=5), threads=1)
+@pytest.mark.parametrize("schedule", ["alternating", "joint"])
+def test_tiny_run_losses_finite_and_decreasing(schedule):
+    # A structured photo: on white noise the guessed diffuse is noise too, and L_d need not fall in 30 iterations
+    # (it did not on one of the two CPU families this suite runs on).
+    photo, _ = synthetic_scene(size=48)
+    trainer = Trainer(photo, resolve("tiny", iters_fit=30, eval_every=5, schedule=schedule), threads=1)
     history = trainer.run()
     assert len(history) == 30 and trainer.step == 30
     for rec in history:
         for key in ("nr/gan", "ds/gan", "ds/diffuse", "d/loss", "nr/fourier", "ds/perceptual"):
             assert rec[key] is not None and math.isfinite(rec[key]), (rec["step"], key)
-    assert window_mean(history, "ds/diffuse", 20, 30) < window_mean(history, "ds/diffuse", 0, 10)
+    assert window_mean(history, "ds/diffuse", 20, 30) < 0.85 * window_mean(history, "ds/diffuse", 0, 10)
     evals = [h["eval/render_l1"] for h in history if "eval/render_l1" in h]
     assert len(evals) == 6 and history[4]["eval/map_change"] is None and history[9]["eval/map_change"] > 0
 
@@ -109,6 +120,55 @@ def test_tiny_run_learns_synthetic_scene():
     rerender = (trainer.geometry.render(pred) - photo).abs().mean()
     untrained = Trainer(photo, resolve("tiny"), threads=1)
     assert rerender < 0.75 * (untrained.geometry.render(untrained.predict()) - photo).abs().mean()
+
+
+def test_joint_schedule_trains_both_decoders_and_the_discriminator():
+    photo = random_photo()
+    trainer = Trainer(photo, resolve("tiny", iters_fit=3, schedule="joint"), threads=1)
+    before = {k: params(m) for k, m in (("nr", trainer.generator.decoder_nr), ("ds", trainer.generator.decoder_ds),
+                                          ("d", trainer.discriminator), ("enc", trainer.generator.encoder))}
+    history = trainer.run()
+    for key in ("nr", "ds", "d"):
+        assert not torch.equal(before[key], params(getattr(trainer.generator, f"decoder_{key}", None)
+                                                   if key != "d" else trainer.discriminator)), key
+    assert torch.equal(before["enc"], params(trainer.generator.encoder))  # frozen, as in the alternating schedule
+    for rec in history:
+        assert rec["nr/gan"] == rec["ds/gan"] and rec["ds/total"] - rec["nr/total"] == pytest.approx(rec["ds/diffuse"])
+        assert all(math.isfinite(rec[k]) for k in ("nr/fourier", "ds/perceptual", "d/loss"))
+
+
+def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch):
+    """One backward pass of the summed loss = the published per-decoder losses on the same tile."""
+    photo = random_photo()
+    trainer = Trainer(photo, resolve("tiny", schedule="joint"), threads=1)
+    grads = {}
+
+    def capture(keys, loss):
+        params_ = [p for k in keys for p in trainer.params[k]]
+        grads["joint"] = torch.autograd.grad(loss, params_, retain_graph=True, allow_unused=True)
+        return True
+
+    monkeypatch.setattr(trainer, "_apply", capture)
+    monkeypatch.setattr(trainer, "_d_step", lambda *a, **k: None)
+    rng_state = trainer.tile_rng.get_state()
+    trainer.iteration()
+    # Recompute the two published losses on the same tile.
+    trainer.tile_rng.set_state(rng_state)
+    y0, x0 = trainer._draw_tile(trainer.tile_rng)
+    x, guess = trainer._crop(trainer.photo, y0, x0), trainer._crop(trainer.guess, y0, x0)
+    maps = trainer.generator(x).float()
+    rendering = trainer.geometry.render(maps, y0, x0)
+    cfg = trainer.config
+    shared = (cfg.lambda_gan * train_mod.gan_generator_loss(trainer.discriminator(rendering))
+              + cfg.lambda_fourier * train_mod.fourier_loss(maps, guess, mode=cfg.fourier_mode)
+              + cfg.lambda_perceptual * trainer.perceptual(x, rendering))
+    nr = torch.autograd.grad(shared, trainer.params["nr"], retain_graph=True, allow_unused=True)
+    ds = torch.autograd.grad(shared + train_mod.diffuse_loss(maps[:, SLICES["diffuse"]], guess),
+                             trainer.params["ds"], allow_unused=True)
+    for got, want in zip(grads["joint"], nr + ds):
+        assert (got is None) == (want is None)
+        if got is not None:
+            torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-7)
 
 
 def test_seeded_runs_are_deterministic():

@@ -9,7 +9,8 @@ alike, and the median is reported with its ratio to ``base``.
 
 Variants: ``base`` (the preset as shipped), ``fp32`` (bf16 autocast off), ``channels_last`` (networks and photo
 in channels-last memory format), ``compile`` (``torch.compile`` of the encoder, both decoders and the
-discriminator, default inductor backend).
+discriminator, default inductor backend), ``alternating`` / ``joint`` (the preset with that
+``schedule``, see :class:`~svbrdf.trainer.config.TrainConfig`).
 """
 
 from __future__ import annotations
@@ -30,14 +31,15 @@ from svbrdf.runtime.errors import SvbrdfError
 from . import report
 from .cli import repo_root
 
-VARIANTS = ("base", "fp32", "channels_last", "compile")
+VARIANTS = ("base", "fp32", "channels_last", "compile", "alternating", "joint")
 
 
 def _trainer(preset: str, size: int, variant: str, threads: Optional[int]):
     from svbrdf.trainer.config import resolve
     from svbrdf.trainer.train import Trainer
 
-    cfg = resolve(preset, checkpoint_every=0, maps_every=0, eval_every=0, bf16=False if variant == "fp32" else None)
+    cfg = resolve(preset, checkpoint_every=0, maps_every=0, eval_every=0, bf16=False if variant == "fp32" else None,
+                  schedule=variant if variant in ("alternating", "joint") else None)
     photo = torch.rand(1, 3, size, size, generator=torch.Generator().manual_seed(0)) * 0.8
     photo[..., size // 2 - 4:size // 2 + 4, size // 2 - 4:size // 2 + 4] = 1.0  # a clipped highlight
     trainer = Trainer(photo, cfg, stage="finetune", iters=10 ** 9, threads=threads)
