@@ -26,15 +26,20 @@ PROG = "svbrdf-train"
 CHECKPOINT = "checkpoint.pt"
 LOG = "train_log.jsonl"
 
-PRESET_HELP = """training presets (cost: seconds per iteration measured on one thread of a shared AMX CPU core):
+PRESET_HELP = """training presets (cost: seconds per iteration on one thread; "AMX": a shared Xeon core with bf16,
+"AMD": a shared EPYC core without bf16, where everything runs fp32; python -m svbrdf.trainer.bench.speed):
   paper  the published setup: paper-size networks, 256 px tiles, per iteration 5 normal/roughness-decoder
          + 1 diffuse/specular-decoder + 1 discriminator updates, Adam 2e-5 (0, 0.9),
          loss 0.1 GAN + L_d + 0.1 Fourier + 0.2 perceptual; 10k / 3k / 20k iterations (pretrain / finetune /
-         fit). ~45 s/it fp32, ~15 s/it --bf16 (10 / 4 s/it with --tile 128): a GPU job.
-  zhao   paper without the Fourier and perceptual losses (Zhao et al. 2020): ~31 s/it fp32, ~12 s/it --bf16.
-  fast   quarter-width networks, 128 px tiles, schedule 1:1:1, lr 1e-4, multi-scale filter-bank perceptual
-         loss ("pyramid"), bf16 autocast where the CPU has it; 6k / 600 / 6k iterations: ~0.19 s/it
-         on one shared thread (the shipped model: 6000 iterations in 1111 s), ~0.11 s/it on two threads.
+         fit). AMX: ~45 s/it fp32, ~15 s/it --bf16 (10 / 4 s/it with --tile 128); AMD: 76-139 s/it: a GPU job.
+  zhao   paper without the Fourier and perceptual losses (Zhao et al. 2020): AMX ~31 s/it fp32, ~12 s/it --bf16.
+  fast   quarter-width networks, 128 px tiles, the "joint" 1:1:1 schedule (one tile, one generator pass and one
+         backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, multi-scale
+         filter-bank perceptual loss ("pyramid", skipped on photos without a clipped highlight), bf16 autocast
+         where the CPU has it; 6k / 600 / 6k iterations. AMD: 0.33 s/it (0.58 s/it with the alternating
+         schedule). The shipped model was pretrained with the alternating schedule on AMX: 6000 it in 1111 s.
+  fast-alternating
+         fast with the published alternating sub-steps (a fresh tile and generator pass per update).
   fast-no-fourier, fast-no-perceptual, fast-zhao
          fast with the Fourier loss, the perceptual loss, or both off (ablations for svbrdf-bench).
   tiny   toy networks for tests (32 px tiles, 20 iterations).
