@@ -214,3 +214,26 @@ def test_map_names_are_the_project_layout(tiny):
     with torch.no_grad():
         maps = tiny.decode(tiny.forward_features(torch.rand(1, 3, 16, 16)))
     assert tuple(maps) == MAP_NAMES
+
+
+@pytest.mark.parametrize("cin,cout,h,w", [(8, 4, 5, 7), (3, 6, 1, 2), (16, 16, 8, 8)])
+def test_fused_upsample_conv_is_upsample_then_conv(cin, cout, h, w):
+    """The up-blocks' fused nearest-x2 + 4x4 TF-SAME convolution equals the two unfused layers (and grads)."""
+    from svbrdf.trainer.models import _up_block, upsample_conv4
+
+    torch.manual_seed(0)
+    block = _up_block(cin, cout).double()
+    x = torch.randn(2, cin, h, w, dtype=torch.float64, requires_grad=True)
+    act, upsample, first, second = block
+    want = second(first(upsample(act(x))))
+    got = block(x)
+    assert got.shape == (2, cout, 2 * h, 2 * w)
+    torch.testing.assert_close(got, want, rtol=0, atol=1e-12)
+    g_want = torch.autograd.grad(want.square().sum(), [x, first[1].weight])
+    g_got = torch.autograd.grad(got.square().sum(), [x, first[1].weight])
+    for a, b in zip(g_got, g_want):
+        torch.testing.assert_close(a, b, rtol=0, atol=1e-10)
+    # a wrong tap table (e.g. the odd phase shifted) must not pass
+    weight = first[1].weight.detach()
+    plain = first(upsample(act(x.detach())))
+    assert (upsample_conv4(act(x.detach()), weight.flip(-1)) - plain).abs().max() > 1e-3
