@@ -36,7 +36,7 @@ PRESET_HELP = """training presets (cost: seconds per iteration on one thread; "A
   fast   quarter-width networks, 128 px tiles, the "joint" 1:1:1 schedule (one tile, one generator pass and one
          backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, multi-scale
          filter-bank perceptual loss ("pyramid", skipped on photos without a clipped highlight), bf16 autocast
-         where the CPU has it; 6k / 600 / 6k iterations. AMD: 0.33 s/it (0.58 s/it with the alternating
+         where the CPU has it; 6k / 600 / 6k iterations. AMD: 0.27 s/it (0.43 s/it with the alternating
          schedule). The shipped model was pretrained with the alternating schedule on AMX: 6000 it in 1111 s.
   fast-alternating
          fast with the published alternating sub-steps (a fresh tile and generator pass per update).
