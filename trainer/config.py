@@ -47,8 +47,9 @@ class TrainConfig:
             tile) or "joint" (needs 1:1:1): one tile per iteration, one generator pass with both decoders
             trained by one backward pass of ``L_GAN + L_d + L_F + L_P`` (the gradient each decoder receives is
             that of its own published loss, since L_d does not depend on the normal/roughness decoder), then
-            the discriminator step on the same tile and the rendering already made. Same losses, about half the
-            generator passes per iteration (``python -m svbrdf.trainer.bench.speed --variants base,joint``).
+            the discriminator step on the same tile and the rendering already made. Same losses, two generator
+            passes per iteration instead of three (``python -m svbrdf.trainer.bench.speed --variants
+            alternating,joint``).
         lr, betas: Adam settings shared by the three optimisers.
         lambda_gan: weight of the generator GAN term in both decoder losses.
         lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".

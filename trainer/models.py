@@ -145,7 +145,7 @@ def upsample_conv4(x: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
     low-resolution grid: one 3x3 convolution with ``4 * C_out`` phase kernels, then ``pixel_shuffle(2)``.
 
     Exactly the same function as ``conv4(upsample(x))`` (to float rounding) with 36 instead of 64 multiply-adds per
-    output and no upsampled copy; measured 1.6-2.2x faster forward + backward for the fast decoders' layers.
+    output and no upsampled copy (effect on a training iteration: ``python -m svbrdf.trainer.bench.speed``).
 
     Args:
         x: (B, C_in, h, w) input.

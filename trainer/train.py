@@ -442,7 +442,6 @@ class Trainer:
 
     # ------------------------------------------------------------------ one iteration
     def _g_step(self, key: str, terms: Dict[str, List[torch.Tensor]]) -> None:
-        cfg = self.config
         y0, x0 = self._draw_tile(self.tile_rng)
         x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
         trained = DECODER_MAPS["decoder_nr" if key == "nr" else "decoder_ds"]
@@ -454,27 +453,41 @@ class Trainer:
             with torch.no_grad():
                 out.update(self.generator.decode(latent, frozen, size))
         maps = pack_maps(out).float()
+        _, total = self._generator_losses((key,), x, guess, maps, y0, x0, terms)
+        self._apply(key, total)
+
+    def _generator_losses(self, keys: Tuple[str, ...], x: torch.Tensor, guess: torch.Tensor, maps: torch.Tensor,
+                          y0: int, x0: int, terms: Dict[str, List[torch.Tensor]]) -> Tuple[torch.Tensor, torch.Tensor]:
+        """Render ``maps`` of the tile at (y0, x0) and compute the decoder losses, logged under each of ``keys``
+        ("nr", "ds"): ``lambda_gan L_GAN + lambda_F L_F + lambda_P L_P``, plus ``L_d`` when "ds" is among them.
+
+        Returns:
+            (rendering, total loss): the rendering (B, 3, h, w) linear, and the loss to minimise (with ``L_d``
+            if "ds" is in ``keys``).
+        """
+        cfg = self.config
         rendering = self.geometry.render(maps, y0, x0)
         with self._amp():
             fake_logits = self.discriminator(rendering)
         gan = gan_generator_loss(fake_logits.float())
-        total = cfg.lambda_gan * gan
-        terms[f"{key}/gan"].append(gan.detach())
-        if key == "ds":
-            ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess)
+        shared = total = cfg.lambda_gan * gan  # ``shared``: without L_d (the normal/roughness decoder's loss)
+        logged = {"gan": gan}
+        if "ds" in keys:
+            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess)
             total = total + ld
-            terms["ds/diffuse"].append(ld.detach())
         if cfg.lambda_fourier > 0:
-            lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
-            total = total + cfg.lambda_fourier * lf
-            terms[f"{key}/fourier"].append(lf.detach())
+            logged["fourier"] = lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
+            shared, total = shared + cfg.lambda_fourier * lf, total + cfg.lambda_fourier * lf
         if self.perceptual is not None:
             with self._amp():
-                lp = self.perceptual(x, rendering).float()
-            total = total + cfg.lambda_perceptual * lp
-            terms[f"{key}/perceptual"].append(lp.detach())
-        terms[f"{key}/total"].append(total.detach())
-        self._apply(key, total)
+                logged["perceptual"] = lp = self.perceptual(x, rendering).float()
+            shared, total = shared + cfg.lambda_perceptual * lp, total + cfg.lambda_perceptual * lp
+        for key in keys:
+            for name, value in logged.items():
+                if name != "diffuse" or key == "ds":
+                    terms[f"{key}/{name}"].append(value.detach())
+            terms[f"{key}/total"].append((total if key == "ds" else shared).detach())
+        return rendering, total
 
     def _d_step(self, terms: Dict[str, List[torch.Tensor]], x: Optional[torch.Tensor] = None,
                 fake: Optional[torch.Tensor] = None) -> None:
@@ -494,35 +507,11 @@ class Trainer:
 
     def _joint_step(self, terms: Dict[str, List[torch.Tensor]]) -> None:
         """``schedule="joint"``: both decoders and then D on one tile (see :class:`TrainConfig`)."""
-        cfg = self.config
         y0, x0 = self._draw_tile(self.tile_rng)
         x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
         with self._amp():
             maps = self.generator(x)
-        maps = maps.float()
-        rendering = self.geometry.render(maps, y0, x0)
-        with self._amp():
-            fake_logits = self.discriminator(rendering)
-        gan = gan_generator_loss(fake_logits.float())
-        shared = cfg.lambda_gan * gan  # the terms both decoders' losses contain
-        ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess)
-        for key in ("nr", "ds"):
-            terms[f"{key}/gan"].append(gan.detach())
-        terms["ds/diffuse"].append(ld.detach())
-        if cfg.lambda_fourier > 0:
-            lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
-            shared = shared + cfg.lambda_fourier * lf
-            for key in ("nr", "ds"):
-                terms[f"{key}/fourier"].append(lf.detach())
-        if self.perceptual is not None:
-            with self._amp():
-                lp = self.perceptual(x, rendering).float()
-            shared = shared + cfg.lambda_perceptual * lp
-            for key in ("nr", "ds"):
-                terms[f"{key}/perceptual"].append(lp.detach())
-        total = shared + ld
-        terms["nr/total"].append(shared.detach())
-        terms["ds/total"].append(total.detach())
+        rendering, total = self._generator_losses(("nr", "ds"), x, guess, maps.float(), y0, x0, terms)
         self._apply(("nr", "ds"), total)
         self._d_step(terms, x, rendering)
 

@@ -125,13 +125,13 @@ def test_tiny_run_learns_synthetic_scene():
 def test_joint_schedule_trains_both_decoders_and_the_discriminator():
     photo = random_photo()
     trainer = Trainer(photo, resolve("tiny", iters_fit=3, schedule="joint"), threads=1)
-    before = {k: params(m) for k, m in (("nr", trainer.generator.decoder_nr), ("ds", trainer.generator.decoder_ds),
-                                          ("d", trainer.discriminator), ("enc", trainer.generator.encoder))}
+    nets = {"nr": trainer.generator.decoder_nr, "ds": trainer.generator.decoder_ds, "d": trainer.discriminator,
+            "enc": trainer.generator.encoder}
+    before = {k: params(m) for k, m in nets.items()}
     history = trainer.run()
     for key in ("nr", "ds", "d"):
-        assert not torch.equal(before[key], params(getattr(trainer.generator, f"decoder_{key}", None)
-                                                   if key != "d" else trainer.discriminator)), key
-    assert torch.equal(before["enc"], params(trainer.generator.encoder))  # frozen, as in the alternating schedule
+        assert not torch.equal(before[key], params(nets[key])), key
+    assert torch.equal(before["enc"], params(nets["enc"]))  # frozen, as in the alternating schedule
     for rec in history:
         assert rec["nr/gan"] == rec["ds/gan"] and rec["ds/total"] - rec["nr/total"] == pytest.approx(rec["ds/diffuse"])
         assert all(math.isfinite(rec[k]) for k in ("nr/fourier", "ds/perceptual", "d/loss"))
