@@ -194,6 +194,12 @@ def test_aggregate_and_summary_definitions():
     # 0.3 is crossed between fast's points (1 s, 0.5) and (10 s, 0.25): at 1 + 9 * 0.2 / 0.25 = 8.2 s.
     assert s["details"]["two_stage_speedup"]["fast"]["finetune_seconds"] == pytest.approx(8.2)
     assert s["two_stage_speedup"] == pytest.approx(30.0 / 8.2)  # paper has no scratch run: fast is the reference
+    levels = {lv["level"]: lv for lv in s["details"]["two_stage_speedup"]["fast"]["levels"]}
+    assert levels[1.0]["speedup"] == pytest.approx(s["two_stage_speedup"])
+    # 0.3 * 1.5 = 0.45: scratch crosses it between (1 s, 0.6) and (30 s, 0.3) at 1 + 29 * 0.15 / 0.3 = 15.5 s,
+    # the fine-tune between (1 s, 0.5) and (10 s, 0.25) at 1 + 9 * 0.05 / 0.25 = 2.8 s.
+    assert levels[1.5]["speedup"] == pytest.approx(15.5 / 2.8)
+    assert levels[2.0]["finetune_seconds"] == pytest.approx(1.0)  # 0.6: both already there at their first point
     assert s["preview_time_ratio"] == pytest.approx(0.5 / 100.0)  # against finetune paper, its last point
     assert s["preview_error_ratio"] == pytest.approx(0.4 / 0.2)
     assert s["early_stop_saving"] is None  # no run facts recorded

@@ -21,6 +21,9 @@ per-preset value is kept under ``details``. A value is null when the runs it nee
 * ``two_stage_speedup``: for a preset, target = the ``scratch`` run's error at its largest iteration count;
   ``T_scratch`` / ``T_finetune`` = the time at which each run's mean error curve first reaches the target,
   linearly interpolated in time between the two evaluation points around the crossing.
+  ``details.two_stage_speedup[preset].levels`` gives the same ratio at looser targets (1.05x, 1.1x, ... the
+  scratch run's final error, :data:`TWO_STAGE_LEVELS`): how the pretrained init's head start shrinks as both
+  runs converge.
 * ``preview_time_ratio`` / ``preview_error_ratio``: ``preview`` time (median of repeats) and error divided by
   those of ``finetune`` at its largest iteration count (reference preset).
 * ``early_stop_saving``: for ``finetune`` runs (reference preset), the fraction of training time the trainer's
@@ -183,6 +186,22 @@ def _first_reach(curve, target: float, burn: Optional[float] = None) -> Optional
     return None
 
 
+#: Error levels of ``details.two_stage_speedup[preset].levels``, relative to the scratch run's final error.
+TWO_STAGE_LEVELS = (1.0, 1.05, 1.1, 1.25, 1.5, 2.0)
+
+
+def _two_stage_levels(ft, sc, target: float) -> List[Dict[str, Any]]:
+    """The two-stage speed-up at looser targets (``target * level`` for :data:`TWO_STAGE_LEVELS`): how much
+    sooner the pretrained init gets to each error than training from scratch (None where a run never gets
+    there)."""
+    out = []
+    for level in TWO_STAGE_LEVELS:
+        t_sc, t_ft = _first_reach(sc, target * level), _first_reach(ft, target * level)
+        out.append({"level": level, "error": target * level, "scratch_seconds": t_sc, "finetune_seconds": t_ft,
+                    "speedup": _ratio(t_sc, t_ft)})
+    return out
+
+
 def _ratio(a: Optional[float], b: Optional[float]) -> Optional[float]:
     if a is None or b is None or b <= 0:
         return None
@@ -247,6 +266,7 @@ def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> D
             two[p] = {"target_error": target, "scratch_seconds": _first_reach(sc, target),
                       "finetune_seconds": _first_reach(ft, target)}
             two[p]["speedup"] = _ratio(two[p]["scratch_seconds"], two[p]["finetune_seconds"])
+            two[p]["levels"] = _two_stage_levels(ft, sc, target)
     details["two_stage_speedup"] = two
     two_value = next((v["speedup"] for v in two.values()), None)
 
@@ -446,6 +466,11 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
         out.append(f"| skip refine (preview input RMSE <= {sk['threshold_input_rmse']}): cases skipped / time "
                    f"saved / error ratio on them | {sk['skipped']} of {sk['cases']} / {_fmt(sk['saving'])} / "
                    f"{_fmt(sk['error_ratio_on_skipped'])} |")
+    for p, two in det.get("two_stage_speedup", {}).items():
+        levels = [lv for lv in two.get("levels", []) if lv["speedup"] is not None]
+        if levels:
+            out.append(f"| two-stage speed-up of `{p}` at looser targets (error: speed-up) | "
+                       + ", ".join(f"{lv['error']:.3f}: {lv['speedup']:.1f}x" for lv in levels) + " |")
     out += ["", "Definitions: `svbrdf.trainer.bench.report` (module docstring); details in `summary.json`.", ""]
     return "\n".join(out)
 
