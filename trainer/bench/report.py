@@ -186,7 +186,8 @@ def _first_reach(curve, target: float, burn: Optional[float] = None) -> Optional
     return None
 
 
-#: Error levels of ``details.two_stage_speedup[preset].levels``, relative to the scratch run's final error.
+#: Error levels of ``details.two_stage_speedup[preset].levels``, relative to the scratch run's final error; the
+#: first (1.0) is the headline ``two_stage_speedup``.
 TWO_STAGE_LEVELS = (1.0, 1.05, 1.1, 1.25, 1.5, 2.0)
 
 
@@ -263,10 +264,9 @@ def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> D
         ft, sc = curve("finetune", p), curve("scratch", p)
         if ft and sc:
             target = sc[-1][2]
-            two[p] = {"target_error": target, "scratch_seconds": _first_reach(sc, target),
-                      "finetune_seconds": _first_reach(ft, target)}
-            two[p]["speedup"] = _ratio(two[p]["scratch_seconds"], two[p]["finetune_seconds"])
-            two[p]["levels"] = _two_stage_levels(ft, sc, target)
+            levels = _two_stage_levels(ft, sc, target)  # levels[0] is the headline target itself (level 1.0)
+            two[p] = {"target_error": target, **{k: levels[0][k] for k in ("scratch_seconds", "finetune_seconds",
+                                                                          "speedup")}, "levels": levels}
     details["two_stage_speedup"] = two
     two_value = next((v["speedup"] for v in two.values()), None)
 
