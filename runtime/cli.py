@@ -42,6 +42,10 @@ Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name
 # below this: the mean that 200 fast fine-tune iterations reach on the 12 Henzler photos
 # (docs/benchmarks/finetune-henzler/results.md: 0.117).
 SKIP_REFINE_RMSE = 0.117
+# ... and only when the preview's label-free burn-in (svbrdf.runtime.burn_in) is at or below this: the 95th
+# percentile of the ground-truth maps' own burn-in over the 38 shared ground-truth sets at 256 px (mean 0.115,
+# median 0.109, p90 0.173, p95 0.246, max 0.462), i.e. a level a stationary material rarely reaches by chance.
+SKIP_REFINE_BURN_IN = 0.25
 
 # Kept in step with svbrdf.runtime.targets.TARGETS (a test checks); listed here so --help stays import-free.
 _TARGETS = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
@@ -104,7 +108,8 @@ def build_parser() -> argparse.ArgumentParser:
                      help="--refine until the label-free re-render error stops improving (at most the preset's "
                           "length); skipped altogether when "
                           "the preview already re-renders the photo as well as a typical fine-tune "
-                          f"(sRGB RMSE <= {SKIP_REFINE_RMSE} under the flash)")
+                          f"(sRGB RMSE <= {SKIP_REFINE_RMSE} under the flash) and keeps the flash highlight out of "
+                          f"its maps (burn-in <= {SKIP_REFINE_BURN_IN})")
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
     p.add_argument("-v", "--verbose", action="store_true", help="print model details, and tracebacks on errors")
     p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
@@ -149,6 +154,7 @@ def _refine(image, session, args, name: str):
 
 def _process(photo: Path, session, config, args, out_dir: Path) -> str:
     """Estimate (or refine), render and write one texture set; returns the report line."""
+    from .burn_in import photo_burn_in
     from .session import DEFAULT_OVERLAP, estimate
     from .targets import write_target
     from .texture_set import relit_panel, write_texture_set
@@ -163,22 +169,26 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
         from .session import resize_long_side
 
         image = resize_long_side(read_image(photo), args.max_size)
-        maps, preview_rmse = None, None
+        maps, preview_rmse, preview_burn = None, None, None
         if args.quality == "auto":  # skip the fine-tune when the instant preview already explains the photo
             from svbrdf.trainer.bench.metrics import rerender_rmse
 
             preview = estimate(image, session, max_size=args.max_size, tile=args.tile,
                                overlap=min(DEFAULT_OVERLAP, args.tile // 4), maps=MAP_NAMES)
             preview_rmse = rerender_rmse(preview, image, [None], config)
-            if preview_rmse <= SKIP_REFINE_RMSE:
+            preview_burn = preview.meta["burn_in"]["burn_in"]
+            if preview_rmse <= SKIP_REFINE_RMSE and preview_burn <= SKIP_REFINE_BURN_IN:
                 maps = preview
                 maps.meta["refine"] = {"skipped": True, "preview_input_rmse": preview_rmse,
-                                       "threshold": SKIP_REFINE_RMSE}
-                detail = f"refine skipped: the preview explains the photo (RMSE {preview_rmse:.3f})"
+                                       "threshold": SKIP_REFINE_RMSE, "preview_burn_in": preview_burn,
+                                       "burn_in_threshold": SKIP_REFINE_BURN_IN}
+                detail = f"refine skipped: the preview explains the photo (RMSE {preview_rmse:.3f}, burn-in " \
+                         f"{preview_burn:.2f})"
         if maps is None:
             maps = _refine(image, session, args, photo.name)
+            maps.meta["burn_in"] = photo_burn_in(maps, image)
             if preview_rmse is not None:
-                maps.meta["refine"]["preview_input_rmse"] = preview_rmse
+                maps.meta["refine"].update(preview_input_rmse=preview_rmse, preview_burn_in=preview_burn)
             detail = f"refined {maps.meta['refine']['iterations']} it"
         # The fine-tune trains (and its losses render) every map; only the requested ones are written.
         maps = maps.subset(args.maps)
@@ -198,7 +208,8 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
     else:
         write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra, relit=relit)
     h, w = maps.shape
-    return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail})"
+    burn = maps.meta["burn_in"]["burn_in"]
+    return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail}; burn-in {burn:.2f})"
 
 
 def _run(args) -> int:

@@ -8,8 +8,10 @@ Presets (``resolve(name, **overrides)``):
   (0, 0.9); loss ``0.1 L_GAN + L_d + 0.1 L_F + 0.2 L_P``; 10k pretrain / 3k finetune / 20k from-scratch
   iterations; seed 24.
 * ``"zhao"``: ``"paper"`` without the Fourier and perceptual losses (Zhao et al. 2020's objective).
-* ``"fast"``: the light generator/discriminator, 128 px tiles, schedule 1:1:1, lr 1e-4 (a first guess that
-  the benchmark tunes).
+* ``"fast"``: the light generator/discriminator, 128 px tiles, joint schedule 1:1:1, lr 1e-4, and the
+  highlight-free flash model: inverse-square fall-off, renderings clipped like the photo, a per-pixel re-render
+  term, the flash-correlation stationarity term and a scale-free L_d (docs/benchmarks/accuracy/).
+* ``"fast-v1"``: ``"fast"`` without the highlight-free flash model (the paper's losses on the light model).
 * ``"fast-no-fourier"``, ``"fast-no-perceptual"``, ``"fast-zhao"``: ``"fast"`` with L_F, L_P or both off
   (ablations).
 * ``"tiny"``: a toy model for tests (32 px tiles, a few iterations, pyramid perceptual loss).
@@ -22,6 +24,7 @@ from dataclasses import dataclass, field, fields
 from typing import Any, Dict, Optional, Tuple
 
 from svbrdf.runtime.render import ZHAO, RenderConfig
+from svbrdf.trainer.losses import DIFFUSE_TARGETS
 from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, DiscriminatorConfig, GeneratorConfig
 
 STAGES = ("pretrain", "finetune", "fit")
@@ -55,6 +58,15 @@ class TrainConfig:
         lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".
         lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
             ``vgg_weights``: optional VGG-19 state-dict file.
+        diffuse_target: "absolute" (the paper's L_d) or "normalized" (L_d on standardised tiles: the guessed
+            diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`).
+        lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
+            as in the paper).
+        lambda_flash: weight of the flash-correlation stationarity loss on both decoders
+            (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
+        saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
+            discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
+            (False: the paper's unclipped renderings).
         perceptual_min_clipped: photos with a smaller fraction of clipped pixels
             (:func:`svbrdf.trainer.losses.clipped_fraction`) train without L_P (0 = never skipped). ``fast``:
             5e-5, i.e. photos without a saturated highlight, where L_P brought no gain for 21 % of the time
@@ -95,6 +107,10 @@ class TrainConfig:
     perceptual: str = "auto"
     vgg_weights: Optional[str] = None
     perceptual_min_clipped: float = 0.0
+    diffuse_target: str = "absolute"
+    lambda_render: float = 0.0
+    lambda_flash: float = 0.0
+    saturate: bool = False
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
@@ -151,7 +167,7 @@ class TrainConfig:
         need(self.lr > 0, f"lr must be > 0, got {self.lr}")
         need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "
              f"got {self.betas}")
-        for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual"):
+        for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
         need(0 <= self.perceptual_min_clipped <= 1,
              f"perceptual_min_clipped must be in [0, 1], got {self.perceptual_min_clipped}")
@@ -159,6 +175,8 @@ class TrainConfig:
              f"got {self.fourier_mode!r}")
         need(self.perceptual in PERCEPTUAL_BACKENDS, f"perceptual must be one of {PERCEPTUAL_BACKENDS}, "
              f"got {self.perceptual!r}")
+        need(self.diffuse_target in DIFFUSE_TARGETS, f"diffuse_target must be one of {DIFFUSE_TARGETS}, "
+             f"got {self.diffuse_target!r}")
         need(self.schedule in SCHEDULES, f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
         need(self.schedule != "joint" or (self.nr_updates, self.ds_updates, self.d_updates) == (1, 1, 1),
              "schedule 'joint' needs nr_updates = ds_updates = d_updates = 1")
@@ -213,10 +231,16 @@ def _preset(name: str, model: str, **kw) -> TrainConfig:
                        discriminator=dataclasses.replace(DISC_PRESETS[model]), **kw)
 
 
-_FAST = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, schedule="joint", lr=1e-4, perceptual="pyramid",
-             perceptual_min_clipped=5e-5, bf16=True,
-             iters_pretrain=6000, iters_finetune=600, iters_fit=6000, eval_every=50, checkpoint_every=250,
-             maps_every=0)
+_FAST_V1 = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, schedule="joint", lr=1e-4, perceptual="pyramid",
+                perceptual_min_clipped=5e-5, bf16=True,
+                iters_pretrain=6000, iters_finetune=600, iters_fit=6000, eval_every=50, checkpoint_every=250,
+                maps_every=0)
+#: The highlight-free flash model and losses of ``fast`` (docs/benchmarks/accuracy/): inverse-square fall-off,
+#: renderings clipped like the photo, a per-pixel re-render term, the flash-correlation stationarity term and a
+#: scale-free L_d.
+_HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=True, lambda_render=1.0,
+                       lambda_flash=1.0, diffuse_target="normalized")
+_FAST = {**_FAST_V1, **_HIGHLIGHT_FREE}
 
 
 def _presets() -> Dict[str, TrainConfig]:
@@ -224,6 +248,8 @@ def _presets() -> Dict[str, TrainConfig]:
         "paper": _preset("paper", "paper"),
         "zhao": _preset("zhao", "paper", lambda_fourier=0.0, lambda_perceptual=0.0),
         "fast": _preset("fast", "fast", **_FAST),
+        # ``fast`` before the highlight-free flash model (the paper's losses on the fast model), for comparison.
+        "fast-v1": _preset("fast-v1", "fast", **_FAST_V1),
         # Ablations of the fast preset (the benchmark compares them side by side).
         "fast-no-fourier": _preset("fast-no-fourier", "fast", **{**_FAST, "lambda_fourier": 0.0}),
         "fast-no-perceptual": _preset("fast-no-perceptual", "fast", **{**_FAST, "lambda_perceptual": 0.0}),

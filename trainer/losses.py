@@ -9,8 +9,11 @@ Every loss is computed in at least float32, also under bf16 autocast.
 
 from __future__ import annotations
 
+from typing import Sequence
+
 import torch
 import torch.nn.functional as F
+from kornia.color import linear_rgb_to_rgb
 from kornia.filters import get_gaussian_kernel1d
 from torch import nn
 
@@ -113,24 +116,162 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
     return torch.stack(planes).reshape(x.shape).clamp(0.0, 1.0).to(_f32(photo).dtype)
 
 
-def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
+DIFFUSE_TARGETS = ("absolute", "normalized")
+#: Added to a tile's standard deviation where a loss divides by it.
+STD_EPS = 0.01
+
+
+def _standardize(x: torch.Tensor, eps: float = STD_EPS) -> torch.Tensor:
+    """Per image and channel over (H, W): ``(x - mean) / (std + eps)``."""
+    mean = x.mean(dim=(-2, -1), keepdim=True)
+    std = x.std(dim=(-2, -1), keepdim=True, unbiased=False)
+    return (x - mean) / (std + eps)
+
+
+def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = "absolute") -> torch.Tensor:
     """L_d: mean absolute error between the predicted diffuse albedo and the guessed diffuse map.
+
+    The guess is min-max rescaled over the photo (:func:`guessed_diffuse`), so its level and contrast say nothing
+    of the true albedo's. ``target="absolute"`` (Zhao et al., the paper) compares the values as they are;
+    ``"normalized"`` compares both after standardising each channel over the tile (``(x - mean) / (std +
+    0.01)``), so L_d only asks the diffuse map to follow the guess's pattern and leaves its level and contrast to
+    the photo (a re-render term).
 
     Args:
         pred_diffuse: (B, 3, H, W) predicted linear diffuse albedo in [0, 1].
         guess: (B, 3, H, W) guessed diffuse crop in [0, 1] (:func:`guessed_diffuse`).
+        target: "absolute" or "normalized".
 
     Returns:
         scalar.
     """
-    return F.l1_loss(_f32(pred_diffuse), _f32(guess))
+    if target not in DIFFUSE_TARGETS:
+        raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
+    p, g = _f32(pred_diffuse), _f32(guess)
+    if target == "normalized":
+        p, g = _standardize(p), _standardize(g)
+    return F.l1_loss(p, g)
 
 
 class DiffuseLoss(nn.Module):
-    """Module form of :func:`diffuse_loss`."""
+    """Module form of :func:`diffuse_loss` (``target`` fixed at construction)."""
+
+    def __init__(self, target: str = "absolute"):
+        super().__init__()
+        if target not in DIFFUSE_TARGETS:
+            raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
+        self.target = target
 
     def forward(self, pred_diffuse: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
-        return diffuse_loss(pred_diffuse, guess)
+        return diffuse_loss(pred_diffuse, guess, self.target)
+
+
+def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99) -> torch.Tensor:
+    """Per-pixel re-render loss: mean absolute difference of the sRGB-encoded rendering and photo tile.
+
+    A photo value at or above ``clip_level`` is saturated: it only says the radiance was at least that much, so
+    there the loss is one-sided, ``max(0, enc(clip_level) - enc(rendering))`` (no pull down on a bright
+    highlight the camera clipped). The rendering is not clipped: an over-bright pixel where the photo is not
+    saturated is pulled down.
+
+    Args:
+        rendering: (B, 3, H, W) linear radiance (>= 0; may exceed 1) at the photo tile's position.
+        photo: (B, 3, H, W) linear photo tile in [0, 1].
+        clip_level: linear value from which a photo channel counts as saturated.
+
+    Returns:
+        scalar.
+    """
+    with torch.autocast(device_type=rendering.device.type, enabled=False):
+        r = linear_rgb_to_rgb(_f32(rendering).clamp_min(0.0))
+        x = _f32(photo)
+        p = linear_rgb_to_rgb(x.clamp(0.0, 1.0))
+        level = float(linear_rgb_to_rgb(torch.full((1, 3, 1, 1), float(clip_level)))[0, 0, 0, 0])
+        err = torch.where(x >= clip_level, (level - r).clamp_min(0.0), (r - p).abs())
+        return err.mean()
+
+
+class RenderLoss(nn.Module):
+    """Module form of :func:`render_loss`."""
+
+    def __init__(self, clip_level: float = 0.99):
+        super().__init__()
+        self.clip_level = clip_level
+
+    def forward(self, rendering: torch.Tensor, photo: torch.Tensor) -> torch.Tensor:
+        return render_loss(rendering, photo, self.clip_level)
+
+
+#: Powers p of the flash basis ``l_z ** p`` (:func:`flash_basis`): broad (the fall-off and cosine), medium
+#: and narrow (a highlight lobe). At a 66 deg field of view ``l_z ** 256`` falls to 1/2 about 0.05 W from the
+#: flash centre, ``l_z ** 4`` to 0.74 at the photo's corner.
+FLASH_POWERS = (4, 32, 256)
+
+
+def flash_basis(light: torch.Tensor, powers: Sequence[int] = FLASH_POWERS) -> torch.Tensor:
+    """Radial fields that follow the flash: ``l_z ** p`` for each power, from the per-pixel light directions.
+
+    With a co-located flash over a flat surface, ``l_z`` (the cosine between the normal and the light) is 1 under
+    the flash and falls smoothly away from it, so its powers describe the shapes the flash paints on a
+    photo: the broad fall-off and the highlight lobes of several roughnesses. Computed from the photo's
+    geometry (:class:`svbrdf.trainer.render.FlashGeometry`), they are exact for every tile, centred or not.
+
+    Args:
+        light: (1, 3, H, W) unit directions surface -> light.
+        powers: the exponents.
+
+    Returns:
+        (1, K, H, W) float32 basis, K = len(powers).
+    """
+    lz = _f32(light[:, 2:3]).clamp_min(0.0)
+    return torch.cat([lz ** p for p in powers], dim=1)
+
+
+def flash_maps(maps: torch.Tensor) -> torch.Tensor:
+    """The scalar fields of the maps that a flash burn-in shows in: (B, 6, H, W) = diffuse R, G, B, specular,
+    roughness and the normal's z (a flattened or bulged centre)."""
+    return torch.cat([maps[:, SLICES["diffuse"]], maps[:, SLICES["specular"]], maps[:, SLICES["roughness"]],
+                      maps[:, SLICES["normal"]][:, 2:3]], dim=1)
+
+
+def flash_correlation_loss(maps: torch.Tensor, basis: torch.Tensor, eps: float = STD_EPS) -> torch.Tensor:
+    """Stationarity with respect to the flash: how much of each map follows the flash pattern.
+
+    For every field g of :func:`flash_maps` and basis field b (:func:`flash_basis`), both centred over the tile,
+    the amplitude of g along b is ``a = mean(g_c b_c) / rms(b_c)`` (map units); it is divided by the tile's
+    standard deviation of g plus ``eps``, computed without gradient, so the loss can only fall by removing the
+    flash-shaped component, never by adding texture. The loss is the mean of ``(a / (std(g) + eps))^2`` over
+    fields, bases and batch: about the squared correlation of each map with the flash, 0 for a map that does not
+    follow it (a stationary material, whose highlight must then come from the specular lobe of the renderer).
+
+    Args:
+        maps: (B, 8, H, W) packed maps, final ranges.
+        basis: (1 or B, K, H, W) flash basis cropped to the same tile.
+        eps: added to the standard deviation.
+
+    Returns:
+        scalar in [0, ~1].
+    """
+    with torch.autocast(device_type=maps.device.type, enabled=False):
+        g = flash_maps(_f32(maps))
+        b = _f32(basis)
+        gc = g - g.mean(dim=(-2, -1), keepdim=True)
+        bc = b - b.mean(dim=(-2, -1), keepdim=True)
+        bn = bc / (bc.pow(2).mean(dim=(-2, -1), keepdim=True).sqrt() + 1e-8)
+        amp = (gc[:, :, None] * bn[:, None]).mean(dim=(-2, -1))  # (B, fields, K)
+        scale = gc.pow(2).mean(dim=(-2, -1)).sqrt().detach()[:, :, None] + eps
+        return (amp / scale).pow(2).mean()
+
+
+class FlashCorrelationLoss(nn.Module):
+    """Module form of :func:`flash_correlation_loss`."""
+
+    def __init__(self, eps: float = STD_EPS):
+        super().__init__()
+        self.eps = eps
+
+    def forward(self, maps: torch.Tensor, basis: torch.Tensor) -> torch.Tensor:
+        return flash_correlation_loss(maps, basis, self.eps)
 
 
 def gan_generator_loss(fake_logits: torch.Tensor) -> torch.Tensor:
@@ -271,6 +412,8 @@ def clipped_fraction(photo: torch.Tensor, level: float = CLIP_LEVEL) -> float:
 
 
 __all__ = [
-    "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "gan_generator_loss", "gan_discriminator_loss",
+    "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
+    "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
+    "FlashCorrelationLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
 ]

@@ -39,8 +39,9 @@ from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
-from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, fourier_loss,
-                                   gan_discriminator_loss, gan_generator_loss, guessed_diffuse)
+from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
+                                   flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
+                                   guessed_diffuse, render_loss)
 from svbrdf.trainer.models import (DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
                                    pack_maps)
 from svbrdf.trainer.perceptual import PerceptualLoss
@@ -244,6 +245,7 @@ class Trainer:
         with torch.no_grad():
             self.guess = guessed_diffuse(self.photo).float()
         self.geometry = FlashGeometry(h, w, config.render_config, device=self.device)
+        self.flash_basis = flash_basis(self.geometry.light) if config.lambda_flash > 0 else None
         self.tile_rng = torch.Generator().manual_seed(config.seed)
         # Fixed tiles of the label-free progress signal: their own RNG, so they never shift the training tiles.
         eval_rng = torch.Generator().manual_seed(config.seed + 1)
@@ -294,6 +296,10 @@ class Trainer:
 
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
+
+    def _seen(self, rendering: torch.Tensor) -> torch.Tensor:
+        """What the camera would record of a rendering: clipped to [0, 1] with ``saturate``, else unchanged."""
+        return rendering.clamp(0.0, 1.0) if self.config.saturate else rendering
 
     # ------------------------------------------------------------------ loading
     def load_init(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
@@ -459,29 +465,41 @@ class Trainer:
     def _generator_losses(self, keys: Tuple[str, ...], x: torch.Tensor, guess: torch.Tensor, maps: torch.Tensor,
                           y0: int, x0: int, terms: Dict[str, List[torch.Tensor]]) -> Tuple[torch.Tensor, torch.Tensor]:
         """Render ``maps`` of the tile at (y0, x0) and compute the decoder losses, logged under each of ``keys``
-        ("nr", "ds"): ``lambda_gan L_GAN + lambda_F L_F + lambda_P L_P``, plus ``L_d`` when "ds" is among them.
+        ("nr", "ds"): ``lambda_gan L_GAN + lambda_F L_F + lambda_P L_P + lambda_render L_render + lambda_flash
+        L_flash`` (the terms with a non-zero weight), plus ``L_d`` when "ds" is among them.
 
         Returns:
-            (rendering, total loss): the rendering (B, 3, h, w) linear, and the loss to minimise (with ``L_d``
-            if "ds" is in ``keys``).
+            (rendering, total loss): the rendering (B, 3, h, w) linear as the camera sees it (:meth:`_seen`), and
+            the loss to minimise (with ``L_d`` if "ds" is in ``keys``).
         """
         cfg = self.config
-        rendering = self.geometry.render(maps, y0, x0)
+        radiance = self.geometry.render(maps, y0, x0)
+        rendering = self._seen(radiance)
         with self._amp():
             fake_logits = self.discriminator(rendering)
         gan = gan_generator_loss(fake_logits.float())
-        shared = total = cfg.lambda_gan * gan  # ``shared``: without L_d (the normal/roughness decoder's loss)
+        shared = cfg.lambda_gan * gan  # without L_d: the normal/roughness decoder's loss
         logged = {"gan": gan}
-        if "ds" in keys:
-            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess)
-            total = total + ld
+        weighted = []
         if cfg.lambda_fourier > 0:
             logged["fourier"] = lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
-            shared, total = shared + cfg.lambda_fourier * lf, total + cfg.lambda_fourier * lf
+            weighted.append(cfg.lambda_fourier * lf)
         if self.perceptual is not None:
             with self._amp():
                 logged["perceptual"] = lp = self.perceptual(x, rendering).float()
-            shared, total = shared + cfg.lambda_perceptual * lp, total + cfg.lambda_perceptual * lp
+            weighted.append(cfg.lambda_perceptual * lp)
+        if cfg.lambda_render > 0:
+            logged["render"] = lr = render_loss(radiance, x, CLIP_LEVEL)
+            weighted.append(cfg.lambda_render * lr)
+        if self.flash_basis is not None:
+            logged["flash"] = lfl = flash_correlation_loss(maps, self._crop(self.flash_basis, y0, x0))
+            weighted.append(cfg.lambda_flash * lfl)
+        for term in weighted:
+            shared = shared + term
+        total = shared
+        if "ds" in keys:
+            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target)
+            total = shared + ld
         for key in keys:
             for name, value in logged.items():
                 if name != "diffuse" or key == "ds":
@@ -498,7 +516,7 @@ class Trainer:
             with torch.no_grad():
                 with self._amp():
                     maps = self.generator(x).float()
-                fake = self.geometry.render(maps, y0, x0)
+                fake = self._seen(self.geometry.render(maps, y0, x0))
         with self._amp():
             real_logits, fake_logits = self.discriminator(x), self.discriminator(fake.detach())
         loss = gan_discriminator_loss(real_logits.float(), fake_logits.float())
@@ -551,7 +569,7 @@ class Trainer:
         for y0, x0 in self.eval_boxes:
             x = self._crop(self.photo, y0, x0)
             m = self.generator(x).float()
-            l1.append((self.geometry.render(m, y0, x0) - x).abs().mean())
+            l1.append((self._seen(self.geometry.render(m, y0, x0)) - x).abs().mean())
             maps.append(m)
         maps_t = torch.cat(maps)
         change = None if self.eval_maps is None else float((maps_t - self.eval_maps).abs().mean())

@@ -134,6 +134,9 @@ def test_estimate_array_in_one_pass(session):
     assert meta["render_config"]["fov_deg"] == TINY_FOV
     raw = session.run(photo)  # the maps are the model's output, clipped/renormalised only
     np.testing.assert_allclose(maps.diffuse, np.clip(raw[..., :3], 0, 1), atol=1e-6)
+    from svbrdf.runtime.burn_in import photo_burn_in
+
+    assert meta["burn_in"] == photo_burn_in(maps, photo)  # the label-free burn-in is returned with the maps
 
 
 def test_estimate_file_and_downsizing(session, tmp_path):

@@ -6,6 +6,7 @@ import math
 import numpy as np
 import pytest
 
+from svbrdf.runtime.camera import REALISTIC, Camera
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import read_image, write_image
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
@@ -71,36 +72,6 @@ def test_angular_error_of_a_known_tilt():
     assert e["normal_rmse"] == pytest.approx(math.sqrt((2 - 2 * math.cos(math.radians(30))) / 12), abs=1e-5)
 
 
-def test_burn_in_of_bright_disc_constant_and_stationary_maps():
-    n = 128
-    yy, xx = np.mgrid[0:n, 0:n]
-    r = np.hypot(yy + 0.5 - n / 2, xx + 0.5 - n / 2) / n
-    disc = np.where(r < 0.1, 1.0, 0.2)
-    assert bm.burn_in(disc) > 1.0
-    assert bm.burn_in(-disc) < -1.0  # signed: a dip under the highlight is negative
-    assert bm.burn_in(np.full((n, n), 0.37)) == 0.0
-    noise = np.random.default_rng(1).uniform(0, 1, (n, n))
-    assert abs(bm.burn_in(noise)) < 0.15
-    # Off-centre disc: invisible from the image centre, found at its own centre.
-    off = np.where(np.hypot(yy + 0.5 - 30, xx + 0.5 - 90) / n < 0.1, 1.0, 0.2)
-    assert bm.burn_in(off, centre=(30, 90)) > 1.0
-    assert bm.burn_in(off, centre=(30, 90)) > 3 * abs(bm.burn_in(off))
-
-
-def test_burn_in_scores_and_highlight_centre():
-    m = _maps(n=64)
-    scores = bm.burn_in_scores(m)
-    assert set(scores) == set(bm.BURN_METRICS) | {"burn_in"}
-    assert scores["burn_specular"] == 0.0 and scores["burn_normal"] == 0.0
-    assert scores["burn_in"] == pytest.approx(np.mean([abs(scores[k]) for k in bm.BURN_METRICS]))
-    # A flash photo with the light off-centre: the highlight centre follows the light.
-    shiny = _maps(n=64, diffuse=0.2, roughness=0.2, specular=0.5)
-    d = ZHAO.camera_distance
-    photo = render(shiny, (0.4, 0.4, d), ZHAO)  # +x right, +y up: the upper right quadrant
-    row, col = bm.highlight_centre(photo)
-    assert row < 32 and col > 32
-
-
 def test_rerender_rmse_against_maps_and_photo():
     gt = _maps(seed=2)
     lights = bm.evaluation_lights()
@@ -127,19 +98,39 @@ def test_resize_maps_area_average_and_unit_normals():
     assert np.allclose(np.linalg.norm(small.normal, axis=-1), 1.0, atol=1e-5)
 
 
-def test_simulate_photo_noise_quantize_and_clip():
+def test_simulate_photo_camera_and_clip():
     m = _maps(n=32, seed=4, specular=0.9, roughness=0.1)  # a highlight above 1
     clean = bc.simulate_photo(m)
     assert clean.max() == pytest.approx(1.0) and clean.min() >= 0.0
     assert np.allclose(clean, np.clip(render(m, None, ZHAO), 0, 1))
-    noisy = bc.simulate_photo(m, noise=0.05, seed=7)
+    noisy = bc.simulate_photo(m, camera=Camera(read=0.05), seed=7)
     assert not np.allclose(noisy, clean)
-    assert np.array_equal(noisy, bc.simulate_photo(m, noise=0.05, seed=7))  # seeded
-    q = bc.simulate_photo(m, quantize=True)
+    assert np.array_equal(noisy, bc.simulate_photo(m, camera=Camera(read=0.05), seed=7))  # seeded
+    q = bc.simulate_photo(m, camera=Camera(quantize=True))
     codes = _srgb(q) * 255
     assert np.abs(codes - np.round(codes)).max() < 0.02
     with pytest.raises(ValueError):
         bc.simulate_photo(m, renderer="povray")
+
+
+def test_prepare_case_realistic_and_clean(tmp_path):
+    from svbrdf.runtime.datasets import find_cases
+
+    _make_data(tmp_path)
+    (case,) = [c for c in find_cases(tmp_path) if c.kind == "gt"]
+    real = bc.prepare_case(case, 32, renderer="ours")
+    again = bc.prepare_case(case, 32, renderer="ours")
+    assert np.array_equal(real.photo, again.photo)  # the camera and the noise are seeded by the case name
+    sim = real.simulation
+    assert sim["setting"] == "realistic" and sim["renderer"] == "ours" and sim["camera"]["quantize"]
+    assert sim["render_config"]["falloff"] and sim["render_config"]["geometry"] == "smith"
+    lo, hi = REALISTIC["ev"]
+    assert lo <= sim["camera"]["ev"] <= hi
+    clean = bc.prepare_case(case, 32, realistic=False, renderer="ours")
+    assert clean.simulation["setting"] == "clean" and not clean.simulation["camera"]["quantize"]
+    assert np.allclose(clean.photo, np.clip(render(clean.gt, None, ZHAO), 0, 1))
+    assert not np.allclose(real.photo, clean.photo, atol=0.01)
+    assert bc.resolve_renderer("auto") in ("ours", "mitsuba")
 
 
 def test_render_mitsuba_matches_our_physical_settings():

@@ -4,15 +4,23 @@ Every image under the data folder is found by :func:`svbrdf.runtime.datasets.fin
 
 * a ground-truth panel set (Des18, Des19, Xuejiao layouts) becomes a **synthetic case**: its maps are
   area-averaged to ``size x size`` (:func:`resize_maps`, normals renormalised) and the input photo is rendered
-  from them with a co-located flash above the centre, either by the project renderer
-  (:func:`svbrdf.runtime.render.render`, the benchmark's render configuration) or by Mitsuba 3
-  (:func:`render_mitsuba`). The photo is then clipped to [0, 1] (sensor saturation), optionally given
-  Gaussian sensor noise (``noise``, standard deviation in linear units, added before the clip) and optionally
-  quantised as an 8-bit sRGB file would be (``quantize``). The input panel of a Des18 file is not used (it was
-  rendered with unknown perturbations; see the data README).
+  from them with a co-located flash above the centre, then recorded by a camera
+  (:func:`svbrdf.runtime.camera.expose`). Two settings:
+
+  - **realistic** (the default): rendered by Mitsuba 3 where it is installed (:func:`render_mitsuba`: an
+    independent renderer with inverse-square fall-off), else by the project renderer with the same physics
+    (:func:`physical_config`: fall-off, exact Smith masking, F = F0); then a camera drawn per case from
+    :data:`svbrdf.runtime.camera.REALISTIC` (exposure +-0.5 stop, vignetting, Poisson-Gaussian noise,
+    saturation, 8-bit sRGB storage). The highlight clips wherever the rendering exceeds 1 after exposure;
+  - **clean** (``realistic=False``, for the inverse-crime comparison): rendered by ``renderer`` with the
+    benchmark's own configuration, optional Gaussian noise (``noise``), clipped to [0, 1], optionally 8-bit
+    sRGB (``quantize``).
+
+  The input panel of a Des18 file is not used (it was rendered with unknown perturbations; see the data README).
 * any other image is a **real photo**: centre-cropped to a square, area-averaged to ``size x size`` (linear).
 
-Noise is seeded by the case name, so a case gets the same photo in every run.
+Every random draw (camera, noise, Mitsuba sampler) is seeded by the case name, so a case gets the same photo in
+every run; :attr:`BenchCase.simulation` records how it was made.
 """
 
 from __future__ import annotations
@@ -21,21 +29,21 @@ import fnmatch
 import zlib
 from dataclasses import dataclass
 from pathlib import Path
-from typing import List, Optional, Sequence, Tuple
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 import OpenImageIO as oiio
 
-from svbrdf.runtime.colour import linear_to_srgb, srgb_to_linear
+from svbrdf.runtime.burn_in import highlight_centre
+from svbrdf.runtime.camera import Camera, expose, sample_camera
 from svbrdf.runtime.datasets import Case, find_cases, read_gt
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import read_image
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
 from svbrdf.runtime.render import ALPHA_MIN, ZHAO, RenderConfig, render
 
-from .metrics import highlight_centre
 
-RENDERERS = ("ours", "mitsuba")
+RENDERERS = ("auto", "ours", "mitsuba")
 #: Samples per pixel of the Mitsuba renders.
 MITSUBA_SPP = 32
 
@@ -52,6 +60,7 @@ class BenchCase:
         photo: (S, S, 3) float32 linear input photo in [0, 1].
         gt: ground-truth maps (S, S) for synthetic cases, else None.
         centre: (row, column) of the flash highlight in pixels, used by the burn-in score.
+        simulation: how a synthetic photo was made (renderer, camera, clipped fraction); None for photos.
     """
 
     name: str
@@ -61,6 +70,7 @@ class BenchCase:
     photo: np.ndarray
     gt: Optional[Maps]
     centre: Tuple[float, float]
+    simulation: Optional[Dict[str, Any]] = None
 
 
 def _resize(arr: np.ndarray, height: int, width: int) -> np.ndarray:
@@ -176,32 +186,39 @@ def render_mitsuba(maps: Maps, light_pos: Optional[Sequence[float]] = None, conf
     return np.asarray(img, dtype=np.float32)[..., :3]
 
 
-def simulate_photo(maps: Maps, *, renderer: str = "ours", config: RenderConfig = ZHAO, noise: float = 0.0,
-                   quantize: bool = False, seed: int = 0) -> np.ndarray:
-    """The flash photo of a texture set: render, add noise, clip to [0, 1], optionally 8-bit sRGB quantise.
+def physical_config(config: RenderConfig = ZHAO) -> RenderConfig:
+    """``config`` with the physics of a real flash and of Mitsuba: inverse-square fall-off, exact Smith GGX
+    masking, F = F0 (see :func:`render_mitsuba`)."""
+    return config.replace(falloff=True, geometry="smith", fresnel="none")
+
+
+def resolve_renderer(renderer: str) -> str:
+    """``"auto"`` -> ``"mitsuba"`` where Mitsuba 3 is installed, else ``"ours"``; other names unchanged."""
+    if renderer not in RENDERERS:
+        raise ValueError(f"renderer must be one of {', '.join(RENDERERS)}, got {renderer!r}")
+    if renderer == "auto":
+        return "mitsuba" if mitsuba_available() else "ours"
+    return renderer
+
+
+def simulate_photo(maps: Maps, *, renderer: str = "ours", config: RenderConfig = ZHAO,
+                   camera: Optional[Camera] = None, seed: int = 0) -> np.ndarray:
+    """The flash photo of a texture set: render (co-located flash), then record with ``camera``.
 
     Args:
         maps: texture set.
-        renderer: ``"ours"`` or ``"mitsuba"``.
+        renderer: ``"ours"`` (the project renderer with ``config``), ``"mitsuba"`` (physical, see
+            :func:`render_mitsuba`) or ``"auto"``.
         config: renderer settings.
-        noise: standard deviation of additive Gaussian noise on the linear radiance (0 = none).
-        quantize: round to 8-bit sRGB codes and decode back, as a phone's JPEG/PNG would store it.
-        seed: noise (and Mitsuba sampler) seed.
+        camera: the camera model (:func:`svbrdf.runtime.camera.expose`); default: clip to [0, 1] only.
+        seed: noise and Mitsuba sampler seed.
 
     Returns:
         (H, W, 3) float32 linear photo in [0, 1].
     """
-    if renderer not in RENDERERS:
-        raise ValueError(f"renderer must be one of {', '.join(RENDERERS)}, got {renderer!r}")
-    if noise < 0:
-        raise ValueError(f"noise must be >= 0, got {noise}")
+    renderer = resolve_renderer(renderer)
     img = render(maps, None, config) if renderer == "ours" else render_mitsuba(maps, None, config, seed=seed)
-    if noise > 0:
-        img = img + np.random.default_rng(seed).normal(0.0, noise, img.shape).astype(np.float32)
-    img = np.clip(img, 0.0, 1.0)
-    if quantize:
-        img = srgb_to_linear(np.round(linear_to_srgb(img) * 255.0) / 255.0)
-    return np.clip(img, 0.0, 1.0).astype(np.float32)
+    return expose(img, camera or Camera(), seed=seed)
 
 
 def select_cases(cases: List[Case], spec: Optional[str]) -> List[Case]:
@@ -231,15 +248,29 @@ def case_seed(name: str) -> int:
     return zlib.crc32(name.encode("utf-8"))
 
 
-def prepare_case(case: Case, size: int, *, renderer: str = "ours", config: RenderConfig = ZHAO,
-                 noise: float = 0.0, quantize: bool = False) -> BenchCase:
-    """Load one found case and turn it into a :class:`BenchCase` of side ``size`` (see the module docstring)."""
+def prepare_case(case: Case, size: int, *, realistic: bool = True, renderer: str = "auto",
+                 config: RenderConfig = ZHAO, noise: float = 0.0, quantize: bool = False) -> BenchCase:
+    """Load one found case and turn it into a :class:`BenchCase` of side ``size`` (see the module docstring).
+
+    ``realistic`` picks the setting; ``renderer`` (``"auto"``: Mitsuba where installed) applies to both, ``noise``
+    and ``quantize`` to the clean one only.
+    """
     if case.kind == "gt":
         gt, _ = read_gt(case.path, case.format)
         gt = resize_maps(gt, size)
-        photo = simulate_photo(gt, renderer=renderer, config=config, noise=noise, quantize=quantize,
-                               seed=case_seed(case.name))
-        return BenchCase(case.name, str(case.path), "synthetic", case.format, photo, gt, (size / 2.0, size / 2.0))
+        seed = case_seed(case.name)
+        used = resolve_renderer(renderer)
+        if realistic:
+            camera = sample_camera(seed)
+            cfg = physical_config(config) if used == "ours" else config
+        else:
+            camera, cfg = Camera(read=noise, quantize=quantize), config
+        photo = simulate_photo(gt, renderer=used, config=cfg, camera=camera, seed=seed)
+        sim = {"setting": "realistic" if realistic else "clean", "renderer": used,
+               "render_config": cfg.to_dict() if used == "ours" else None, "camera": camera.to_dict(),
+               "clipped_fraction": float((photo.max(axis=-1) >= 1.0).mean())}
+        return BenchCase(case.name, str(case.path), "synthetic", case.format, photo, gt, (size / 2.0, size / 2.0),
+                         sim)
     img = centre_square(read_image(case.path))
     photo = np.clip(_resize(img, size, size), 0.0, 1.0)
     return BenchCase(case.name, str(case.path), "photo", case.format, photo, None, highlight_centre(photo))
@@ -254,4 +285,4 @@ def load_cases(root: Path, size: int, spec: Optional[str] = None, **kw) -> List[
 
 
 __all__ = ["BenchCase", "RENDERERS", "MITSUBA_SPP", "resize_maps", "centre_square", "render_mitsuba",
-           "mitsuba_available", "simulate_photo", "select_cases", "case_seed", "prepare_case", "load_cases"]
+           "mitsuba_available", "physical_config", "resolve_renderer", "simulate_photo", "select_cases", "case_seed", "prepare_case", "load_cases"]

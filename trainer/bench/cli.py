@@ -31,7 +31,9 @@ from svbrdf.runtime.render import ZHAO
 from . import report
 from .cases import RENDERERS, BenchCase, load_cases, mitsuba_available, prepare_case
 from .methods import METHODS, BenchOptions, Point, torch_available
-from .metrics import burn_in_scores, evaluate
+from svbrdf.runtime.burn_in import burn_in_scores
+
+from .metrics import evaluate
 
 DEFAULT_PRESETS = ("paper", "zhao", "fast")
 DEFAULT_ITERS = (0, 100, 300, 1000, 3000)
@@ -114,7 +116,8 @@ def run_benchmark(
     presets: Sequence[str] = DEFAULT_PRESETS,
     size: int = 256,
     cases: Optional[str] = None,
-    renderer: str = "ours",
+    realistic: bool = True,
+    renderer: str = "auto",
     noise: float = 0.0,
     quantize: bool = False,
     opts: Optional[BenchOptions] = None,
@@ -133,7 +136,9 @@ def run_benchmark(
         size: side of every case, pixels.
         cases: selection (see :func:`svbrdf.trainer.bench.cases.select_cases`); with ``quick`` and no
             selection: the first ground-truth set and the first photo.
-        renderer, noise, quantize: synthetic photo simulation (:func:`svbrdf.trainer.bench.cases.simulate_photo`).
+        realistic, renderer, noise, quantize: how synthetic photos are made
+            (:func:`svbrdf.trainer.bench.cases.prepare_case`): realistic (Mitsuba where installed, fall-off, a
+            camera per case) or clean (``renderer`` with the benchmark's configuration, ``noise``, ``quantize``).
         opts: method settings (default :class:`BenchOptions` with the ZHAO renderer).
         quick: pretrain a throwaway tiny stage-one checkpoint when ``opts.init`` is None.
         command: the command line, recorded.
@@ -179,7 +184,9 @@ def run_benchmark(
         if bad:
             raise SvbrdfError(f"unknown preset(s) {', '.join(bad)}; expected some of {', '.join(TRAIN_PRESETS)}")
 
-    kw = dict(renderer=renderer, config=opts.config, noise=noise, quantize=quantize)
+    if realistic and (noise or quantize):
+        raise SvbrdfError("--noise and --quantize apply to --clean inputs; realistic inputs draw their own camera")
+    kw = dict(realistic=realistic, renderer=renderer, config=opts.config, noise=noise, quantize=quantize)
     if quick and cases is None:
         from svbrdf.runtime.datasets import find_cases
 
@@ -199,6 +206,8 @@ def run_benchmark(
              "centre": [float(v) for v in c.centre]}
         if c.gt is not None:
             d.update({f"gt_{k}": v for k, v in burn_in_scores(c.gt, c.centre).items()})
+        if c.simulation is not None:
+            d["simulation"] = c.simulation
         case_docs.append(d)
 
     init_note = None
@@ -254,7 +263,8 @@ def run_benchmark(
         "command": command,
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "machine": machine_info(opts),
-        "settings": {"data": str(data), "size": size, "cases": cases, "quick": quick, "renderer": renderer,
+        "settings": {"data": str(data), "size": size, "cases": cases, "quick": quick,
+                     "inputs": "realistic" if realistic else "clean", "renderer": renderer,
                      "noise": noise, "quantize": quantize, "methods": list(methods), "presets": list(presets),
                      "iters": sorted(set(opts.iters)), "time_budget": opts.time_budget, "threads": opts.threads,
                      "repeats": opts.repeats, "bf16": opts.bf16, "model": opts.model,
@@ -324,9 +334,14 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--iters", type=_int_list, default=None,
                    help=f"evaluated iteration counts of one training run (default {','.join(map(str, DEFAULT_ITERS))})")
     p.add_argument("--time-budget", type=float, default=None, help="training seconds per run (default: none)")
-    p.add_argument("--renderer", choices=RENDERERS, default="ours", help="renderer of the synthetic photos")
-    p.add_argument("--noise", type=float, default=0.0, help="Gaussian sensor noise sigma (linear units)")
-    p.add_argument("--quantize", action="store_true", help="8-bit sRGB quantisation of the synthetic photos")
+    p.add_argument("--clean", action="store_true",
+                   help="clean synthetic photos (the renderer's radiance clipped to [0, 1]; with --renderer ours, the "
+                        "inverse-crime setting) instead of the default realistic ones (fall-off, exposure, "
+                        "vignetting, noise, 8-bit sRGB; one camera drawn per case)")
+    p.add_argument("--renderer", choices=RENDERERS, default="auto",
+                   help="renderer of the synthetic photos (default auto: Mitsuba 3 where installed, else ours)")
+    p.add_argument("--noise", type=float, default=0.0, help="with --clean: Gaussian sensor noise sigma (linear units)")
+    p.add_argument("--quantize", action="store_true", help="with --clean: 8-bit sRGB quantisation")
     p.add_argument("--model", default=None, help="ONNX model for 'preview' (default: the packaged model)")
     p.add_argument("--init", action="append", default=None, metavar="[PRESET=]CKPT",
                    help="stage-one checkpoint for 'finetune' (repeatable per preset; default: packaged models/*.pt)")
@@ -428,6 +443,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             presets=args.presets or (QUICK["presets"] if quick else DEFAULT_PRESETS),
             size=args.size or (QUICK["size"] if quick else 256),
             cases=args.cases,
+            realistic=not args.clean,
             renderer=args.renderer,
             noise=args.noise,
             quantize=args.quantize,

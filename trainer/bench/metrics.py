@@ -30,24 +30,8 @@ RMSE is pooled over all lights, pixels and channels:
 * ``input_rmse``: the input flash only. For a real photo (no ground truth) the reference is the photo itself
   (clipped to [0, 1], sRGB-encoded), so this is the only re-rendering metric there.
 
-Highlight burn-in (:func:`burn_in`): a flash photo of a stationary material is brightest where the light
-is closest (the centre, for a co-located flash); a method that bakes this highlight into its maps leaves a
-radial trend centred there. The score of one map is
-
-.. math::
-
-    b = \\frac{\\bar g_{disc} - \\bar g_{ring}}{\\operatorname{std}(g) + \\epsilon}
-
-where ``g`` is a scalar field of the map (mean over the RGB channels for diffuse; the map itself for specular
-and roughness; ``n_z`` for normals, which drops where normals tilt), ``disc`` is the set of pixels within
-``0.15 W`` of the highlight centre, ``ring`` the pixels between ``0.35 W`` and ``0.5 W`` of it (``W`` = image
-width), ``std`` the standard deviation of ``g`` over the whole map and ``epsilon = 0.01`` (so near-constant
-maps are not amplified). It is signed: > 0 means the map is larger at the highlight (a burnt-in diffuse or
-specular highlight), < 0 smaller (e.g. roughness lowered under the highlight). A constant map scores exactly
-0, a stationary texture about 0 (a ground-truth map's score shows the level reached by chance; it is
-recorded as ``gt_burn_*``). ``burn_in`` (the headline number) is the mean of ``|b|`` over the four maps.
-For synthetic cases the centre is the image centre (the flash is above it); for real photos it is
-:func:`highlight_centre` of the photo.
+Highlight burn-in: the label-free score of :mod:`svbrdf.runtime.burn_in` (``burn_*`` per map, ``burn_in`` the
+mean of their absolute values), imported from there so the runtime reports the same number.
 """
 
 from __future__ import annotations
@@ -56,20 +40,14 @@ from typing import Dict, Iterable, Optional, Sequence, Tuple
 
 import numpy as np
 
+from svbrdf.runtime.burn_in import BURN_METRICS, burn_in_scores
 from svbrdf.runtime.colour import linear_to_srgb
-from svbrdf.runtime.maps import MAP_NAMES, Maps, encode_normal, normalize_normals
+from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
 from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, render
-
-#: Burn-in geometry, as fractions of the image width.
-DISC_RADIUS = 0.15
-RING_RADII = (0.35, 0.5)
-BURN_EPS = 0.01
 
 #: Keys returned by :func:`map_errors`.
 MAP_METRICS = ("diffuse_rmse", "diffuse_rmse_srgb", "specular_rmse", "specular_rmse_srgb", "roughness_rmse",
                "normal_rmse", "normal_angle_deg")
-#: Keys returned by :func:`burn_in_scores` (plus ``burn_in``).
-BURN_METRICS = tuple(f"burn_{n}" for n in MAP_NAMES)
 
 
 def rmse(a: np.ndarray, b: np.ndarray) -> float:
@@ -157,67 +135,6 @@ def evaluation_lights(config: RenderConfig = ZHAO) -> list:
     return [tuple(float(c) for c in p) for p in novel_lights(config)] + [None]
 
 
-def highlight_centre(photo: np.ndarray, window: float = 0.25) -> Tuple[float, float]:
-    """Where the flash highlight of a photo is: the centre of the brightest ``window * W`` square.
-
-    The luminance (channel mean) is box-filtered with a square of side ``window`` times the width (large, so
-    the texture averages out and the smooth flash fall-off dominates) and the arg-max is returned.
-
-    Args:
-        photo: (H, W, 3) linear photo.
-
-    Returns:
-        (row, column) in pixel units (pixel centres at integer + 0.5).
-    """
-    lum = np.asarray(photo, dtype=np.float64).mean(axis=-1)
-    h, w = lum.shape
-    k = max(1, min(h, w, int(round(window * w))))
-    c = np.pad(np.cumsum(np.cumsum(lum, 0), 1), ((1, 0), (1, 0)))
-    box = c[k:, k:] - c[:-k, k:] - c[k:, :-k] + c[:-k, :-k]  # sums over every k x k window
-    i, j = np.unravel_index(int(np.argmax(box)), box.shape)
-    return i + k / 2.0, j + k / 2.0
-
-
-def _burn_field(name: str, arr: np.ndarray) -> np.ndarray:
-    if name == "normal":
-        return normalize_normals(arr)[..., 2]
-    return np.asarray(arr, dtype=np.float64).mean(axis=-1)
-
-
-def burn_in(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, eps: float = BURN_EPS) -> float:
-    """Signed highlight burn-in score of one scalar field (H, W) (see the module docstring).
-
-    Args:
-        field: (H, W) values (e.g. a map's channel mean).
-        centre: (row, column) of the highlight in pixels; default the image centre.
-        eps: added to the field's standard deviation.
-
-    Returns:
-        ``(mean in the disc - mean in the ring) / (std + eps)``; 0 for a constant field or if the ring or the
-        disc is empty.
-    """
-    g = np.asarray(field, dtype=np.float64)
-    if g.ndim != 2:
-        raise ValueError(f"burn_in expects an (H, W) field, got {g.shape}")
-    h, w = g.shape
-    cy, cx = (h / 2.0, w / 2.0) if centre is None else centre
-    yy, xx = np.mgrid[0:h, 0:w]
-    r = np.hypot(yy + 0.5 - cy, xx + 0.5 - cx) / w
-    disc = r <= DISC_RADIUS
-    ring = (r >= RING_RADII[0]) & (r <= RING_RADII[1])
-    if not disc.any() or not ring.any() or np.ptp(g) == 0:  # (a constant field: exactly 0, not rounding noise)
-        return 0.0
-    return float((g[disc].mean() - g[ring].mean()) / (g.std() + eps))
-
-
-def burn_in_scores(maps: Maps, centre: Optional[Tuple[float, float]] = None) -> Dict[str, float]:
-    """Burn-in score of each map (``burn_diffuse`` ... ``burn_normal``) and ``burn_in`` = mean of ``|score|``."""
-    maps = maps.clipped()
-    out = {f"burn_{n}": burn_in(_burn_field(n, a), centre) for n, a in maps.items()}
-    out["burn_in"] = float(np.mean([abs(v) for v in out.values()]))
-    return out
-
-
 def evaluate(
     pred: Maps,
     *,
@@ -250,8 +167,5 @@ def evaluate(
     return out
 
 
-__all__ = [
-    "rmse", "to_srgb", "angular_error_deg", "map_errors", "rerender_rmse", "evaluation_lights", "highlight_centre",
-    "burn_in", "burn_in_scores", "evaluate", "MAP_METRICS", "BURN_METRICS", "DISC_RADIUS", "RING_RADII",
-    "BURN_EPS",
-]
+__all__ = ["rmse", "to_srgb", "angular_error_deg", "map_errors", "rerender_rmse", "evaluation_lights", "evaluate",
+           "MAP_METRICS"]

@@ -50,7 +50,9 @@ import OpenImageIO as oiio
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import write_image
 
-from .metrics import BURN_METRICS, MAP_METRICS
+from svbrdf.runtime.burn_in import BURN_METRICS
+
+from .metrics import MAP_METRICS
 
 SCHEMA = "svbrdf-bench/1"
 #: Every numeric metric a record may carry, in table order.
