@@ -8,8 +8,9 @@ from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer.losses import (
     CLIP_LEVEL,
     clipped_fraction,
-    DiffuseLoss, FourierLoss, GANDiscriminatorLoss, GANGeneratorLoss, diffuse_loss, fourier_loss,
-    gan_discriminator_loss, gan_generator_loss, guessed_diffuse, maps_for_loss,
+    DiffuseLoss, FlashCorrelationLoss, FourierLoss, GANDiscriminatorLoss, GANGeneratorLoss, RenderLoss,
+    diffuse_loss, flash_basis, flash_correlation_loss, flash_maps, fourier_loss, gan_discriminator_loss,
+    gan_generator_loss, guessed_diffuse, maps_for_loss, render_loss,
 )
 from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, Discriminator, Generator
 from svbrdf.trainer.perceptual import PerceptualLoss
@@ -253,3 +254,81 @@ def test_clipped_fraction_counts_saturated_pixels_by_their_brightest_channel():
     photo[0, 0, :2, :5] = 1.0  # one saturated channel is enough: 10 of 100 pixels
     photo[0, 1, 9, 9] = CLIP_LEVEL - 1e-3  # just below the level: not counted
     assert clipped_fraction(photo) == pytest.approx(0.1)
+
+
+# ---- highlight-free terms ----
+
+def test_normalized_diffuse_loss_ignores_level_and_contrast():
+    g = torch.rand(2, 3, 16, 16)
+    pred = 0.5 * g + 0.05  # the guess's pattern at another level and contrast
+    same_pattern = float(diffuse_loss(pred, g, "normalized"))  # not 0 only through the 0.01 added to the std
+    assert same_pattern < 0.05 and float(diffuse_loss(pred, g, "absolute")) > 0.2
+    assert float(diffuse_loss(torch.rand(2, 3, 16, 16), g, "normalized")) > 10 * same_pattern  # another pattern
+    assert DiffuseLoss("normalized")(pred, g) == diffuse_loss(pred, g, "normalized")
+    with pytest.raises(ValueError):
+        diffuse_loss(pred, g, "relative")
+
+
+def _srgb(x):
+    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * x.clamp_min(1e-12) ** (1 / 2.4) - 0.055)
+
+
+def test_render_loss_is_srgb_l1_and_one_sided_on_clipped_pixels():
+    photo = torch.full((1, 3, 2, 2), 0.2)
+    photo[..., 0, 0] = 1.0  # one saturated pixel
+    r = photo.clone()
+    assert render_loss(r, photo) == 0.0
+    r[..., 0, 0] = 5.0  # brighter than the clip: allowed
+    assert render_loss(r, photo) == 0.0
+    r[..., 0, 0] = 0.5  # darker than the clip: penalised
+    want = float((_srgb(torch.tensor(0.99)) - _srgb(torch.tensor(0.5))) / 4)
+    assert float(render_loss(r, photo)) == pytest.approx(want, rel=1e-4)
+    r = photo.clone()
+    r[..., 1, 1] = 0.4  # an unsaturated pixel: |srgb(r) - srgb(photo)| both ways
+    want = float((_srgb(torch.tensor(0.4)) - _srgb(torch.tensor(0.2))) / 4)
+    assert float(render_loss(r, photo)) == pytest.approx(want, rel=1e-4)
+    assert float(RenderLoss()(r, photo)) == float(render_loss(r, photo))
+
+
+def test_flash_basis_peaks_under_the_flash():
+    geo = FlashGeometry(33, 33)
+    b = flash_basis(geo.light)
+    assert b.shape == (1, 3, 33, 33) and float(b.min()) >= 0 and float(b.max()) <= 1
+    for k in range(3):
+        assert int(b[0, k].argmax()) == 16 * 33 + 16  # the centre pixel
+    assert float(b[0, 0].min()) > float(b[0, 2].min())  # the broad field decays less than the narrow one
+
+
+def _stationary_maps(n=64, seed=0):
+    g = torch.Generator().manual_seed(seed)
+    m = torch.rand(1, 8, n, n, generator=g) * 0.4 + 0.3
+    m[:, SLICES["normal"]] = torch.tensor([0.0, 0.0, 1.0])[None, :, None, None]
+    return m
+
+
+def test_flash_correlation_loss_separates_burnt_from_stationary_maps():
+    basis = flash_basis(FlashGeometry(64, 64).light)
+    clean = _stationary_maps()
+    burnt = clean.clone()
+    burnt[:, SLICES["diffuse"]] += 0.3 * basis[:, 1:2]
+    assert float(flash_correlation_loss(clean, basis)) < 0.01
+    assert float(flash_correlation_loss(burnt, basis)) > 10 * float(flash_correlation_loss(clean, basis))
+    assert float(FlashCorrelationLoss()(burnt, basis)) == float(flash_correlation_loss(burnt, basis))
+    assert flash_maps(burnt).shape == (1, 6, 64, 64)
+
+
+def test_flash_correlation_gradient_only_removes_the_flash_pattern():
+    """With the scale held fixed, the gradient lies in the span of the (centred) flash fields: descending it
+    removes flash-shaped structure and leaves the rest of the texture alone."""
+    basis = flash_basis(FlashGeometry(64, 64).light)
+    maps = _stationary_maps(seed=1)
+    maps[:, SLICES["specular"]] += 0.2 * basis[:, 2:3]
+    maps.requires_grad_(True)
+    flash_correlation_loss(maps, basis).backward()
+    grad = maps.grad[0, 3].flatten()  # the specular channel
+    b = basis[0].reshape(3, -1)
+    b = b - b.mean(dim=1, keepdim=True)
+    coef = torch.linalg.lstsq(b.T, grad[:, None]).solution
+    residual = grad - (b.T @ coef)[:, 0]
+    assert float(residual.norm()) < 1e-4 * float(grad.norm()) + 1e-12
+    assert float(grad.norm()) > 0

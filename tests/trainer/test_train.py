@@ -69,6 +69,15 @@ def test_paper_and_zhao_presets_are_the_published_schedule():
     assert p.schedule == z.schedule == "alternating" and f.schedule == "joint"
     alt = resolve("fast-alternating")
     assert alt.schedule == "alternating" and dataclasses.replace(alt, preset="fast", schedule="joint") == f
+    # The highlight-free flash model is in fast only; paper, zhao and fast-v1 keep the published losses.
+    for name in ("paper", "zhao", "fast-v1"):
+        c = resolve(name)
+        assert (c.lambda_render, c.lambda_flash, c.saturate, c.diffuse_target) == (0.0, 0.0, False, "absolute")
+        assert not c.render_config.falloff
+    assert f.lambda_render > 0 and f.lambda_flash > 0 and f.saturate and f.diffuse_target == "normalized"
+    assert f.render_config.falloff
+    assert dataclasses.replace(resolve("fast-v1"), preset="fast", render=f.render, lambda_render=f.lambda_render,
+                               lambda_flash=f.lambda_flash, saturate=True, diffuse_target="normalized") == f
 
 
 def test_resolve_overrides_and_errors():
@@ -137,10 +146,15 @@ def test_joint_schedule_trains_both_decoders_and_the_discriminator():
         assert all(math.isfinite(rec[k]) for k in ("nr/fourier", "ds/perceptual", "d/loss"))
 
 
-def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch):
-    """One backward pass of the summed loss = the published per-decoder losses on the same tile."""
+HIGHLIGHT_FREE = dict(lambda_render=1.0, lambda_flash=10.0, saturate=True, diffuse_target="normalized",
+                      render={**ZHAO.to_dict(), "falloff": True})
+
+
+@pytest.mark.parametrize("extra", [{}, HIGHLIGHT_FREE], ids=["paper-losses", "highlight-free"])
+def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch, extra):
+    """One backward pass of the summed loss = the per-decoder losses on the same tile."""
     photo = random_photo()
-    trainer = Trainer(photo, resolve("tiny", schedule="joint"), threads=1)
+    trainer = Trainer(photo, resolve("tiny", schedule="joint", **extra), threads=1)
     grads = {}
 
     def capture(keys, loss):
@@ -152,23 +166,42 @@ def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch)
     monkeypatch.setattr(trainer, "_d_step", lambda *a, **k: None)
     rng_state = trainer.tile_rng.get_state()
     trainer.iteration()
-    # Recompute the two published losses on the same tile.
+    # Recompute the two losses on the same tile, written out term by term.
     trainer.tile_rng.set_state(rng_state)
     y0, x0 = trainer._draw_tile(trainer.tile_rng)
     x, guess = trainer._crop(trainer.photo, y0, x0), trainer._crop(trainer.guess, y0, x0)
     maps = trainer.generator(x).float()
-    rendering = trainer.geometry.render(maps, y0, x0)
+    radiance = trainer.geometry.render(maps, y0, x0)
     cfg = trainer.config
-    shared = (cfg.lambda_gan * train_mod.gan_generator_loss(trainer.discriminator(rendering))
+    seen = radiance.clamp(0, 1) if cfg.saturate else radiance
+    shared = (cfg.lambda_gan * train_mod.gan_generator_loss(trainer.discriminator(seen))
               + cfg.lambda_fourier * train_mod.fourier_loss(maps, guess, mode=cfg.fourier_mode)
-              + cfg.lambda_perceptual * trainer.perceptual(x, rendering))
+              + cfg.lambda_perceptual * trainer.perceptual(x, seen))
+    if cfg.lambda_render:
+        shared = shared + cfg.lambda_render * train_mod.render_loss(radiance, x)
+    if cfg.lambda_flash:
+        basis = train_mod.flash_basis(trainer.geometry.light)[..., y0:y0 + x.shape[-2], x0:x0 + x.shape[-1]]
+        shared = shared + cfg.lambda_flash * train_mod.flash_correlation_loss(maps, basis)
     nr = torch.autograd.grad(shared, trainer.params["nr"], retain_graph=True, allow_unused=True)
-    ds = torch.autograd.grad(shared + train_mod.diffuse_loss(maps[:, SLICES["diffuse"]], guess),
+    ds = torch.autograd.grad(shared + train_mod.diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target),
                              trainer.params["ds"], allow_unused=True)
     for got, want in zip(grads["joint"], nr + ds):
         assert (got is None) == (want is None)
         if got is not None:
             torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-7)
+
+
+def test_highlight_free_terms_are_logged_finite_and_the_render_term_falls():
+    photo, _ = synthetic_scene(size=48)
+    trainer = Trainer(photo, resolve("tiny", iters_fit=40, eval_every=5, **HIGHLIGHT_FREE), threads=1)
+    history = trainer.run()
+    for rec in history:
+        for key in ("nr/render", "ds/render", "nr/flash", "ds/flash", "ds/diffuse"):
+            assert rec[key] is not None and math.isfinite(rec[key]), (rec["step"], key)
+    assert window_mean(history, "ds/render", 30, 40) < 0.85 * window_mean(history, "ds/render", 0, 10)
+    off = Trainer(photo, resolve("tiny", iters_fit=1), threads=1)
+    off.run()
+    assert "nr/render" not in off.history[0] and "nr/flash" not in off.history[0]
 
 
 def test_seeded_runs_are_deterministic():

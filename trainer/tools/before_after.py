@@ -1,0 +1,98 @@
+"""Picture grid of real photos refined with two presets: photo, the four maps, and renders under three lights.
+
+::
+
+    python -m svbrdf.trainer.tools.before_after PHOTO [PHOTO ...] --presets fast-v1,fast --out grid.png
+
+One row per photo and preset (photos outer, presets inner): the photo (centre square at ``--size``), base colour,
+normal, roughness, specular, then the maps re-lit by the flash and by two lights from the upper left and the
+lower right (:func:`svbrdf.runtime.texture_set.relit_panel`). Where the highlight is out of the maps it moves
+with the light; where it is burnt in, it stays at the centre. Every row is a fine-tune from the same stage-one
+checkpoint (default: the packaged one), as ``svbrdf-train finetune`` runs it. A JSON beside the PNG records the
+rows' label-free burn-in (:func:`svbrdf.runtime.burn_in.photo_burn_in`) and fine-tune times.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+from typing import List, Optional, Sequence
+
+import numpy as np
+
+from svbrdf.runtime.burn_in import photo_burn_in
+from svbrdf.runtime.colour import linear_to_srgb
+from svbrdf.runtime.datasets import Case
+from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.maps import Maps, encode_normal
+from svbrdf.runtime.render import ZHAO
+from svbrdf.runtime.texture_set import relit_panel
+
+
+def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:
+    """(S, 8 S, 3) sRGB-encoded row: photo, base colour, normal, roughness, specular, three relit panels."""
+    grey = lambda a: np.repeat(a, 3, axis=-1)  # noqa: E731
+    parts = [linear_to_srgb(np.clip(photo, 0, 1)), linear_to_srgb(maps.diffuse), encode_normal(maps.normal),
+             grey(maps.roughness), grey(linear_to_srgb(maps.specular)), relit_panel(maps, ZHAO)]
+    return np.concatenate([np.asarray(p, np.float32) for p in parts], axis=1)
+
+
+def main(argv: Optional[Sequence[str]] = None) -> int:
+    from svbrdf.trainer import train as T
+    from svbrdf.trainer.bench.cases import prepare_case
+    from svbrdf.trainer.bench.methods import packaged_checkpoints
+    from svbrdf.trainer.checkpoint import load_checkpoint
+    from svbrdf.trainer.config import resolve
+
+    p = argparse.ArgumentParser(prog="python -m svbrdf.trainer.tools.before_after", description=__doc__.split("\n\n")[0])
+    p.add_argument("photos", nargs="+", type=Path)
+    p.add_argument("--presets", default="fast-v1,fast", help="comma list, one row per preset (default fast-v1,fast)")
+    p.add_argument("--iters", type=int, default=600, help="fine-tune iterations (default 600)")
+    p.add_argument("--size", type=int, default=256, help="side of the centre square, px (default 256)")
+    p.add_argument("--init", type=Path, default=None, help="stage-one checkpoint (default: the packaged one)")
+    p.add_argument("--threads", type=int, default=1)
+    p.add_argument("--out", type=Path, required=True, help="PNG path (a JSON is written beside it)")
+    p.add_argument("--force", action="store_true", help="overwrite existing outputs")
+    args = p.parse_args(argv)
+    try:
+        if args.out.exists() and not args.force:
+            raise SvbrdfError(f"{args.out}: exists (use --force to overwrite)")
+        init = args.init or (packaged_checkpoints() or [None])[0]
+        if init is None:
+            raise SvbrdfError("no stage-one checkpoint: pass --init CKPT")
+        ckpt = load_checkpoint(init)
+        presets = [s for s in args.presets.split(",") if s]
+        rows: List[np.ndarray] = []
+        record = {"command": " ".join(["python -m svbrdf.trainer.tools.before_after"] + list(argv or sys.argv[1:])),
+                  "init": str(init), "iters": args.iters, "presets": presets, "rows": []}
+        for path in args.photos:
+            if not path.is_file():
+                raise SvbrdfError(f"{path}: no such file")
+            case = prepare_case(Case(name=path.stem, path=path, kind="photo", format="photo"), args.size)
+            photo = T.photo_to_tensor(case.photo)
+            for preset in presets:
+                cfg, _ = T.finetune_config(resolve(preset, quality="fixed", checkpoint_every=0,
+                                                   iters_finetune=args.iters), ckpt)
+                t = time.perf_counter()
+                trainer = T.finetune(photo, ckpt, cfg, threads=args.threads,
+                                     photo_info=T.tensor_photo_info(photo, path.name))
+                maps = T.to_maps(trainer.predict())
+                burn = photo_burn_in(maps, case.photo)
+                record["rows"].append({"photo": str(path), "preset": preset, "seconds": time.perf_counter() - t,
+                                       **{k: v for k, v in burn.items() if k != "centre"}})
+                print(f"{path.name} {preset}: burn-in {burn['burn_in']:.2f}", file=sys.stderr, flush=True)
+                rows.append(row_image(case.photo, maps))
+        write_image(args.out, np.concatenate(rows, axis=0), bits=8, force=args.force)
+        args.out.with_suffix(".json").write_text(json.dumps(record, indent=1) + "\n")
+    except SvbrdfError as e:
+        print(f"before_after: error: {e}", file=sys.stderr)
+        return 2
+    return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())
