@@ -9,7 +9,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     train_config                TrainConfig.to_dict()
     stage, step, iters          "pretrain" | "finetune" | "fit", iterations done, iterations planned
     generator, discriminator    state dicts (discriminator may be None in a cleaned checkpoint)
-    optimizers                  {"nr", "ds", "d"}: Adam state dicts, or None (cleaned)
+    optimizers                  {"nr", "ds", "d"} (+ "cam"): Adam state dicts, or None (cleaned)
     history                     one dict of loss terms per iteration (None for a non-finite value)
     photo                       {"name", "sha256", "height", "width"} of the training photo
     rng                         {"torch": ByteTensor, "tiles": ByteTensor, "cuda": [ByteTensor]} or None
@@ -17,6 +17,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     init                        for a finetune: {"path", "stage", "step", "photo"} of the starting checkpoint
     perceptual_backend, notes   what actually ran (backend name, fallbacks)
     eval_maps                   maps of the fixed evaluation tiles at the last evaluation (for the map-change signal)
+    camera                      the photo's learned camera ({"vignetting": tensor}) or None
     versions, date              library versions, ISO date (UTC)
 
 Files are written atomically (temp file in the same folder, then ``os.replace``).
@@ -73,6 +74,7 @@ def build_checkpoint(
     perceptual_backend: Optional[str] = None,
     notes=(),
     eval_maps: Optional[torch.Tensor] = None,
+    camera: Optional[Mapping[str, torch.Tensor]] = None,
 ) -> Dict[str, Any]:
     """Assemble the checkpoint dict (see the module docstring); tensors are moved to the CPU."""
     def cpu(obj):
@@ -104,6 +106,7 @@ def build_checkpoint(
         "perceptual_backend": perceptual_backend,
         "notes": list(notes),
         "eval_maps": None if eval_maps is None else cpu(eval_maps),
+        "camera": None if camera is None else cpu(dict(camera)),
         "versions": library_versions(),
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
     }

@@ -64,6 +64,10 @@ class TrainConfig:
             as in the paper).
         lambda_flash: weight of the flash-correlation stationarity loss on both decoders
             (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
+        learn_vignetting: fit the photo's vignetting (a darkening ``1 - v r^2`` towards the corners, one scalar v
+            per photo in [0, 0.9], learned with its own Adam at ``camera_lr``) as part of the flash model of the photo
+            terms, so a radial darkening the maps must not explain is not painted into them.
+        camera_lr: learning rate of the learned camera parameters.
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
             (False: the paper's unclipped renderings).
@@ -111,6 +115,8 @@ class TrainConfig:
     lambda_render: float = 0.0
     lambda_flash: float = 0.0
     saturate: bool = False
+    learn_vignetting: bool = False
+    camera_lr: float = 5e-3
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
@@ -164,7 +170,7 @@ class TrainConfig:
         for name in ("nr_updates", "ds_updates", "d_updates", "iters_pretrain", "iters_finetune", "iters_fit",
                      "checkpoint_every", "maps_every", "eval_every"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
-        need(self.lr > 0, f"lr must be > 0, got {self.lr}")
+        need(self.lr > 0 and self.camera_lr > 0, f"lr and camera_lr must be > 0, got {self.lr}, {self.camera_lr}")
         need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "
              f"got {self.betas}")
         for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash"):

@@ -34,6 +34,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import torch
 
+from svbrdf.runtime.camera import vignette
 from svbrdf.runtime.errors import ImageError, ModelError
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
@@ -240,11 +241,23 @@ class Trainer:
             + (list(self.generator.encoder.parameters()) if config.train_encoder else []),
             "d": list(self.discriminator.parameters()),
         }
+        # The photo's learned camera (per photo: never taken from a stage-one checkpoint).
+        self.vignetting: Optional[torch.Tensor] = None
+        if config.learn_vignetting:
+            self.vignetting = torch.zeros((), device=self.device, requires_grad=True)
+            self.params["cam"] = [self.vignetting]
         self.optimizers = {k: self._adam(p) for k, p in self.params.items()}
+        if "cam" in self.optimizers:
+            for group in self.optimizers["cam"].param_groups:
+                group["lr"] = config.camera_lr
+        #: The generator steps update these optimisers' parameters as well (the learned camera).
+        self._camera_keys: Tuple[str, ...] = ("cam",) if config.learn_vignetting else ()
 
         with torch.no_grad():
             self.guess = guessed_diffuse(self.photo).float()
         self.geometry = FlashGeometry(h, w, config.render_config, device=self.device)
+        self.radius2 = None if self.vignetting is None else \
+            1.0 - torch.from_numpy(vignette(h, w, 1.0)).to(self.device).permute(2, 0, 1)[None]  # (r / r_corner)^2
         self.flash_basis = flash_basis(self.geometry.light) if config.lambda_flash > 0 else None
         self.tile_rng = torch.Generator().manual_seed(config.seed)
         # Fixed tiles of the label-free progress signal: their own RNG, so they never shift the training tiles.
@@ -297,6 +310,15 @@ class Trainer:
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
 
+    def _radiance(self, maps: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
+        """The rendering of ``maps`` on the tile at (y0, x0) as it reaches the sensor: the flash model of
+        :attr:`geometry`, times the learned vignetting ``1 - v r^2`` when ``learn_vignetting`` (not yet clipped)."""
+        out = self.geometry.render(maps, y0, x0)
+        if self.vignetting is not None:
+            r2 = self.radius2[..., y0:y0 + maps.shape[-2], x0:x0 + maps.shape[-1]]
+            out = out * (1.0 - self.vignetting.clamp(0.0, 0.9) * r2)
+        return out
+
     def _seen(self, rendering: torch.Tensor) -> torch.Tensor:
         """What the camera would record of a rendering: clipped to [0, 1] with ``saturate``, else unchanged."""
         return rendering.clamp(0.0, 1.0) if self.config.saturate else rendering
@@ -317,6 +339,8 @@ class Trainer:
             self.notes.append(f"{Path(source).name}: no optimiser states; Adam starts fresh")
         else:
             for key, opt in self.optimizers.items():
+                if key == "cam":  # the camera is the new photo's own: it starts fresh
+                    continue
                 try:
                     opt.load_state_dict(ckpt["optimizers"][key])
                 except (KeyError, ValueError) as e:
@@ -341,6 +365,7 @@ class Trainer:
                 opt.load_state_dict(ckpt["optimizers"][key])
         except (KeyError, ValueError) as e:
             raise ModelError(f"{source}: optimiser states do not match the model ({str(e)[:120]})") from None
+        self._load_camera(ckpt.get("camera"))
         self.step = int(ckpt["step"])
         self.history = [dict(h) for h in ckpt.get("history", [])]
         self.counters.update({k: int(v) for k, v in (ckpt.get("counters") or {}).items()})
@@ -380,7 +405,17 @@ class Trainer:
             generator=self.generator, discriminator=self.discriminator, train_config=self.config.to_dict(),
             stage=self.stage, step=self.step, iters=self.iters, optimizers=self.optimizers, history=self.history,
             photo=self.photo_info, rng=rng, counters=self.counters, init=self.init,
-            perceptual_backend=self.perceptual_backend, notes=self.notes, eval_maps=self.eval_maps)
+            perceptual_backend=self.perceptual_backend, notes=self.notes, eval_maps=self.eval_maps,
+            camera=self.camera_state())
+
+    def camera_state(self) -> Optional[Dict[str, torch.Tensor]]:
+        """The learned camera of this photo (``{"vignetting": 0-d tensor}``), or None when not learned."""
+        return None if self.vignetting is None else {"vignetting": self.vignetting.detach().clone()}
+
+    def _load_camera(self, state: Optional[Mapping[str, torch.Tensor]]) -> None:
+        if self.vignetting is not None and state and "vignetting" in state:
+            with torch.no_grad():
+                self.vignetting.copy_(state["vignetting"].to(self.device))
 
     def save(self, path: Optional[PathLike] = None) -> Path:
         """Write a checkpoint to ``path`` (default ``checkpoint_path``) and refresh the last-good copy."""
@@ -409,7 +444,7 @@ class Trainer:
     def _take_snapshot(self) -> None:
         self._snapshot = copy.deepcopy({
             "generator": self.generator.state_dict(), "discriminator": self.discriminator.state_dict(),
-            "optimizers": {k: o.state_dict() for k, o in self.optimizers.items()}})
+            "optimizers": {k: o.state_dict() for k, o in self.optimizers.items()}, "camera": self.camera_state()})
 
     def _rollback(self) -> None:
         snap = copy.deepcopy(self._snapshot)  # optimisers would otherwise update the snapshot's tensors in place
@@ -417,6 +452,7 @@ class Trainer:
         self.discriminator.load_state_dict(snap["discriminator"])
         for k, o in self.optimizers.items():
             o.load_state_dict(snap["optimizers"][k])
+        self._load_camera(snap["camera"])
         self.counters["rollbacks"] += 1
 
     def _apply(self, keys: Union[str, Tuple[str, ...]], loss: torch.Tensor) -> bool:
@@ -460,7 +496,7 @@ class Trainer:
                 out.update(self.generator.decode(latent, frozen, size))
         maps = pack_maps(out).float()
         _, total = self._generator_losses((key,), x, guess, maps, y0, x0, terms)
-        self._apply(key, total)
+        self._apply((key,) + self._camera_keys, total)
 
     def _generator_losses(self, keys: Tuple[str, ...], x: torch.Tensor, guess: torch.Tensor, maps: torch.Tensor,
                           y0: int, x0: int, terms: Dict[str, List[torch.Tensor]]) -> Tuple[torch.Tensor, torch.Tensor]:
@@ -473,7 +509,7 @@ class Trainer:
             the loss to minimise (with ``L_d`` if "ds" is in ``keys``).
         """
         cfg = self.config
-        radiance = self.geometry.render(maps, y0, x0)
+        radiance = self._radiance(maps, y0, x0)
         rendering = self._seen(radiance)
         with self._amp():
             fake_logits = self.discriminator(rendering)
@@ -516,7 +552,7 @@ class Trainer:
             with torch.no_grad():
                 with self._amp():
                     maps = self.generator(x).float()
-                fake = self._seen(self.geometry.render(maps, y0, x0))
+                fake = self._seen(self._radiance(maps, y0, x0))
         with self._amp():
             real_logits, fake_logits = self.discriminator(x), self.discriminator(fake.detach())
         loss = gan_discriminator_loss(real_logits.float(), fake_logits.float())
@@ -530,7 +566,7 @@ class Trainer:
         with self._amp():
             maps = self.generator(x)
         rendering, total = self._generator_losses(("nr", "ds"), x, guess, maps.float(), y0, x0, terms)
-        self._apply(("nr", "ds"), total)
+        self._apply(("nr", "ds") + self._camera_keys, total)
         self._d_step(terms, x, rendering)
 
     def iteration(self) -> Dict[str, Any]:
@@ -552,6 +588,8 @@ class Trainer:
         for k, v in terms.items():
             rec[k] = _finite_or_none(float(torch.stack(v).mean()))
         rec["skipped"] = self.counters["nonfinite_skips"] - skips0
+        if self.vignetting is not None:
+            rec["camera/vignetting"] = float(self.vignetting.detach().clamp(0.0, 0.9))
         if self.config.eval_every and self.step % self.config.eval_every == 0:
             rec.update(self.evaluate())
         rec["seconds"] = time.perf_counter() - t0
@@ -569,7 +607,7 @@ class Trainer:
         for y0, x0 in self.eval_boxes:
             x = self._crop(self.photo, y0, x0)
             m = self.generator(x).float()
-            l1.append((self._seen(self.geometry.render(m, y0, x0)) - x).abs().mean())
+            l1.append((self._seen(self._radiance(m, y0, x0)) - x).abs().mean())
             maps.append(m)
         maps_t = torch.cat(maps)
         change = None if self.eval_maps is None else float((maps_t - self.eval_maps).abs().mean())

@@ -21,9 +21,11 @@ def random_photo(h=48, w=64, seed=0):
 def state_tensors(trainer):
     """Every tensor of G, D and the three Adam states, in a fixed order."""
     out = list(trainer.generator.state_dict().values()) + list(trainer.discriminator.state_dict().values())
-    for key in ("nr", "ds", "d"):
+    for key in sorted(trainer.optimizers):
         for st in trainer.optimizers[key].state_dict()["state"].values():
             out += [st[k] for k in sorted(st)]
+    if trainer.vignetting is not None:
+        out.append(trainer.vignetting.detach())
     return out
 
 
@@ -103,9 +105,11 @@ def test_clean_checkpoint_drops_training_state(tmp_path, trained):
         resume(random_photo(), dst, threads=1)
 
 
-def test_resume_is_exact(tmp_path):
+@pytest.mark.parametrize("extra", [{}, {"learn_vignetting": True, "lambda_render": 1.0, "saturate": True}],
+                         ids=["paper-losses", "learned-camera"])
+def test_resume_is_exact(tmp_path, extra):
     photo = random_photo()
-    cfg = resolve("tiny", iters_fit=6, eval_every=2, checkpoint_every=0)
+    cfg = resolve("tiny", iters_fit=6, eval_every=2, checkpoint_every=0, **extra)
     straight = Trainer(photo, cfg, threads=1)
     straight.run()
 

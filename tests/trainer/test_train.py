@@ -191,6 +191,23 @@ def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch,
             torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-7)
 
 
+def test_learned_vignetting_recovers_a_darkened_border():
+    """A photo rendered with a known vignetting: the learned camera moves towards it; a fine-tune starts it at 0."""
+    from svbrdf.runtime.camera import vignette
+
+    photo, _ = synthetic_scene(size=48)
+    dark = photo * torch.from_numpy(vignette(48, 48, 0.4)).permute(2, 0, 1)[None]
+    cfg = resolve("tiny", iters_fit=60, learn_vignetting=True, lambda_render=1.0, camera_lr=2e-2, eval_every=0)
+    trainer = Trainer(dark, cfg, threads=1)
+    trainer.run()
+    assert trainer.history[-1]["camera/vignetting"] > 0.1
+    ckpt = trainer.checkpoint()
+    assert float(ckpt["camera"]["vignetting"]) == pytest.approx(trainer.history[-1]["camera/vignetting"])
+    again = Trainer(photo, cfg, stage="finetune", iters=1, threads=1)
+    again.load_init(ckpt)
+    assert float(again.vignetting) == 0.0  # per photo: not inherited
+
+
 def test_highlight_free_terms_are_logged_finite_and_the_render_term_falls():
     photo, _ = synthetic_scene(size=48)
     trainer = Trainer(photo, resolve("tiny", iters_fit=40, eval_every=5, **HIGHLIGHT_FREE), threads=1)
