@@ -20,7 +20,7 @@ import time
 import traceback
 import warnings
 from pathlib import Path
-from typing import Any, Dict, List, Optional
+from typing import Any, Dict, List, Optional, Tuple
 
 PROG = "svbrdf-train"
 CHECKPOINT = "checkpoint.pt"
@@ -165,18 +165,25 @@ class _Progress:
 
 
 def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[dict] = None,
-                target: str = "generic") -> Dict[str, Path]:
+                target: str = "generic") -> Tuple[Dict[str, Path], float]:
+    import torch
+
+    from svbrdf.runtime.burn_in import photo_burn_in
     from svbrdf.runtime.targets import write_target
     from svbrdf.runtime.texture_set import relit_panel
     from svbrdf.trainer.train import to_maps
 
     cfg = trainer.config
     maps = to_maps(trainer.predict(), {"render_config": dict(cfg.render)})
+    photo = trainer.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
+    camera = trainer.camera_state()
     meta = {"source_photo": trainer.photo_info.get("name"), "photo_sha256": trainer.photo_info.get("sha256"),
             "stage": trainer.stage, "step": trainer.step, "preset": cfg.preset,
-            "perceptual_backend": trainer.perceptual_backend, **(extra or {})}
+            "perceptual_backend": trainer.perceptual_backend, "burn_in": photo_burn_in(maps, photo),
+            "camera": None if camera is None else {k: float(v) for k, v in camera.items()}, **(extra or {})}
     panel = relit_panel(maps, cfg.render_config) if relit else None
-    return write_target(maps, out_dir, name, target, force=True, extra_meta=meta, relit=panel)
+    return write_target(maps, out_dir, name, target, force=True, extra_meta=meta, relit=panel), \
+        meta["burn_in"]["burn_in"]
 
 
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
@@ -296,11 +303,11 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     c = trainer.counters
     if c["nonfinite_skips"] or c["rollbacks"]:
         log(f"note: {c['nonfinite_skips']} non-finite steps skipped, {c['rollbacks']} rollbacks")
-    paths = _write_maps(trainer, out, photo_path.stem, relit=True,
-                        extra={"checkpoint": CHECKPOINT, "train_seconds": round(seconds, 1)}, target=args.target)
+    paths, burn = _write_maps(trainer, out, photo_path.stem, relit=True,
+                              extra={"checkpoint": CHECKPOINT, "train_seconds": round(seconds, 1)}, target=args.target)
     names = sorted(p.name for p in paths.values())
     log(f"done: {trainer.step} iterations in {seconds:.1f} s; {args.target} texture set in {out} "
-        f"({names[0]}, ... {len(names)} files); "
+        f"({names[0]}, ... {len(names)} files); burn-in {burn:.2f}; "
         f"checkpoint {ckpt_path}")
     return 0
 

@@ -16,3 +16,22 @@ def test_variants_measured_and_written(tmp_path, one_torch_thread):
     assert "| channels_last |" in (out / "results.md").read_text()
     assert speed.main(["--preset", "tiny", "--out", str(out)]) == 2  # exists, no --force
     assert speed.main(["--variants", "warp", "--out", str(tmp_path / "x")]) == 2
+    assert speed.main(["--variants", "base,preset:nope", "--out", str(tmp_path / "y")]) == 2
+
+
+def test_another_preset_as_a_variant(tmp_path, one_torch_thread, monkeypatch):
+    built = {}
+    real = speed._trainer
+
+    def spy(preset, size, variant, threads):
+        trainer = real(preset, size, variant, threads)
+        built[variant] = trainer.config.preset
+        return trainer
+
+    monkeypatch.setattr(speed, "_trainer", spy)
+    out = tmp_path / "speed"
+    assert speed.main(["--preset", "tiny", "--size", "64", "--iters", "1", "--repeats", "1",
+                       "--variants", "base,preset:fast-v1", "--out", str(out)]) == 0
+    assert built == {"base": "tiny", "preset:fast-v1": "fast-v1"}
+    rows = json.loads((out / "results.json").read_text())["rows"]
+    assert [r["variant"] for r in rows] == ["base", "preset:fast-v1"]

@@ -45,6 +45,8 @@ def test_fit_writes_checkpoint_log_and_maps(tmp_path, photo, capsys):
     assert (out / "maps" / "step_000002" / f"{stem}_basecolor.png").is_file()  # --maps-every
     sidecar = json.loads((out / f"{stem}.json").read_text())
     assert sidecar["meta"]["stage"] == "fit" and sidecar["meta"]["step"] == 3
+    burn = sidecar["meta"]["burn_in"]["burn_in"]  # the label-free burn-in, in the sidecar and the closing line
+    assert burn >= 0 and f"burn-in {burn:.2f}" in err
 
 
 def test_default_out_dir_is_derived_from_the_photo(tmp_path, photo, monkeypatch, capsys):

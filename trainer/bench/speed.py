@@ -10,7 +10,8 @@ alike, and the median is reported with its ratio to ``base``.
 Variants: ``base`` (the preset as shipped), ``fp32`` (bf16 autocast off), ``channels_last`` (networks and photo
 in channels-last memory format), ``compile`` (``torch.compile`` of the encoder, both decoders and the
 discriminator, default inductor backend), ``alternating`` / ``joint`` (the preset with that
-``schedule``, see :class:`~svbrdf.trainer.config.TrainConfig`).
+``schedule``, see :class:`~svbrdf.trainer.config.TrainConfig`), ``preset:NAME`` (another preset, e.g.
+``preset:fast-v1`` to time a change of the losses against the version before it).
 """
 
 from __future__ import annotations
@@ -34,9 +35,20 @@ from .cli import repo_root
 VARIANTS = ("base", "fp32", "channels_last", "compile", "alternating", "joint")
 
 
+def _known(variant: str) -> bool:
+    if variant.startswith("preset:"):
+        from svbrdf.trainer.config import TRAIN_PRESETS
+
+        return variant.partition(":")[2] in TRAIN_PRESETS
+    return variant in VARIANTS
+
+
 def _trainer(preset: str, size: int, variant: str, threads: Optional[int]):
     from svbrdf.trainer.config import resolve
     from svbrdf.trainer.train import Trainer
+
+    if variant.startswith("preset:"):
+        preset = variant.partition(":")[2]
 
     cfg = resolve(preset, checkpoint_every=0, maps_every=0, eval_every=0, bf16=False if variant == "fp32" else None,
                   schedule=variant if variant in ("alternating", "joint") else None)
@@ -106,8 +118,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = p.parse_args(argv)
     try:
         variants = [v.strip() for v in args.variants.split(",") if v.strip()]
-        if not variants or any(v not in VARIANTS for v in variants):
-            raise SvbrdfError(f"--variants: expected some of {', '.join(VARIANTS)}, got {args.variants!r}")
+        if not variants or not all(_known(v) for v in variants):
+            raise SvbrdfError(f"--variants: expected some of {', '.join(VARIANTS)} or preset:NAME, "
+                              f"got {args.variants!r}")
         if args.iters < 1 or args.repeats < 1 or args.size < 32:
             raise SvbrdfError("--iters and --repeats must be >= 1 and --size >= 32")
         out = args.out or repo_root() / "docs" / "benchmarks" / f"speed-{args.preset}"
