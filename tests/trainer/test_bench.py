@@ -290,6 +290,19 @@ def test_cli_quick_writes_every_output(tmp_path):
     assert json.loads((out / "summary.json").read_text()) == summary
     assert "Report re-derived from the recorded runs" in (out / "results.md").read_text()
     assert json.loads((out / "results.json").read_text())["records"] == doc["records"]
+    # Several runs merge into one report (e.g. one preset per core).
+    other = json.loads(json.dumps(doc))
+    for r in other["records"]:
+        r["preset"] = "fast" if r["preset"] else r["preset"]
+    other["settings"]["presets"] = ["fast"]
+    (tmp_path / "other.json").write_text(json.dumps(other))
+    assert main(["--report", str(out / "results.json"), "--report", str(tmp_path / "other.json"), "--quiet"]) == 2
+    merged_out = tmp_path / "merged"
+    assert main(["--report", str(out / "results.json"), "--report", str(tmp_path / "other.json"),
+                 "--out", str(merged_out), "--quiet"]) == 0
+    merged = json.loads((merged_out / "results.json").read_text())
+    assert len(merged["records"]) == 2 * len(doc["records"]) and merged["settings"]["presets"] == ["tiny", "fast"]
+    assert len(merged["cases"]) == len(doc["cases"]) and len(merged["merged_from"]) == 2
 
 
 def test_time_budget_truncates_without_extrapolating(tmp_path):

@@ -280,6 +280,26 @@ def run_benchmark(
     return doc
 
 
+def merge_runs(docs: Sequence[Dict[str, Any]]) -> Dict[str, Any]:
+    """One benchmark document from several (e.g. the presets of one comparison run on two cores): records, errors
+    and skips concatenated, cases united by name, presets united in order; the first run's settings and machine
+    are kept and every run's command is listed under ``merged_from``. One document is returned unchanged."""
+    if len(docs) == 1:
+        return docs[0]
+    doc = json.loads(json.dumps(docs[0]))
+    names = {c["name"] for c in doc["cases"]}
+    presets = list(doc["settings"]["presets"])
+    for other in docs[1:]:
+        for key in ("records", "errors", "skipped"):
+            doc[key] = doc[key] + other.get(key, [])
+        doc["cases"] += [c for c in other["cases"] if c["name"] not in names]
+        names |= {c["name"] for c in other["cases"]}
+        presets += [p for p in other["settings"]["presets"] if p not in presets]
+    doc["settings"]["presets"] = presets
+    doc["merged_from"] = [{"command": d["command"], "date": d["date"]} for d in docs]
+    return doc
+
+
 def output_paths(out: Path, json_path: Optional[Path] = None) -> Dict[str, Path]:
     """Where :func:`write_outputs` writes each file."""
     paths = {k: Path(out) / v for k, v in OUTPUT_NAMES.items()}
@@ -355,9 +375,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pipeline check: 2 small cases at 64 px, tiny preset, iterations 0,2,4")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
-    p.add_argument("--report", metavar="RESULTS_JSON",
+    p.add_argument("--report", metavar="RESULTS_JSON", action="append",
                    help="rewrite results.md, pareto.png and summary.json of an earlier run from its records "
-                        "(after a change of the report code; nothing is re-run; output beside the JSON or --out)")
+                        "(after a change of the report code; nothing is re-run; output beside the JSON or --out); "
+                        "repeated: merge the records of several runs (e.g. one per core) into one report in --out")
     return p
 
 
@@ -407,11 +428,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             raise SvbrdfError(f"--time-budget must be > 0, got {args.time_budget}")
         if args.noise < 0:
             raise SvbrdfError(f"--noise must be >= 0, got {args.noise}")
-        if args.report is not None:  # re-derive the report of an earlier run from its records, no re-run
-            doc = json.loads(Path(args.report).read_text())
+        if args.report is not None:  # re-derive the report of earlier runs from their records, no re-run
+            if len(args.report) > 1 and args.out is None:
+                raise SvbrdfError("merging several --report runs needs --out")
+            doc = merge_runs([json.loads(Path(p).read_text()) for p in args.report])
             doc["summary"] = report.summarize(doc["records"], doc["settings"]["presets"])
             doc["report_command"] = shlex.join(["svbrdf-bench"] + argv)
-            written = write_outputs(doc, args.out or Path(args.report).parent, None, force=True)
+            written = write_outputs(doc, args.out or Path(args.report[0]).parent, None, force=True)
             for p in written.values():
                 say(f"wrote {p}")
             return 0
