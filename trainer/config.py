@@ -64,10 +64,13 @@ class TrainConfig:
             as in the paper).
         lambda_flash: weight of the flash-correlation stationarity loss on both decoders
             (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
-        learn_vignetting: fit the photo's vignetting (a darkening ``1 - v r^2`` towards the corners, one scalar v
-            per photo in [0, 0.9], learned with its own Adam at ``camera_lr``) as part of the flash model of the photo
-            terms, so a radial darkening the maps must not explain is not painted into them.
-        camera_lr: learning rate of the learned camera parameters.
+        learn_vignetting: fit the photo's vignetting (a darkening ``1 - v r^2`` towards the corners, one scalar
+            ``v = 0.9 sigmoid(t)`` per photo, starting at 0.05) as part of the flash model of the photo terms, so
+            a radial darkening the maps must not explain is not painted into them.
+        learn_offsets: train the generator's six pre-tanh output offsets
+            (:attr:`svbrdf.trainer.models.Generator.out_offset`) at ``camera_lr``: the level of each map (and the
+            normal strength) can then move within a fine-tune even where the tanh output is saturated.
+        camera_lr: learning rate (own Adam) of the learned camera and of the output offsets.
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
             (False: the paper's unclipped renderings).
@@ -116,6 +119,7 @@ class TrainConfig:
     lambda_flash: float = 0.0
     saturate: bool = False
     learn_vignetting: bool = False
+    learn_offsets: bool = False
     camera_lr: float = 5e-3
     iters_pretrain: int = 10000
     iters_finetune: int = 3000

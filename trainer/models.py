@@ -222,6 +222,10 @@ def pack_maps(maps: Mapping[str, torch.Tensor]) -> torch.Tensor:
     return torch.cat([maps[n] for n in MAP_NAMES], dim=1)
 
 
+#: What each entry of :attr:`Generator.out_offset` shifts (pre-tanh): decoder_nr's two channels, then decoder_ds's four.
+OFFSET_CHANNELS = ("height", "roughness", "diffuse_r", "diffuse_g", "diffuse_b", "specular")
+
+
 class Generator(nn.Module):
     """Encoder + two decoders; linear photo -> SVBRDF maps of the same size.
 
@@ -232,6 +236,11 @@ class Generator(nn.Module):
         encoder: shared encoder, (B, 3, H, W) -> latent (B, 4*64*width, H/4, W/4) for the paper depth.
         decoder_nr: latent -> (height, roughness) pre-tanh.
         decoder_ds: latent -> (diffuse RGB, specular) pre-tanh.
+        out_offset: (6,) constants added to the decoders' pre-tanh outputs, in the order height, roughness,
+            diffuse R, G, B, specular (:data:`OFFSET_CHANNELS`); 0 unless trained (a fine-tune fits them per photo
+            with a high learning rate, so a saturated output can move its level quickly;
+            :attr:`svbrdf.trainer.config.TrainConfig.learn_offsets`). Checkpoints written before it existed load
+            with zeros.
     """
 
     def __init__(self, cfg: Optional[GeneratorConfig] = None):
@@ -247,8 +256,14 @@ class Generator(nn.Module):
         dec = [_ch(min(2 * 64 * 2 ** n, 512), w)] + enc[n + 1:2:-1] + [enc[1]]
         self.decoder_nr = self._decoder(enc[-1], dec, 2)
         self.decoder_ds = self._decoder(enc[-1], dec, 4)
+        self.out_offset = nn.Parameter(torch.zeros(len(OFFSET_CHANNELS)))
         _init_weights(self)
         self.encoder.requires_grad_(cfg.train_encoder)
+
+    def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
+        # Checkpoints from before ``out_offset`` existed: zero offsets, i.e. the same model.
+        state_dict.setdefault(prefix + "out_offset", torch.zeros(len(OFFSET_CHANNELS)))
+        super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
     @staticmethod
     def _decoder(cin: int, dec: Sequence[int], outc: int) -> nn.Sequential:
@@ -301,11 +316,11 @@ class Generator(nn.Module):
         h, w = size if size is not None else (latent.shape[-2] * self.multiple, latent.shape[-1] * self.multiple)
         out: Dict[str, torch.Tensor] = {}
         if want & set(DECODER_MAPS["decoder_nr"]):
-            y = self._unit(self.decoder_nr(latent))[..., :h, :w]
+            y = self._unit(self.decoder_nr(latent) + self.out_offset[0:2].view(1, 2, 1, 1))[..., :h, :w]
             out["normal"] = height_to_normal(y[:, 0:1], self.cfg.height_scale)
             out["roughness"] = y[:, 1:2]
         if want & set(DECODER_MAPS["decoder_ds"]):
-            y = self._unit(self.decoder_ds(latent))[..., :h, :w]
+            y = self._unit(self.decoder_ds(latent) + self.out_offset[2:6].view(1, 4, 1, 1))[..., :h, :w]
             out["diffuse"] = y[:, 0:3]
             out["specular"] = y[:, 3:4]
         return {n: out[n] for n in MAP_NAMES if n in want}
@@ -347,6 +362,7 @@ def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
 
 
 __all__ = [
+    "OFFSET_CHANNELS",
     "GeneratorConfig", "DiscriminatorConfig", "MODEL_PRESETS", "DISC_PRESETS", "DECODER_MAPS", "Generator",
     "Discriminator", "height_to_normal", "pack_maps", "count_parameters",
 ]

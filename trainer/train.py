@@ -49,6 +49,8 @@ from svbrdf.trainer.perceptual import PerceptualLoss
 from svbrdf.trainer.render import FlashGeometry
 
 PathLike = Union[str, os.PathLike]
+#: Start of the learned vignetting's logit: v = 0.9 sigmoid(t) = 0.05 (a mild lens darkening).
+VIGNETTING_START_LOGIT = math.log(0.05 / 0.85)
 #: ``callback(trainer, record)`` after every iteration; returning True stops the run (after this iteration).
 Callback = Callable[["Trainer", Dict[str, Any]], Optional[bool]]
 
@@ -241,22 +243,28 @@ class Trainer:
             + (list(self.generator.encoder.parameters()) if config.train_encoder else []),
             "d": list(self.discriminator.parameters()),
         }
-        # The photo's learned camera (per photo: never taken from a stage-one checkpoint).
-        self.vignetting: Optional[torch.Tensor] = None
+        # The photo's learned camera (per photo: never taken from a stage-one checkpoint) and the generator's output
+        # offsets, trained by their own Adam at camera_lr.
+        self.vignetting_logit: Optional[torch.Tensor] = None
+        cam: List[torch.Tensor] = []
         if config.learn_vignetting:
-            self.vignetting = torch.zeros((), device=self.device, requires_grad=True)
-            self.params["cam"] = [self.vignetting]
+            self.vignetting_logit = torch.full((), VIGNETTING_START_LOGIT, device=self.device, requires_grad=True)
+            cam.append(self.vignetting_logit)
+        if config.learn_offsets:
+            cam.append(self.generator.out_offset)
+        if cam:
+            self.params["cam"] = cam
         self.optimizers = {k: self._adam(p) for k, p in self.params.items()}
         if "cam" in self.optimizers:
             for group in self.optimizers["cam"].param_groups:
                 group["lr"] = config.camera_lr
-        #: The generator steps update these optimisers' parameters as well (the learned camera).
-        self._camera_keys: Tuple[str, ...] = ("cam",) if config.learn_vignetting else ()
+        #: The generator steps update these optimisers' parameters as well (camera, output offsets).
+        self._camera_keys: Tuple[str, ...] = ("cam",) if cam else ()
 
         with torch.no_grad():
             self.guess = guessed_diffuse(self.photo).float()
         self.geometry = FlashGeometry(h, w, config.render_config, device=self.device)
-        self.radius2 = None if self.vignetting is None else \
+        self.radius2 = None if self.vignetting_logit is None else \
             1.0 - torch.from_numpy(vignette(h, w, 1.0)).to(self.device).permute(2, 0, 1)[None]  # (r / r_corner)^2
         self.flash_basis = flash_basis(self.geometry.light) if config.lambda_flash > 0 else None
         self.tile_rng = torch.Generator().manual_seed(config.seed)
@@ -314,10 +322,14 @@ class Trainer:
         """The rendering of ``maps`` on the tile at (y0, x0) as it reaches the sensor: the flash model of
         :attr:`geometry`, times the learned vignetting ``1 - v r^2`` when ``learn_vignetting`` (not yet clipped)."""
         out = self.geometry.render(maps, y0, x0)
-        if self.vignetting is not None:
+        if self.vignetting_logit is not None:
             r2 = self.radius2[..., y0:y0 + maps.shape[-2], x0:x0 + maps.shape[-1]]
-            out = out * (1.0 - self.vignetting.clamp(0.0, 0.9) * r2)
+            out = out * (1.0 - self.vignetting() * r2)
         return out
+
+    def vignetting(self) -> torch.Tensor:
+        """The learned vignetting strength v = 0.9 sigmoid(t), a 0-d tensor (needs ``learn_vignetting``)."""
+        return 0.9 * torch.sigmoid(self.vignetting_logit)
 
     def _seen(self, rendering: torch.Tensor) -> torch.Tensor:
         """What the camera would record of a rendering: clipped to [0, 1] with ``saturate``, else unchanged."""
@@ -409,13 +421,16 @@ class Trainer:
             camera=self.camera_state())
 
     def camera_state(self) -> Optional[Dict[str, torch.Tensor]]:
-        """The learned camera of this photo (``{"vignetting": 0-d tensor}``), or None when not learned."""
-        return None if self.vignetting is None else {"vignetting": self.vignetting.detach().clone()}
+        """The learned camera of this photo (``{"vignetting_logit", "vignetting"}``: 0-d tensors), or None."""
+        if self.vignetting_logit is None:
+            return None
+        return {"vignetting_logit": self.vignetting_logit.detach().clone(),
+                "vignetting": self.vignetting().detach().clone()}
 
     def _load_camera(self, state: Optional[Mapping[str, torch.Tensor]]) -> None:
-        if self.vignetting is not None and state and "vignetting" in state:
+        if self.vignetting_logit is not None and state and "vignetting_logit" in state:
             with torch.no_grad():
-                self.vignetting.copy_(state["vignetting"].to(self.device))
+                self.vignetting_logit.copy_(state["vignetting_logit"].to(self.device))
 
     def save(self, path: Optional[PathLike] = None) -> Path:
         """Write a checkpoint to ``path`` (default ``checkpoint_path``) and refresh the last-good copy."""
@@ -588,8 +603,8 @@ class Trainer:
         for k, v in terms.items():
             rec[k] = _finite_or_none(float(torch.stack(v).mean()))
         rec["skipped"] = self.counters["nonfinite_skips"] - skips0
-        if self.vignetting is not None:
-            rec["camera/vignetting"] = float(self.vignetting.detach().clamp(0.0, 0.9))
+        if self.vignetting_logit is not None:
+            rec["camera/vignetting"] = float(self.vignetting().detach())
         if self.config.eval_every and self.step % self.config.eval_every == 0:
             rec.update(self.evaluate())
         rec["seconds"] = time.perf_counter() - t0

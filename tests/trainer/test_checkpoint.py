@@ -24,8 +24,8 @@ def state_tensors(trainer):
     for key in sorted(trainer.optimizers):
         for st in trainer.optimizers[key].state_dict()["state"].values():
             out += [st[k] for k in sorted(st)]
-    if trainer.vignetting is not None:
-        out.append(trainer.vignetting.detach())
+    if trainer.vignetting_logit is not None:
+        out.append(trainer.vignetting_logit.detach())
     return out
 
 
@@ -105,7 +105,8 @@ def test_clean_checkpoint_drops_training_state(tmp_path, trained):
         resume(random_photo(), dst, threads=1)
 
 
-@pytest.mark.parametrize("extra", [{}, {"learn_vignetting": True, "lambda_render": 1.0, "saturate": True}],
+@pytest.mark.parametrize("extra", [{}, {"learn_vignetting": True, "learn_offsets": True, "lambda_render": 1.0,
+                                        "saturate": True}],
                          ids=["paper-losses", "learned-camera"])
 def test_resume_is_exact(tmp_path, extra):
     photo = random_photo()
