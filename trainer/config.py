@@ -62,6 +62,8 @@ class TrainConfig:
             diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`).
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
             as in the paper).
+        lambda_specular_prior: weight of the dielectric prior on the specular albedo
+            (:func:`svbrdf.trainer.losses.specular_prior_loss`; 0 = off, as in the paper).
         lambda_flash: weight of the flash-correlation stationarity loss on both decoders
             (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
         learn_vignetting: fit the photo's vignetting (a darkening ``1 - v r^2`` towards the corners, one scalar
@@ -117,6 +119,7 @@ class TrainConfig:
     diffuse_target: str = "absolute"
     lambda_render: float = 0.0
     lambda_flash: float = 0.0
+    lambda_specular_prior: float = 0.0
     saturate: bool = False
     learn_vignetting: bool = False
     learn_offsets: bool = False
@@ -177,7 +180,8 @@ class TrainConfig:
         need(self.lr > 0 and self.camera_lr > 0, f"lr and camera_lr must be > 0, got {self.lr}, {self.camera_lr}")
         need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "
              f"got {self.betas}")
-        for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash"):
+        for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash",
+                     "lambda_specular_prior"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
         need(0 <= self.perceptual_min_clipped <= 1,
              f"perceptual_min_clipped must be in [0, 1], got {self.perceptual_min_clipped}")

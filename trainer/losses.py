@@ -202,6 +202,40 @@ class RenderLoss(nn.Module):
         return render_loss(rendering, photo, self.clip_level)
 
 
+#: Specular albedo (F0) of a common dielectric (index of refraction about 1.5): the level the specular prior pulls to.
+DIELECTRIC_F0 = 0.04
+
+
+def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.Tensor:
+    """Weak prior on the specular albedo: ``mean |sqrt(rho_s) - sqrt(f0)|``.
+
+    One flash photo of a rough material hardly tells a weak specular lobe from none (both leave a faint, broad
+    highlight); most materials are dielectrics with F0 near 0.04. The square root makes the pull gentle on the
+    metals and coatings the photo does show (a specular of 0.5 costs 0.51, one of 0.005 costs 0.13).
+
+    Args:
+        maps: (B, 8, H, W) packed maps, final ranges.
+        f0: the level pulled to.
+
+    Returns:
+        scalar.
+    """
+    with torch.autocast(device_type=maps.device.type, enabled=False):
+        s = _f32(maps[:, SLICES["specular"]]).clamp_min(0.0)
+        return (torch.sqrt(s + 1e-8) - f0 ** 0.5).abs().mean()
+
+
+class SpecularPriorLoss(nn.Module):
+    """Module form of :func:`specular_prior_loss`."""
+
+    def __init__(self, f0: float = DIELECTRIC_F0):
+        super().__init__()
+        self.f0 = f0
+
+    def forward(self, maps: torch.Tensor) -> torch.Tensor:
+        return specular_prior_loss(maps, self.f0)
+
+
 #: Powers p of the flash basis ``l_z ** p`` (:func:`flash_basis`): broad (the fall-off and cosine), medium
 #: and narrow (a highlight lobe). At a 66 deg field of view ``l_z ** 256`` falls to 1/2 about 0.05 W from the
 #: flash centre, ``l_z ** 4`` to 0.74 at the photo's corner.
@@ -414,6 +448,6 @@ def clipped_fraction(photo: torch.Tensor, level: float = CLIP_LEVEL) -> float:
 __all__ = [
     "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
-    "FlashCorrelationLoss", "gan_generator_loss", "gan_discriminator_loss",
+    "FlashCorrelationLoss", "DIELECTRIC_F0", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
 ]

@@ -42,7 +42,7 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
-                                   guessed_diffuse, render_loss)
+                                   guessed_diffuse, render_loss, specular_prior_loss)
 from svbrdf.trainer.models import (DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
                                    pack_maps)
 from svbrdf.trainer.perceptual import PerceptualLoss
@@ -542,6 +542,9 @@ class Trainer:
         if cfg.lambda_render > 0:
             logged["render"] = lr = render_loss(radiance, x, CLIP_LEVEL)
             weighted.append(cfg.lambda_render * lr)
+        if cfg.lambda_specular_prior > 0:
+            logged["specular_prior"] = lsp = specular_prior_loss(maps)
+            weighted.append(cfg.lambda_specular_prior * lsp)
         if self.flash_basis is not None:
             logged["flash"] = lfl = flash_correlation_loss(maps, self._crop(self.flash_basis, y0, x0))
             weighted.append(cfg.lambda_flash * lfl)
