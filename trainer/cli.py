@@ -36,12 +36,19 @@ PRESET_HELP = """training presets (cost: seconds per iteration on one thread; "A
   fast   quarter-width networks, 128 px tiles, the "joint" 1:1:1 schedule (one tile, one generator pass and one
          backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, multi-scale
          filter-bank perceptual loss ("pyramid", skipped on photos without a clipped highlight), bf16 autocast
-         where the CPU has it; 6k / 600 / 6k iterations. AMD: 0.27 s/it (0.43 s/it with the alternating
-         schedule). The shipped model was pretrained with the alternating schedule on AMX: 6000 it in 1111 s.
+         where the CPU has it; 6k / 600 / 6k iterations; and the highlight-free flash model: inverse-square
+         fall-off, learned vignetting, renderings clipped like the photo, a per-pixel re-render term, the
+         flash-correlation stationarity term, a scale-free L_d, learned output offsets and a dielectric
+         specular prior instead of the Fourier term (docs/benchmarks/accuracy/). AMD: 0.27 s/it (0.43 s/it
+         with the alternating schedule). The shipped model was pretrained with the alternating schedule and
+         the paper's losses on AMX: 6000 it in 1111 s.
+  fast-v1
+         fast with the paper's losses (GAN, L_d, Fourier, perceptual) and flash model, as before the
+         highlight-free flash model (the comparison point).
   fast-alternating
          fast with the published alternating sub-steps (a fresh tile and generator pass per update).
   fast-no-fourier, fast-no-perceptual, fast-zhao
-         fast with the Fourier loss, the perceptual loss, or both off (ablations for svbrdf-bench).
+         fast-v1 with the Fourier loss, the perceptual loss, or both off (ablations for svbrdf-bench).
   tiny   toy networks for tests (32 px tiles, 20 iterations).
 """
 

@@ -12,8 +12,8 @@ Presets (``resolve(name, **overrides)``):
   highlight-free flash model: inverse-square fall-off, renderings clipped like the photo, a per-pixel re-render
   term, the flash-correlation stationarity term and a scale-free L_d (docs/benchmarks/accuracy/).
 * ``"fast-v1"``: ``"fast"`` without the highlight-free flash model (the paper's losses on the light model).
-* ``"fast-no-fourier"``, ``"fast-no-perceptual"``, ``"fast-zhao"``: ``"fast"`` with L_F, L_P or both off
-  (ablations).
+* ``"fast-no-fourier"``, ``"fast-no-perceptual"``, ``"fast-zhao"``: ``"fast-v1"`` with L_F, L_P or both off
+  (ablations of the paper's losses); ``"fast-alternating"``: ``"fast"`` with the alternating schedule.
 * ``"tiny"``: a toy model for tests (32 px tiles, a few iterations, pyramid perceptual loss).
 """
 
@@ -267,10 +267,10 @@ def _presets() -> Dict[str, TrainConfig]:
         "fast": _preset("fast", "fast", **_FAST),
         # ``fast`` before the highlight-free flash model (the paper's losses on the fast model), for comparison.
         "fast-v1": _preset("fast-v1", "fast", **_FAST_V1),
-        # Ablations of the fast preset (the benchmark compares them side by side).
-        "fast-no-fourier": _preset("fast-no-fourier", "fast", **{**_FAST, "lambda_fourier": 0.0}),
-        "fast-no-perceptual": _preset("fast-no-perceptual", "fast", **{**_FAST, "lambda_perceptual": 0.0}),
-        "fast-zhao": _preset("fast-zhao", "fast", **{**_FAST, "lambda_fourier": 0.0, "lambda_perceptual": 0.0}),
+        # Ablations of the paper's losses on the fast model (fast-v1), and of fast's schedule.
+        "fast-no-fourier": _preset("fast-no-fourier", "fast", **{**_FAST_V1, "lambda_fourier": 0.0}),
+        "fast-no-perceptual": _preset("fast-no-perceptual", "fast", **{**_FAST_V1, "lambda_perceptual": 0.0}),
+        "fast-zhao": _preset("fast-zhao", "fast", **{**_FAST_V1, "lambda_fourier": 0.0, "lambda_perceptual": 0.0}),
         "fast-alternating": _preset("fast-alternating", "fast", **{**_FAST, "schedule": "alternating"}),
         "tiny": _preset("tiny", "tiny", tile=32, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-3,
                         perceptual="pyramid", iters_pretrain=20, iters_finetune=10, iters_fit=20,
