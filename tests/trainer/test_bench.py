@@ -83,6 +83,10 @@ def test_rerender_rmse_against_maps_and_photo():
     assert bm.rerender_rmse(darker, gt, lights) > 0.02
     assert bm.evaluate(darker, photo=photo)["input_rmse"] == pytest.approx(
         bm.rerender_rmse(darker, gt, [None]), abs=1e-6)
+    # A photo with the flash's fall-off: explained exactly by maps without it only under a renderer with fall-off.
+    falling = np.clip(render(gt, None, ZHAO.replace(falloff=True)), 0, 1)
+    scores = bm.evaluate(gt, photo=falling)
+    assert scores["input_rmse_falloff"] == pytest.approx(0.0, abs=1e-6) and scores["input_rmse"] > 0.01
 
 
 # ------------------------------------------------------------------------------------------------ cases
