@@ -1,0 +1,40 @@
+"""The before/after picture grid (svbrdf.trainer.tools.before_after): one row per photo and preset, burn-in JSON."""
+
+import json
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.imageio import read_image, write_image
+from svbrdf.trainer import train as T
+from svbrdf.trainer.config import resolve
+from svbrdf.trainer.tools import before_after
+
+
+@pytest.fixture
+def tiny_ckpt(tmp_path):
+    photo = T.photo_to_tensor(np.random.default_rng(0).uniform(0, 1, (40, 40, 3)).astype(np.float32))
+    trainer = T.Trainer(photo, resolve("tiny", iters_pretrain=1), stage="pretrain", threads=1)
+    trainer.run()
+    path = tmp_path / "tiny.pt"
+    trainer.save(path)
+    return path
+
+
+def test_grid_rows_and_burn_in(tmp_path, tiny_ckpt):
+    photos = []
+    for i, name in enumerate(("a.png", "b.png")):
+        img = np.random.default_rng(i).uniform(0.1, 0.6, (40, 52, 3))
+        write_image(tmp_path / name, img, bits=8, srgb_encode=True)
+        photos.append(str(tmp_path / name))
+    out = tmp_path / "grid.png"
+    args = [*photos, "--presets", "tiny,tiny", "--iters", "2", "--size", "32", "--init", str(tiny_ckpt),
+            "--out", str(out)]
+    assert before_after.main(args) == 0
+    grid = read_image(out)
+    assert grid.shape == (4 * 32, 8 * 32, 3)  # 2 photos x 2 presets; photo, 4 maps, 3 relit panels
+    rec = json.loads(out.with_suffix(".json").read_text())
+    assert [r["preset"] for r in rec["rows"]] == ["tiny"] * 4 and all(r["burn_in"] >= 0 for r in rec["rows"])
+    assert before_after.main(args) == 2  # exists: refused without --force
+    assert before_after.main([str(tmp_path / "missing.png"), "--init", str(tiny_ckpt), "--out",
+                              str(tmp_path / "x.png")]) == 2
