@@ -72,12 +72,18 @@ def sample_camera(seed: int, ranges: Optional[Dict[str, tuple]] = None) -> Camer
     return Camera(**{k: float(rng.uniform(*r[k])) for k in ("ev", "vignetting", "shot", "read")}, quantize=True)
 
 
-def vignette(height: int, width: int, strength: float) -> np.ndarray:
-    """(H, W, 1) float32 factor ``1 - strength (r / r_corner)^2``, r from the image centre."""
+def radius2(height: int, width: int) -> np.ndarray:
+    """(H, W, 1) float32 ``(r / r_corner)^2``: squared distance of each pixel centre from the image centre, 1 at
+    the corners."""
     ys = (np.arange(height) + 0.5 - height / 2.0)[:, None]
     xs = (np.arange(width) + 0.5 - width / 2.0)[None, :]
     r2 = (ys * ys + xs * xs) / ((height / 2.0) ** 2 + (width / 2.0) ** 2)
-    return (1.0 - strength * r2).astype(np.float32)[..., None]
+    return r2.astype(np.float32)[..., None]
+
+
+def vignette(height: int, width: int, strength: float) -> np.ndarray:
+    """(H, W, 1) float32 factor ``1 - strength (r / r_corner)^2`` (:func:`radius2`)."""
+    return (1.0 - strength * radius2(height, width)).astype(np.float32)
 
 
 def expose(radiance: np.ndarray, camera: Camera, seed: int = 0) -> np.ndarray:
@@ -103,4 +109,4 @@ def expose(radiance: np.ndarray, camera: Camera, seed: int = 0) -> np.ndarray:
     return img.astype(np.float32)
 
 
-__all__ = ["Camera", "REALISTIC", "sample_camera", "vignette", "expose"]
+__all__ = ["Camera", "REALISTIC", "sample_camera", "radius2", "vignette", "expose"]

@@ -34,7 +34,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import torch
 
-from svbrdf.runtime.camera import vignette
+from svbrdf.runtime.camera import radius2
 from svbrdf.runtime.errors import ImageError, ModelError
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
@@ -265,7 +265,7 @@ class Trainer:
             self.guess = guessed_diffuse(self.photo).float()
         self.geometry = FlashGeometry(h, w, config.render_config, device=self.device)
         self.radius2 = None if self.vignetting_logit is None else \
-            1.0 - torch.from_numpy(vignette(h, w, 1.0)).to(self.device).permute(2, 0, 1)[None]  # (r / r_corner)^2
+            torch.from_numpy(radius2(h, w)).to(self.device).permute(2, 0, 1)[None]  # (1, 1, H, W)
         self.flash_basis = flash_basis(self.geometry.light) if config.lambda_flash > 0 else None
         self.tile_rng = torch.Generator().manual_seed(config.seed)
         # Fixed tiles of the label-free progress signal: their own RNG, so they never shift the training tiles.
@@ -351,7 +351,7 @@ class Trainer:
             self.notes.append(f"{Path(source).name}: no optimiser states; Adam starts fresh")
         else:
             for key, opt in self.optimizers.items():
-                if key == "cam":  # the camera is the new photo's own: it starts fresh
+                if key == "cam":  # the new photo's own camera and offsets: a fresh Adam
                     continue
                 try:
                     opt.load_state_dict(ckpt["optimizers"][key])
