@@ -405,8 +405,10 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
         f"- versions: " + ", ".join(f"{k} {v}" for k, v in (m.get("versions") or {}).items()),
         f"- cases: {len(doc['cases'])} ({sum(c['kind'] == 'synthetic' for c in doc['cases'])} synthetic, "
         f"{sum(c['kind'] == 'photo' for c in doc['cases'])} real photos) from `{s['data']}`, "
-        f"{s['size']} px, renderer `{s['renderer']}`, noise {s['noise']}, quantize {s['quantize']}",
-        f"- render config: {s['render_config']}",
+        f"{s['size']} px, {s.get('inputs', 'clean')} synthetic inputs (renderer `{s['renderer']}`"
+        + (f", noise {s['noise']}, quantize {s['quantize']})" if s.get("inputs", "clean") == "clean" else
+           "; a camera drawn per case: `cases[].simulation` in the JSON)"),
+        f"- render config of the metrics: {s['render_config']}",
         f"- iterations evaluated: {s['iters']}; time budget per run: {s['time_budget'] or 'none'}",
         "- cells: mean ± std over the cases (n); seconds = training + one full-photo prediction "
         "(train_seconds excludes evaluation; see `methods.py`)",
