@@ -92,7 +92,7 @@ def ablation_table(specs: Sequence[str]) -> str:
              + " | ".join(b.replace("burn_", "b.") for b in BURNS) + " |", "|---|---|" + "---|" * (len(COLUMNS) + len(BURNS))]
     cache: Dict[str, Dict[str, Any]] = {}
     for spec in specs:
-        label, _, rest = spec.partition("=")
+        label, _, rest = spec.rpartition("=")  # a label may contain "=", a path does not
         path, method, preset, it = rest.rsplit(":", 3)
         doc = cache.setdefault(path, json.loads(Path(path).read_text()))
         want = (method, None if preset == "-" else preset, None if it == "-" else int(it))
