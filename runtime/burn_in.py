@@ -27,6 +27,7 @@ method with the same function (:mod:`svbrdf.trainer.bench.metrics`).
 from __future__ import annotations
 
 import math
+from functools import lru_cache
 from typing import Dict, Optional, Tuple
 
 import numpy as np
@@ -40,7 +41,7 @@ BURN_EPS = 0.01
 #: Keys returned by :func:`burn_in_scores` (plus ``burn_in``).
 BURN_METRICS = tuple(f"burn_{n}" for n in MAP_NAMES)
 #: :func:`photo_burn_in` scores a block-averaged copy no longer than this (the score is low-frequency).
-SCORE_MAX_SIDE = 512
+SCORE_MAX_SIDE = 256
 
 
 def highlight_centre(photo: np.ndarray, window: float = 0.25) -> Tuple[float, float]:
@@ -70,6 +71,16 @@ def _burn_field(name: str, arr: np.ndarray) -> np.ndarray:
     return np.asarray(arr, dtype=np.float64).mean(axis=-1)
 
 
+@lru_cache(maxsize=8)
+def _regions(shape: Tuple[int, int], centre: Optional[Tuple[float, float]]) -> Tuple[np.ndarray, np.ndarray]:
+    """The disc and ring masks (H, W) of the score around ``centre`` (default the image centre); cached, since the
+    four maps of one texture set share them."""
+    h, w = shape
+    cy, cx = (h / 2.0, w / 2.0) if centre is None else centre
+    r = np.hypot(np.arange(h)[:, None] + 0.5 - cy, np.arange(w)[None, :] + 0.5 - cx) / w
+    return r <= DISC_RADIUS, (r >= RING_RADII[0]) & (r <= RING_RADII[1])
+
+
 def burn_in(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, eps: float = BURN_EPS) -> float:
     """Signed highlight burn-in score of one scalar field (H, W) (see the module docstring).
 
@@ -85,12 +96,7 @@ def burn_in(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, eps
     g = np.asarray(field, dtype=np.float64)
     if g.ndim != 2:
         raise ValueError(f"burn_in expects an (H, W) field, got {g.shape}")
-    h, w = g.shape
-    cy, cx = (h / 2.0, w / 2.0) if centre is None else centre
-    yy, xx = np.mgrid[0:h, 0:w]
-    r = np.hypot(yy + 0.5 - cy, xx + 0.5 - cx) / w
-    disc = r <= DISC_RADIUS
-    ring = (r >= RING_RADII[0]) & (r <= RING_RADII[1])
+    disc, ring = _regions(g.shape, None if centre is None else (float(centre[0]), float(centre[1])))
     if not disc.any() or not ring.any() or np.ptp(g) == 0:  # (a constant field: exactly 0, not rounding noise)
         return 0.0
     return float((g[disc].mean() - g[ring].mean()) / (g.std() + eps))
@@ -129,6 +135,7 @@ def photo_burn_in(maps: Maps, photo: np.ndarray) -> Dict[str, float]:
     k = max(1, math.ceil(max(maps.shape) / SCORE_MAX_SIDE))
     small = maps if k == 1 else Maps(**{n: _block_mean(a, k) for n, a in maps.items()}, meta=dict(maps.meta))
     cy, cx = highlight_centre(photo if k == 1 else _block_mean(photo, k))
+    cy, cx = float(cy), float(cx)
     out: Dict[str, float] = dict(burn_in_scores(small, (cy, cx)))
     out["centre"] = [cy * k, cx * k]
     return out
