@@ -29,12 +29,13 @@ def test_tables(tmp_path):
     path.write_text(json.dumps(_doc()))
     out = tmp_path / "tables.md"
     assert at.main([str(path), "--tuning", "tune_*", "--ablation", f"x={path}:finetune:fast:600",
-                    "--ablation", f"b={path}:baseline:-:-", "--out", str(out)]) == 0
+                    "--ablation", f"b={path}:baseline:-:-", "--ablation", f"t={path}:finetune:fast:600:tune_*",
+                    "--out", str(out)]) == 0
     text = out.read_text()
     assert "| finetune fast, 600 it | 2 | 0.200 | 0.400 |" in text  # mean over both cases
     assert "| finetune fast, 600 it | 1 | 0.100 | 0.200 |" in text  # the tuning case left out
     assert "| ground truth | 2 | 0 | 0.200 |" in text and "| ground truth | 1 | 0 | 0.100 |" in text
-    assert "| x | 2 | 0.200 |" in text and "| b | 2 | 0.600 |" in text
+    assert "| x | 2 | 0.200 |" in text and "| b | 2 | 0.600 |" in text and "| t | 1 | 0.300 |" in text
     assert "| finetune fast, 600 it | 1 | 0.200 | - | 0.400 |" in text  # the photo, no fall-off run given
     with pytest.raises(SystemExit):
         at.main([str(path), "--ablation", f"y={path}:scratch:fast:600", "--out", str(out)])

@@ -87,16 +87,19 @@ def photo_table(doc: Dict[str, Any], falloff_docs: Sequence[Dict[str, Any]] = ()
 
 
 def ablation_table(specs: Sequence[str]) -> str:
-    """One row per ``LABEL=RESULTS_JSON:METHOD:PRESET:ITERATIONS`` (``-`` for no preset / no iterations)."""
+    """One row per ``LABEL=RESULTS_JSON:METHOD:PRESET:ITERATIONS[:CASE_GLOBS]`` (``-`` for no preset / no
+    iterations; the optional comma-separated globs keep only those cases)."""
     lines = ["| variant | n | " + " | ".join(n for _, n in COLUMNS) + " | "
              + " | ".join(b.replace("burn_", "b.") for b in BURNS) + " |", "|---|---|" + "---|" * (len(COLUMNS) + len(BURNS))]
     cache: Dict[str, Dict[str, Any]] = {}
     for spec in specs:
         label, _, rest = spec.rpartition("=")  # a label may contain "=", a path does not
-        path, method, preset, it = rest.rsplit(":", 3)
+        path, method, preset, it, *globs = rest.split(":")
         doc = cache.setdefault(path, json.loads(Path(path).read_text()))
         want = (method, None if preset == "-" else preset, None if it == "-" else int(it))
-        rs = [r for r in doc["records"] if r["kind"] == "synthetic" and (r["method"], r["preset"], r["iterations"]) == want]
+        keep = [g for g in (globs[0].split(",") if globs else []) if g]
+        rs = [r for r in doc["records"] if r["kind"] == "synthetic" and (r["method"], r["preset"], r["iterations"]) == want
+              and (not keep or any(fnmatch.fnmatchcase(r["case"], g) for g in keep))]
         if not rs:
             raise SystemExit(f"accuracy_tables: no synthetic record for {want} in {path}")
         cells = [_fmt(key, float(np.mean([r[key] for r in rs]))) for key, _ in COLUMNS]
@@ -111,7 +114,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--tuning", default="", help="comma-separated globs of the cases the settings were tuned on")
     p.add_argument("--henzler-falloff", action="append", default=[], type=Path,
                    help="results.json of a real-photo run that recorded input_rmse_falloff (repeatable)")
-    p.add_argument("--ablation", action="append", default=[], help="LABEL=RESULTS_JSON:METHOD:PRESET:ITERATIONS")
+    p.add_argument("--ablation", action="append", default=[],
+                   help="LABEL=RESULTS_JSON:METHOD:PRESET:ITERATIONS[:CASE_GLOBS]")
     p.add_argument("--out", type=Path, required=True)
     args = p.parse_args(argv)
     doc = json.loads(args.results.read_text())
