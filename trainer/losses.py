@@ -9,6 +9,7 @@ Every loss is computed in at least float32, also under bf16 autocast.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Sequence
 
 import torch
@@ -17,6 +18,7 @@ from kornia.color import linear_rgb_to_rgb
 from kornia.filters import get_gaussian_kernel1d
 from torch import nn
 
+from svbrdf.runtime.conversions import DIELECTRIC_F0
 from svbrdf.runtime.maps import SLICES
 
 #: Added under the square root of a complex modulus so its gradient stays finite at 0.
@@ -166,6 +168,12 @@ class DiffuseLoss(nn.Module):
         return diffuse_loss(pred_diffuse, guess, self.target)
 
 
+@lru_cache(maxsize=4)
+def _srgb_level(linear: float) -> float:
+    """The sRGB encoding of one linear value (kornia's curve, as the loss uses), computed once per value."""
+    return float(linear_rgb_to_rgb(torch.full((1, 3, 1, 1), linear, dtype=torch.float64))[0, 0, 0, 0])
+
+
 def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99) -> torch.Tensor:
     """Per-pixel re-render loss: mean absolute difference of the sRGB-encoded rendering and photo tile.
 
@@ -186,7 +194,7 @@ def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float 
         r = linear_rgb_to_rgb(_f32(rendering).clamp_min(0.0))
         x = _f32(photo)
         p = linear_rgb_to_rgb(x.clamp(0.0, 1.0))
-        level = float(linear_rgb_to_rgb(torch.full((1, 3, 1, 1), float(clip_level)))[0, 0, 0, 0])
+        level = _srgb_level(float(clip_level))
         err = torch.where(x >= clip_level, (level - r).clamp_min(0.0), (r - p).abs())
         return err.mean()
 
@@ -202,10 +210,6 @@ class RenderLoss(nn.Module):
         return render_loss(rendering, photo, self.clip_level)
 
 
-#: Specular albedo (F0) of a common dielectric (index of refraction about 1.5): the level the specular prior pulls to.
-DIELECTRIC_F0 = 0.04
-
-
 def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.Tensor:
     """Weak prior on the specular albedo: ``mean |sqrt(rho_s) - sqrt(f0)|``.
 
@@ -215,7 +219,7 @@ def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.
 
     Args:
         maps: (B, 8, H, W) packed maps, final ranges.
-        f0: the level pulled to.
+        f0: the level pulled to (default :data:`svbrdf.runtime.conversions.DIELECTRIC_F0`).
 
     Returns:
         scalar.
@@ -448,6 +452,6 @@ def clipped_fraction(photo: torch.Tensor, level: float = CLIP_LEVEL) -> float:
 __all__ = [
     "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
-    "FlashCorrelationLoss", "DIELECTRIC_F0", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
+    "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
 ]

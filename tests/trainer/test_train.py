@@ -225,7 +225,7 @@ def test_learned_offsets_move_a_saturated_output():
         before = float(trainer.predict()[:, SLICES["specular"]].mean())
         trainer.run()
         levels[learn] = (before, float(trainer.predict()[:, SLICES["specular"]].mean()),
-                         float(trainer.generator.out_offset[5]))
+                         float(trainer.generator.out_offset[5].detach()))
     assert levels[True][2] > -3.5 and levels[True][1] > 3 * levels[True][0]
     assert levels[False][2] == -4.0  # not trained without learn_offsets
 

@@ -37,6 +37,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
 
+from svbrdf.runtime.conversions import DIELECTRIC_F0
 from svbrdf.runtime.errors import ModelError, SvbrdfError
 from svbrdf.runtime.maps import Maps
 from svbrdf.runtime.render import ZHAO, RenderConfig
@@ -45,7 +46,7 @@ from .cases import BenchCase
 
 #: Constant maps of the baseline.
 BASELINE_ROUGHNESS = 0.5
-BASELINE_SPECULAR = 0.04
+BASELINE_SPECULAR = DIELECTRIC_F0
 
 
 @dataclass
