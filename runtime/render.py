@@ -94,6 +94,12 @@ ZHAO = RenderConfig()
 DESCHAINTRE = RenderConfig(fov_deg=45.0, diffuse_conservation=True)
 
 
+def physical_config(config: RenderConfig = ZHAO) -> RenderConfig:
+    """``config`` with the physics of a real flash and of Mitsuba 3: inverse-square fall-off, exact Smith GGX
+    masking, F = F0 (the benchmark's realistic inputs, :func:`svbrdf.trainer.bench.cases.render_mitsuba`)."""
+    return config.replace(falloff=True, geometry="smith", fresnel="none")
+
+
 def _clamp_min(x: Any, lo: float) -> Any:
     if isinstance(x, np.ndarray) or np.isscalar(x):
         return np.maximum(x, lo)
@@ -265,6 +271,6 @@ def novel_lights(config: RenderConfig = ZHAO, grid: int = 3, spread: float = 0.6
 
 
 __all__ = [
-    "RenderConfig", "ZHAO", "DESCHAINTRE", "shade", "render", "light_vectors", "plane_positions",
+    "RenderConfig", "ZHAO", "DESCHAINTRE", "physical_config", "shade", "render", "light_vectors", "plane_positions",
     "camera_position", "novel_lights", "ALPHA_MIN", "COS_EPS",
 ]

@@ -210,5 +210,23 @@ def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool =
     return save_checkpoint(dst, ckpt)
 
 
-__all__ = ["FORMAT", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint", "load_generator",
+def default_checkpoint(model: Optional[PathLike] = None) -> Optional[Path]:
+    """The stage-one checkpoint the preview model was exported from (its manifest's ``checkpoint`` entry, sha256
+    verified): where ``svbrdf-preview --refine``, ``svbrdf-train finetune`` and ``svbrdf-bench`` start by default.
+
+    Args:
+        model: as in :func:`svbrdf.runtime.models.find_model` (None = ``$SVBRDF_MODEL``, else the packaged model).
+
+    Returns:
+        The path, or None where that model names no checkpoint or the file is missing or altered.
+    """
+    from svbrdf.runtime.models import find_checkpoint, find_model
+
+    try:
+        return find_checkpoint(find_model(model))
+    except ModelError:
+        return None
+
+
+__all__ = ["FORMAT", "default_checkpoint", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint", "load_generator",
            "generator_from_checkpoint", "clean_checkpoint", "library_versions"]

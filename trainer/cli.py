@@ -96,15 +96,36 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--verbose", action="store_true", help="print a traceback on errors")
 
     parser = argparse.ArgumentParser(
-        prog=PROG, description="Train the SVBRDF GAN (Wen et al. 2022) on one flash photo.",
+        prog=PROG, description="Train the SVBRDF GAN (Wen et al. 2022) on one flash photo, or its stage one on procedural materials (prior).",
         epilog=PRESET_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = parser.add_subparsers(dest="stage", required=True, metavar="{pretrain,finetune,fit}")
+    sub = parser.add_subparsers(dest="stage", required=True, metavar="{prior,pretrain,finetune,fit}")
+    p = sub.add_parser("prior", help="stage 1 learned from procedural materials (the shipped model's recipe)",
+                       description="Pretrain the stage-one generator on a seeded stream of procedural materials "
+                                   "rendered as realistic flash photos (svbrdf.trainer.prior). Writes checkpoint.pt "
+                                   "(every --checkpoint-every iterations, atomic) and train_log.jsonl into --out; "
+                                   "Ctrl-C saves and --resume continues exactly.")
+    p.add_argument("--out", metavar="DIR", default="prior", help="output folder (default ./prior)")
+    p.add_argument("--iters", type=int, help="iterations (default 5000; with --resume: the new total)")
+    p.add_argument("--batch", type=int, help="materials per iteration (default 8)")
+    p.add_argument("--size", type=int, help="training image side in px (default 128)")
+    p.add_argument("--photo-size", type=int, help="side of the photos that crops are taken from (default 256)")
+    p.add_argument("--width", type=float, help="generator width multiplier (default 0.25, the fast preset's)")
+    p.add_argument("--lr", type=float, help="peak Adam learning rate (default 5e-4, cosine decay)")
+    p.add_argument("--seed", type=int, help="seed of the weights and the material stream (default 0)")
+    p.add_argument("--checkpoint-every", type=int, metavar="N", help="iterations between checkpoints (default 100)")
+    p.add_argument("--resume", action="store_true", help="continue the run saved in --out exactly where it stopped")
+    p.add_argument("--force", action="store_true", help="start over in an existing output folder")
+    p.add_argument("--threads", type=int, help="CPU threads (default: all cores)")
+    p.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
+    p.add_argument("--quiet", action="store_true", help="print errors only")
+    p.add_argument("--verbose", action="store_true", help="print a traceback on errors")
     kw = dict(parents=[common], epilog=PRESET_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
     p = sub.add_parser("pretrain", help="stage 1: train from scratch on one photo (a reusable starting point)", **kw)
     p.add_argument("photo", help="flash photo (8/16-bit sRGB image or linear EXR)")
     p = sub.add_parser("finetune", help="stage 2: continue a pretrained checkpoint on a new photo", **kw)
     p.add_argument("photo", help="flash photo (8/16-bit sRGB image or linear EXR)")
-    p.add_argument("--init", metavar="CKPT", help="pretrained checkpoint (required unless --resume)")
+    p.add_argument("--init", metavar="CKPT", help="stage-one checkpoint (default: the packaged model's, the "
+                                                   "procedural prior)")
     p = sub.add_parser("fit", help="train from scratch on one photo for the full schedule", **kw)
     p.add_argument("photo", help="flash photo (8/16-bit sRGB image or linear EXR)")
     return parser
@@ -193,7 +214,110 @@ def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[
         meta["burn_in"]["burn_in"]
 
 
+def _format_eta(seconds: float) -> str:
+    seconds = int(max(seconds, 0))
+    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
+
+
+def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    """``svbrdf-train prior``: train (or resume) the procedural stage one."""
+    from svbrdf.trainer import checkpoint as ckpt_io
+    from svbrdf.trainer.prior import STAGE, PriorConfig, PriorTrainer
+
+    def log(msg: str) -> None:
+        if not args.quiet:
+            print(msg, file=sys.stderr, flush=True)
+
+    out = Path(args.out)
+    ckpt_path = out / CHECKPOINT
+    if args.resume and args.force:
+        parser.error("--resume and --force exclude each other")
+    for flag in ("iters", "batch", "size", "photo_size", "checkpoint_every"):
+        v = getattr(args, flag)
+        if v is not None and v < 1:
+            parser.error(f"--{flag.replace('_', '-')} must be >= 1, got {v}")
+    kw = dict(device=args.device, threads=args.threads, checkpoint_path=ckpt_path, log_path=out / LOG)
+    if args.resume:
+        if not ckpt_path.is_file():
+            raise _Fail(f"{ckpt_path}: no checkpoint to resume from")
+        ckpt = ckpt_io.load_checkpoint(ckpt_path)
+        if ckpt["stage"] != STAGE:
+            raise _Fail(f"{ckpt_path}: is a {ckpt['stage']!r} run, not a prior")
+        config = PriorConfig.from_dict(ckpt["prior_config"])
+        if args.iters is not None:
+            config.iters = args.iters
+        ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
+        if ignored:
+            log(f"note: --{', --'.join(ignored)} ignored with --resume (the settings come from the checkpoint)")
+        trainer = PriorTrainer(config, **kw)
+        trainer.load_resume(ckpt, ckpt_path)
+        log(f"resuming {ckpt_path} at iteration {trainer.step}/{config.iters}")
+    else:
+        if out.exists() and (not out.is_dir() or any(out.iterdir())):
+            if not out.is_dir():
+                raise _Fail(f"{out}: exists and is not a folder")
+            if not args.force:
+                raise _Fail(f"{out}: output folder exists and is not empty (use --force to start over, or --resume)")
+            for p in (ckpt_path, out / LOG):
+                p.unlink(missing_ok=True)
+        over = {k: getattr(args, k) for k in ("iters", "batch", "size", "photo_size", "lr", "seed",
+                                              "checkpoint_every") if getattr(args, k) is not None}
+        try:
+            if args.width is not None:
+                from svbrdf.trainer.models import GeneratorConfig
+
+                over["generator"] = GeneratorConfig(width=args.width, train_encoder=True)
+            config = PriorConfig(**over)
+        except ValueError as e:
+            parser.error(str(e))
+        out.mkdir(parents=True, exist_ok=True)
+        trainer = PriorTrainer(config, **kw)
+    c = trainer.config
+    log(f"prior: {c.iters} iterations of {c.batch} procedural materials at {c.size} px, device {trainer.device}, "
+        f"out {out}")
+    every = max(1, min(50, c.iters // 20))
+    state = {"stop": False, "t0": time.perf_counter(), "s0": trainer.step}
+
+    def progress(tr, rec) -> bool:
+        done = rec["step"] - state["s0"]
+        rate = done / max(time.perf_counter() - state["t0"], 1e-9)
+        eta = (c.iters - rec["step"]) / max(rate, 1e-9)
+        if not args.quiet and (rec["step"] % every == 0 or rec["step"] == c.iters or "eval" in rec):
+            line = f"it {rec['step']}/{c.iters} {rate:.2f} it/s ETA {_format_eta(eta)} loss {rec['total']:.4f}"
+            if "eval" in rec:
+                ev = rec["eval"]
+                line += (f" | held-out RMSE diffuse {ev['diffuse']:.3f} specular {ev['specular']:.3f} roughness "
+                         f"{ev['roughness']:.3f} normal {ev['normal_deg']:.1f} deg")
+            log(line)
+        return state["stop"]
+
+    trainer.callback = progress
+    resume_cmd = f"{PROG} prior --out {out} --resume"
+
+    def on_sigint(signum, frame):
+        state["stop"] = True
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+
+    old = signal.signal(signal.SIGINT, on_sigint)
+    try:
+        trainer.run()
+    except KeyboardInterrupt:
+        print(f"{PROG}: interrupted; the last checkpoint is {ckpt_path}; resume with: {resume_cmd}", file=sys.stderr)
+        return 130
+    finally:
+        signal.signal(signal.SIGINT, old)
+    if trainer.interrupted:
+        print(f"{PROG}: interrupted at iteration {trainer.step}/{c.iters}; checkpoint saved to {ckpt_path}; "
+              f"resume with: {resume_cmd}", file=sys.stderr)
+        return 130
+    log(f"done: {trainer.step} iterations ({trainer.seconds:.0f} s of training); checkpoint {ckpt_path}; "
+        f"export with: svbrdf-export {ckpt_path} -o MODEL.onnx")
+    return 0
+
+
 def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
+    if args.stage == "prior":
+        return _run_prior(args, parser)
     # Imported here so that --help and usage errors stay fast (no torch import).
     from svbrdf.trainer import checkpoint as ckpt_io
     from svbrdf.trainer.config import TRAIN_PRESETS, resolve
@@ -217,7 +341,10 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if not args.force:
             raise _Fail(f"{out}: output folder exists and is not empty (use --force to start over, or --resume)")
     if args.stage == "finetune" and not args.resume and not args.init:
-        parser.error("finetune needs --init CKPT")
+        args.init = ckpt_io.default_checkpoint()
+        if args.init is None:
+            raise _Fail("no --init CKPT given and the packaged model names no stage-one checkpoint")
+        log(f"starting from the packaged stage one {args.init}")
 
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")

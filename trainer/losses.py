@@ -10,7 +10,7 @@ Every loss is computed in at least float32, also under bf16 autocast.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Sequence
+from typing import Dict, Sequence
 
 import torch
 import torch.nn.functional as F
@@ -449,9 +449,83 @@ def clipped_fraction(photo: torch.Tensor, level: float = CLIP_LEVEL) -> float:
     return float((photo.amax(dim=1) >= level).float().mean())
 
 
+# ----------------------------------------------------------------------------------- supervised (stage-one prior)
+#: Per-map weights of :func:`supervised_maps_loss` (normals count double: their components vary little).
+SUPERVISED_WEIGHTS = {"diffuse": 1.0, "specular": 1.0, "roughness": 1.0, "normal": 2.0}
+#: Offset inside the logarithm of :func:`relit_loss` (linear radiance units).
+RELIT_LOG_EPS = 0.01
+
+
+def supervised_maps_loss(pred: torch.Tensor, target: torch.Tensor, weights=None) -> Dict[str, torch.Tensor]:
+    """Mean absolute error per map between predicted and ground-truth maps (the prior's map term).
+
+    The diffuse albedo is compared sRGB-encoded (kornia's curve), so an error on a dark or grey material weighs
+    as much as one on a bright material; the others as stored.
+
+    Args:
+        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.maps`).
+        weights: per-map weights (default :data:`SUPERVISED_WEIGHTS`).
+
+    Returns:
+        ``{"diffuse", "specular", "roughness", "normal", "total"}`` scalars; ``total`` is the weighted sum.
+    """
+    weights = dict(SUPERVISED_WEIGHTS if weights is None else weights)
+    with torch.autocast(device_type=pred.device.type, enabled=False):
+        p, t = _f32(pred), _f32(target)
+        out = {}
+        for name in ("diffuse", "specular", "roughness", "normal"):
+            a, b = p[:, SLICES[name]], t[:, SLICES[name]]
+            if name == "diffuse":
+                a, b = linear_rgb_to_rgb(a.clamp(0.0, 1.0)), linear_rgb_to_rgb(b.clamp(0.0, 1.0))
+            out[name] = (a - b).abs().mean()
+        out["total"] = sum(weights[k] * out[k] for k in ("diffuse", "specular", "roughness", "normal"))
+    return out
+
+
+class SupervisedMapsLoss(nn.Module):
+    """Module form of :func:`supervised_maps_loss` (returns the weighted total)."""
+
+    def __init__(self, weights=None):
+        super().__init__()
+        self.weights = dict(SUPERVISED_WEIGHTS if weights is None else weights)
+
+    def forward(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        return supervised_maps_loss(pred, target, self.weights)["total"]
+
+
+def relit_loss(pred_renderings: torch.Tensor, target_renderings: torch.Tensor, eps: float = RELIT_LOG_EPS) -> torch.Tensor:
+    """Rendering loss of predicted against ground-truth maps under the same lights: mean absolute difference of
+    ``log(eps + radiance)`` (the log keeps a highlight from drowning the rest of the image).
+
+    Args:
+        pred_renderings, target_renderings: (..., 3, H, W) linear radiance (>= 0, unclipped) of the predicted and
+            true maps under the same lights and view.
+        eps: offset inside the log, linear units.
+
+    Returns:
+        scalar.
+    """
+    with torch.autocast(device_type=pred_renderings.device.type, enabled=False):
+        a = torch.log(_f32(pred_renderings).clamp_min(0.0) + eps)
+        b = torch.log(_f32(target_renderings).clamp_min(0.0) + eps)
+        return (a - b).abs().mean()
+
+
+class RelitLoss(nn.Module):
+    """Module form of :func:`relit_loss`."""
+
+    def __init__(self, eps: float = RELIT_LOG_EPS):
+        super().__init__()
+        self.eps = eps
+
+    def forward(self, pred_renderings: torch.Tensor, target_renderings: torch.Tensor) -> torch.Tensor:
+        return relit_loss(pred_renderings, target_renderings, self.eps)
+
+
 __all__ = [
     "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
     "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
+    "SUPERVISED_WEIGHTS", "supervised_maps_loss", "SupervisedMapsLoss", "RELIT_LOG_EPS", "relit_loss", "RelitLoss",
 ]

@@ -87,10 +87,28 @@ def test_existing_output_needs_force(tmp_path, photo, capsys):
 
 def test_usage_errors_exit_2(tmp_path, photo, capsys):
     assert cli.main(["fit", str(photo), "--preset", "huge"]) == 2
-    assert cli.main(["finetune", str(photo), *TINY, "--out", str(tmp_path / "o")]) == 2  # no --init
     assert cli.main(["fit", str(photo), *TINY, "--tile", "4", "--out", str(tmp_path / "o")]) == 2
     assert cli.main([]) == 2
     assert "finetune" in capsys.readouterr().err
+
+
+def test_finetune_without_init_starts_from_the_packaged_stage_one(tmp_path, photo, capsys, monkeypatch):
+    from svbrdf.trainer.checkpoint import default_checkpoint
+
+    packaged = default_checkpoint()
+    if packaged is None:
+        pytest.skip("no packaged model with a checkpoint")
+    out = tmp_path / "o"
+    assert cli.main(["finetune", str(photo), *TINY, "--iters", "1", "--out", str(out)]) == 0
+    assert f"starting from the packaged stage one {packaged}" in capsys.readouterr().err
+    assert torch.load(out / "checkpoint.pt", weights_only=True)["init"]["path"] == str(packaged)
+    # A model without a checkpoint beside it: one line, exit 1.
+    lone = tmp_path / "lone.onnx"
+    lone.write_bytes(b"not really a model")
+    monkeypatch.setenv("SVBRDF_MODEL", str(lone))
+    assert cli.main(["finetune", str(photo), *TINY, "--out", str(tmp_path / "o2")]) == 1
+    err = [ln for ln in capsys.readouterr().err.splitlines() if ln.strip()]
+    assert len(err) == 1 and "names no stage-one checkpoint" in err[0]
 
 
 def test_finetune_from_a_pretrain_checkpoint(tmp_path, photo, capsys):

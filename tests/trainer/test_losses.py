@@ -332,3 +332,50 @@ def test_flash_correlation_gradient_only_removes_the_flash_pattern():
     residual = grad - (b.T @ coef)[:, 0]
     assert float(residual.norm()) < 1e-4 * float(grad.norm()) + 1e-12
     assert float(grad.norm()) > 0
+
+
+# ---- supervised losses of the procedural prior ----
+
+def _flat_maps(diffuse=0.3, specular=0.04, roughness=0.5, size=8):
+    from svbrdf.trainer.models import pack_maps
+
+    n = torch.zeros(1, 3, size, size)
+    n[:, 2] = 1.0
+    return pack_maps({"diffuse": torch.full((1, 3, size, size), diffuse), "specular": torch.full((1, 1, size, size), specular),
+                      "roughness": torch.full((1, 1, size, size), roughness), "normal": n})
+
+
+def test_supervised_maps_loss_per_map_and_weighted_total():
+    from svbrdf.trainer.losses import SUPERVISED_WEIGHTS, SupervisedMapsLoss, supervised_maps_loss
+
+    a, b = _flat_maps(), _flat_maps(specular=0.14, roughness=0.2)
+    terms = supervised_maps_loss(a, b)
+    assert float(terms["diffuse"]) == 0 and float(terms["normal"]) == 0
+    assert float(terms["specular"]) == pytest.approx(0.1, abs=1e-6)
+    assert float(terms["roughness"]) == pytest.approx(0.3, abs=1e-6)
+    expect = SUPERVISED_WEIGHTS["specular"] * 0.1 + SUPERVISED_WEIGHTS["roughness"] * 0.3
+    assert float(terms["total"]) == pytest.approx(expect, abs=1e-6)
+    assert float(SupervisedMapsLoss()(a, b)) == pytest.approx(expect, abs=1e-6)
+
+
+def test_supervised_diffuse_error_weighs_dark_materials_like_bright_ones():
+    from svbrdf.trainer.losses import supervised_maps_loss
+
+    # The same linear error of 0.02 costs more on a near-black albedo than on a bright one (sRGB encoding).
+    dark = float(supervised_maps_loss(_flat_maps(diffuse=0.02), _flat_maps(diffuse=0.04))["diffuse"])
+    bright = float(supervised_maps_loss(_flat_maps(diffuse=0.70), _flat_maps(diffuse=0.72))["diffuse"])
+    assert dark > 3 * bright
+
+
+def test_relit_loss_is_zero_for_equal_renderings_and_log_scaled():
+    from svbrdf.trainer.losses import RELIT_LOG_EPS, RelitLoss, relit_loss
+
+    x = torch.rand(2, 3, 8, 8) * 5
+    assert float(relit_loss(x, x)) == 0.0
+    one = torch.ones(1, 3, 4, 4)
+    # Doubling the radiance costs log(2) (up to eps), whatever its level.
+    assert float(relit_loss(2 * one, one, eps=0.0)) == pytest.approx(math.log(2.0), rel=1e-6)
+    assert float(relit_loss(200 * one, 100 * one)) == pytest.approx(math.log((200 + RELIT_LOG_EPS) / (100 + RELIT_LOG_EPS)), rel=1e-5)
+    x.requires_grad_(True)
+    RelitLoss()(x, torch.rand(2, 3, 8, 8)).backward()
+    assert torch.isfinite(x.grad).all()

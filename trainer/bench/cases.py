@@ -40,7 +40,7 @@ from svbrdf.runtime.datasets import Case, find_cases, read_gt
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import read_image
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
-from svbrdf.runtime.render import ALPHA_MIN, ZHAO, RenderConfig, render
+from svbrdf.runtime.render import ALPHA_MIN, ZHAO, RenderConfig, physical_config, render
 
 
 RENDERERS = ("auto", "ours", "mitsuba")
@@ -184,12 +184,6 @@ def render_mitsuba(maps: Maps, light_pos: Optional[Sequence[float]] = None, conf
     })
     img = mi.render(scene, spp=int(spp), seed=int(seed))
     return np.asarray(img, dtype=np.float32)[..., :3]
-
-
-def physical_config(config: RenderConfig = ZHAO) -> RenderConfig:
-    """``config`` with the physics of a real flash and of Mitsuba: inverse-square fall-off, exact Smith GGX
-    masking, F = F0 (see :func:`render_mitsuba`)."""
-    return config.replace(falloff=True, geometry="smith", fresnel="none")
 
 
 def resolve_renderer(renderer: str) -> str:

@@ -364,7 +364,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quantize", action="store_true", help="with --clean: 8-bit sRGB quantisation")
     p.add_argument("--model", default=None, help="ONNX model for 'preview' (default: the packaged model)")
     p.add_argument("--init", action="append", default=None, metavar="[PRESET=]CKPT",
-                   help="stage-one checkpoint for 'finetune' (repeatable per preset; default: packaged models/*.pt)")
+                   help="stage-one checkpoint for 'finetune' (repeatable per preset; default: the checkpoint of the preview model, named in its manifest)")
     p.add_argument("--threads", type=int, default=None, help="CPU threads for torch and onnxruntime")
     p.add_argument("--repeats", type=int, default=None, help="timed repeats of baseline/preview (default 3)")
     p.add_argument("--bf16", action="store_true", help="bfloat16 autocast in training")

@@ -9,8 +9,9 @@ baseline   guessed diffuse map (:func:`svbrdf.trainer.losses.guessed_diffuse`) a
 preview    the ONNX generator through the runtime (:func:`svbrdf.runtime.session.estimate`); ``--model`` or
            the packaged model; median time of ``estimate`` over ``repeats`` after one warm-up (session load
            time recorded separately as ``load_seconds``). Needs a model.
-finetune   stage two of the trainer from a stage-one checkpoint (``--init``, default the packaged
-           ``svbrdf.models/*.pt``), one run per case and preset, evaluated at every requested iteration count.
+finetune   stage two of the trainer from a stage-one checkpoint (``--init``, default the one the preview
+           model was exported from, :func:`svbrdf.trainer.checkpoint.default_checkpoint`), one run per case
+           and preset, evaluated at every requested iteration count.
 scratch    the trainer from random weights (stage ``fit``), same evaluation points.
 =========  ===========================================================================================
 
@@ -31,7 +32,6 @@ import importlib.util
 import statistics
 import time
 from dataclasses import dataclass, field
-from importlib import resources
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
@@ -78,7 +78,8 @@ class BenchOptions:
         time_budget: seconds of training per run (None = no limit).
         model: ONNX model for ``preview`` (None = the packaged/``SVBRDF_MODEL`` lookup).
         init: stage-one checkpoint for ``finetune``: a path or loaded checkpoint for every preset, or a
-            mapping preset -> path/checkpoint (None = the packaged checkpoints).
+            mapping preset -> path/checkpoint (None = the checkpoint of the preview model,
+            :func:`svbrdf.trainer.checkpoint.default_checkpoint`).
         threads: CPU threads for torch and onnxruntime (None = the libraries' defaults).
         repeats: timed repeats of the cheap methods (median reported).
         bf16: bfloat16 autocast in training.
@@ -194,15 +195,6 @@ class Preview(Method):
                 "threads": maps.meta.get("threads")}
 
 
-def packaged_checkpoints() -> List[Path]:
-    """Stage-one checkpoints shipped in ``svbrdf.models`` (``*.pt``), sorted by name."""
-    try:
-        root = resources.files("svbrdf.models")
-    except ModuleNotFoundError:
-        return []
-    return sorted(Path(str(p)) for p in root.iterdir() if p.name.endswith(".pt"))
-
-
 class Training(Method):
     """``finetune`` (from a stage-one checkpoint) or ``scratch`` (random weights)."""
 
@@ -222,20 +214,15 @@ class Training(Method):
             return init.get(preset)
         if init is not None:
             return init
-        found = packaged_checkpoints()
-        if not found:
-            return None
-        # Prefer a packaged checkpoint pretrained with this preset; else the first one.
-        for path in found:
-            if preset in path.stem.split("_") or path.stem == preset:
-                return path
-        return found[0]
+        from svbrdf.trainer.checkpoint import default_checkpoint
+
+        return default_checkpoint(opts.model)
 
     def unavailable(self, opts, preset=None):
         if not torch_available():
             return "torch is not installed"
         if self.name == "finetune" and self.init_for(opts, preset) is None:
-            return "no stage-one checkpoint (give --init CKPT; none packaged in svbrdf.models)"
+            return "no stage-one checkpoint (give --init CKPT; the preview model's manifest names none)"
         return None
 
     def _load_ckpt(self, init):
@@ -348,4 +335,4 @@ METHODS: Dict[str, Method] = {m.name: m for m in (Baseline(), Preview(), Trainin
 
 
 __all__ = ["Point", "BenchOptions", "Method", "Baseline", "Preview", "Training", "METHODS", "BASELINE_ROUGHNESS",
-           "BASELINE_SPECULAR", "packaged_checkpoints", "torch_available"]
+           "BASELINE_SPECULAR", "torch_available"]

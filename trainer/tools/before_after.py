@@ -44,7 +44,7 @@ def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:
 def main(argv: Optional[Sequence[str]] = None) -> int:
     from svbrdf.trainer import train as T
     from svbrdf.trainer.bench.cases import prepare_case
-    from svbrdf.trainer.bench.methods import packaged_checkpoints
+    from svbrdf.trainer.checkpoint import default_checkpoint
     from svbrdf.trainer.checkpoint import load_checkpoint
     from svbrdf.trainer.config import resolve
 
@@ -53,7 +53,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--presets", default="fast-v1,fast", help="comma list, one row per preset (default fast-v1,fast)")
     p.add_argument("--iters", type=int, default=600, help="fine-tune iterations (default 600)")
     p.add_argument("--size", type=int, default=256, help="side of the centre square, px (default 256)")
-    p.add_argument("--init", type=Path, default=None, help="stage-one checkpoint (default: the packaged one)")
+    p.add_argument("--init", type=Path, default=None, help="stage-one checkpoint (default: the packaged model's)")
     p.add_argument("--threads", type=int, default=1)
     p.add_argument("--out", type=Path, required=True, help="PNG path (a JSON is written beside it)")
     p.add_argument("--force", action="store_true", help="overwrite existing outputs")
@@ -61,7 +61,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         if args.out.exists() and not args.force:
             raise SvbrdfError(f"{args.out}: exists (use --force to overwrite)")
-        init = args.init or (packaged_checkpoints() or [None])[0]
+        init = args.init or default_checkpoint()
         if init is None:
             raise SvbrdfError("no stage-one checkpoint: pass --init CKPT")
         ckpt = load_checkpoint(init)

@@ -1,0 +1,168 @@
+"""The procedural pretraining materials (svbrdf.trainer.procedural) and their contact sheet tool."""
+
+import numpy as np
+import pytest
+import torch
+
+from svbrdf.runtime.imageio import read_image
+from svbrdf.runtime.maps import N_CHANNELS, SLICES
+from svbrdf.trainer.models import height_to_normal
+from svbrdf.trainer.procedural import FAMILIES, PARAMS, sample_materials
+from svbrdf.trainer.tools import contact_sheet
+
+
+def _gen(seed):
+    return torch.Generator().manual_seed(seed)
+
+
+@pytest.fixture(scope="module")
+def big_batch():
+    """~240 materials of 48 px from all families (coverage statistics)."""
+    torch.set_num_threads(1)
+    return sample_materials(240, 48, _gen(123))
+
+
+def _check_valid(maps):
+    assert maps.dtype == torch.float32 and torch.isfinite(maps).all()
+    for name in ("diffuse", "specular", "roughness"):
+        m = maps[:, SLICES[name]]
+        assert m.min() >= 0.0 and m.max() <= 1.0, name
+    n = maps[:, SLICES["normal"]]
+    assert (n.norm(dim=1) - 1).abs().max() < 1e-4
+    assert (n[:, 2] > 0).all()
+
+
+# ---- shapes, ranges, families ----
+
+@pytest.mark.parametrize("family", FAMILIES)
+def test_each_family_valid_and_bumpy(family):
+    maps, names = sample_materials(3, 64, _gen(7), [family])
+    assert maps.shape == (3, N_CHANNELS, 64, 64) and names == [family] * 3
+    _check_valid(maps)
+    n = maps[:, SLICES["normal"]]
+    # normals come from a non-flat height field: tilted somewhere and not all identical
+    assert (n[:, 2] < 0.9999).any(dim=(1, 2)).all()
+    assert (n.flatten(2).std(-1) > 1e-3).any(dim=1).all()
+
+
+def test_every_family_reachable_by_default():
+    _, names = sample_materials(60, 16, _gen(3))
+    assert set(names) == set(FAMILIES) and len(FAMILIES) >= 10
+
+
+def test_bad_arguments():
+    g = _gen(0)
+    with pytest.raises(ValueError, match="unknown famil"):
+        sample_materials(2, 32, g, ["tiles", "marble-ish"])
+    with pytest.raises(ValueError, match="unknown famil"):
+        sample_materials(2, 32, g, [])
+    with pytest.raises(ValueError, match="n must be"):
+        sample_materials(0, 32, g)
+    with pytest.raises(ValueError, match="size must be"):
+        sample_materials(2, 7, g)
+
+
+def test_deterministic_given_generator_state():
+    a, na = sample_materials(4, 32, _gen(11))
+    b, nb = sample_materials(4, 32, _gen(11))
+    c, _ = sample_materials(4, 32, _gen(12))
+    assert torch.equal(a, b) and na == nb
+    assert not torch.equal(a, c)
+    # global RNGs are not used: reseeding them changes nothing, and they are not advanced
+    torch.manual_seed(999)
+    np.random.seed(999)
+    state = torch.get_rng_state()
+    d, _ = sample_materials(4, 32, _gen(11))
+    assert torch.equal(a, d) and torch.equal(state, torch.get_rng_state())
+
+
+# ---- statistics over a big batch ----
+
+def test_parameter_box_coverage(big_batch):
+    maps, _ = big_batch
+    _check_valid(maps)
+    d, s, r = (maps[:, SLICES[k]] for k in ("diffuse", "specular", "roughness"))
+    for c in range(3):
+        assert d[:, c].min() < 0.02 and d[:, c].max() > 0.8
+    assert s.min() < 0.03 and s.max() > 0.6
+    assert r.min() < 0.1 and r.max() > 0.9
+    # per-material means spread too (not only pixel outliers)
+    assert r.mean(dim=(1, 2, 3)).min() < 0.3 and r.mean(dim=(1, 2, 3)).max() > 0.8
+    assert d.mean(dim=(1, 2, 3)).min() < 0.05 and d.mean(dim=(1, 2, 3)).max() > 0.5
+
+
+def test_neutral_share(big_batch):
+    maps, _ = big_batch
+    d = maps[:, SLICES["diffuse"]]
+    chroma = (d.amax(1) - d.amin(1)).flatten(1).amax(1)
+    share = (chroma == 0).float().mean().item()
+    assert 0.2 <= share <= 0.5
+    assert (chroma > 0.1).float().mean() > 0.3  # and the rest is really coloured
+
+
+def test_normal_angle_distribution(big_batch):
+    maps, _ = big_batch
+    ang = torch.rad2deg(torch.acos(maps[:, SLICES["normal"]][:, 2].clamp(max=1.0))).flatten(1).mean(1)
+    assert 5.0 <= ang.mean() <= 15.0
+    assert ang.min() < 3.0 and ang.max() > 18.0  # from almost flat to strongly bumpy
+
+
+def test_specular_and_roughness_follow_classes(big_batch):
+    """Few distinct levels: a material's specular is mostly near its 2-3 class values, not free noise."""
+    maps, names = big_batch
+    s = maps[:, SLICES["specular"]].flatten(1)
+    dielectric = s.amax(1) < 0.35
+    assert dielectric.float().mean() > 0.5
+    # dielectrics sit mostly in 0.02-0.08
+    med = s[dielectric].median(dim=1).values
+    assert ((med > 0.015) & (med < 0.09)).float().mean() > 0.6
+
+
+def test_metal_families_dark_diffuse_high_specular():
+    maps, _ = sample_materials(12, 48, _gen(5), ["brushed_metal"])
+    spec = maps[:, SLICES["specular"]]
+    diff = maps[:, SLICES["diffuse"]]
+    # the dominant class is metal: where specular is high, diffuse is near black
+    metal = spec[:, 0] > 0.45
+    assert metal.float().mean() > 0.5
+    # (pixels blended at a class edge with a dielectric class are the few exceptions)
+    dark = diff.amax(1)[metal] < PARAMS["metal_diffuse_max"] * 1.4  # incl. the mild noise modulation
+    assert dark.float().mean() > 0.97
+
+
+def test_normals_match_height_to_normal_parameterisation():
+    """A normal map from height_to_normal has curl-free slopes: recover a height and re-derive the normals."""
+    maps, _ = sample_materials(2, 32, _gen(8), ["tiles"])
+    n = maps[:, SLICES["normal"]].double()
+    # height_to_normal: nx = -s dh/dcol, ny = s dh/drow  ->  integrate along the first row, then down the columns
+    gx, gy = -n[:, 0] / n[:, 2], n[:, 1] / n[:, 2]
+    h = torch.zeros_like(gx)
+    h[:, 0, 1:] = torch.cumsum(gx[:, 0, :-1], dim=-1)
+    h[:, 1:, :] = h[:, :1, :] + torch.cumsum(gy[:, :-1, :], dim=-2)
+    again = height_to_normal(h[:, None], 1.0)
+    # the last row / column of height_to_normal is flat by construction; compare the interior
+    assert torch.allclose(again[..., :-1, :-1], n[..., :-1, :-1], atol=1e-5)
+
+
+def test_speed_8x256_one_thread():
+    torch.set_num_threads(1)
+    sample_materials(2, 256, _gen(0))  # warm-up (FFT plans, caches)
+    import time
+    t = time.perf_counter()
+    sample_materials(8, 256, _gen(1))
+    assert time.perf_counter() - t < 1.0  # budget 0.3 s; loose bound for a shared CI machine
+
+
+# ---- contact sheet tool ----
+
+def test_contact_sheet_writes_and_refuses_overwrite(tmp_path, capsys):
+    out = tmp_path / "sheet.png"
+    args = ["--out", str(out), "--per-family", "2", "--size", "16", "--families", "tiles,wood"]
+    assert contact_sheet.main(args) == 0
+    img = read_image(out)
+    gap = contact_sheet.GAP
+    assert img.shape == (2 * (16 + gap), 2 * (5 * 16 + gap), 3)
+    assert contact_sheet.main(args) == 2
+    assert "exists" in capsys.readouterr().err
+    assert contact_sheet.main(args + ["--force"]) == 0
+    assert contact_sheet.main(["--out", str(tmp_path / "x.png"), "--families", "nope"]) == 2

@@ -1,0 +1,440 @@
+"""Stage one learned from many materials: supervised pretraining of the generator on procedural materials.
+
+The paper pretrains stage one on a single photo with its unsupervised losses; that prior has only ever seen one
+material. Here the same generator (same architecture, so the fine-tune, the ONNX export and the runtime are
+unchanged) is trained on an endless, seeded stream of procedural materials
+(:func:`svbrdf.trainer.procedural.sample_materials`), each turned into a *realistic* flash photo:
+
+1. rendered by the one renderer (:func:`svbrdf.trainer.render.render_maps`) with inverse-square fall-off, a
+   random field of view (``fov_deg``) and a flash a little off the lens axis (``light_offset``), half of the
+   photos with the physical settings of the benchmark's Mitsuba inputs
+   (:func:`svbrdf.runtime.render.physical_config`: exact Smith masking, F = F0);
+2. recorded by a random camera of :mod:`svbrdf.runtime.camera` (exposure that clips bright highlights,
+   vignetting, Poisson-Gaussian noise, 8-bit sRGB);
+3. half of the batches are ``size`` px crops of ``photo_size`` px photos (the highlight anywhere in the tile, or
+   outside it, as in the fine-tune's tiles), the other half whole ``size`` px photos.
+
+Loss: :func:`~svbrdf.trainer.losses.supervised_maps_loss` (per-map L1) + ``lambda_render`` times
+:func:`~svbrdf.trainer.losses.relit_loss` (log radiance under the flash and ``render_lights`` random point
+lights, rendered with the fine-tune's renderer settings). Adam with a cosine learning-rate decay.
+
+:class:`PriorTrainer` writes resumable, atomic checkpoints in the project's checkpoint format
+(:mod:`svbrdf.trainer.checkpoint`): ``stage="prior"``, no discriminator, ``train_config`` = the fine-tune preset
+that starts from it (so ``svbrdf-train finetune --init``, ``svbrdf-preview --refine`` and the benchmark use it as
+any stage-one checkpoint), and the prior's own settings under ``prior_config``. ``svbrdf-train prior`` is its CLI.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
+
+import numpy as np
+import torch
+
+from svbrdf.runtime.camera import REALISTIC, Camera, expose
+from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.render import RenderConfig, light_vectors, physical_config
+from svbrdf.trainer import checkpoint as ckpt_io
+from svbrdf.trainer.config import resolve
+from svbrdf.trainer.losses import relit_loss, supervised_maps_loss
+from svbrdf.trainer.models import Generator, GeneratorConfig
+from svbrdf.trainer.procedural import FAMILIES, sample_materials
+from svbrdf.trainer.render import render_maps
+from svbrdf.trainer.train import pick_device, set_threads
+
+PathLike = Union[str, Path]
+STAGE = "prior"
+#: Callback ``(trainer, record) -> stop?`` called after every iteration.
+Callback = Callable[["PriorTrainer", Dict[str, Any]], bool]
+
+
+@dataclass
+class PriorConfig:
+    """Settings of :class:`PriorTrainer` (JSON-safe through :meth:`to_dict` / :meth:`from_dict`).
+
+    Attributes:
+        generator: architecture (the ``fast`` width, encoder trained).
+        finetune_preset: the :data:`~svbrdf.trainer.config.TRAIN_PRESETS` entry whose fine-tune starts from this
+            prior; its renderer settings are the relighting loss's, and it is stored as the checkpoint's
+            ``train_config``.
+        size: side of the training images, px.
+        photo_size: side of the photos the crops come from, px (>= ``size``).
+        crop_share: fraction of batches that are crops of ``photo_size`` photos (the rest: whole ``size`` photos).
+        batch: materials per iteration.
+        iters: iterations.
+        lr, lr_min, betas: Adam; the learning rate decays from ``lr`` to ``lr_min`` on a cosine over ``iters``.
+        seed: seeds the weights and the material stream.
+        fov_deg: range of the photos' horizontal field of view, degrees (uniform).
+        light_offset: the flash sits up to this far from the lens, in each of x and y (half photo widths).
+        physical_share: fraction of photos rendered with :func:`~svbrdf.runtime.render.physical_config`.
+        camera: ranges of the camera model (default :data:`svbrdf.runtime.camera.REALISTIC`).
+        lambda_render: weight of the relighting loss.
+        render_lights: random point lights of the relighting loss (besides the flash).
+        families: procedural families to draw from (None = all).
+        checkpoint_every: iterations between checkpoints (0 = only at the end).
+        eval_every: iterations between evaluations on a fixed validation batch (0 = never).
+        eval_batch: materials in that batch (its own seed, never trained on).
+    """
+
+    generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
+    finetune_preset: str = "fast"
+    size: int = 128
+    photo_size: int = 256
+    crop_share: float = 0.5
+    batch: int = 8
+    iters: int = 5000
+    lr: float = 5e-4
+    lr_min: float = 2e-5
+    betas: Tuple[float, float] = (0.9, 0.999)
+    seed: int = 0
+    fov_deg: Tuple[float, float] = (45.0, 75.0)
+    light_offset: float = 0.08
+    physical_share: float = 0.5
+    camera: Dict[str, Tuple[float, float]] = field(default_factory=lambda: dict(REALISTIC))
+    lambda_render: float = 1.0
+    render_lights: int = 3
+    families: Optional[Tuple[str, ...]] = None
+    checkpoint_every: int = 100
+    eval_every: int = 100
+    eval_batch: int = 16
+
+    def __post_init__(self) -> None:
+        self.betas = tuple(float(b) for b in self.betas)
+        self.fov_deg = tuple(float(f) for f in self.fov_deg)
+        self.camera = {k: tuple(float(x) for x in v) for k, v in self.camera.items()}
+        if self.families is not None:
+            self.families = tuple(self.families)
+        self.validate()
+
+    def validate(self) -> None:
+        def need(ok: bool, msg: str) -> None:
+            if not ok:
+                raise ValueError(msg)
+
+        need(self.size >= 32 and self.size % self.generator_multiple() == 0,
+             f"size must be >= 32 and a multiple of {self.generator_multiple()}, got {self.size}")
+        need(self.photo_size >= self.size, f"photo_size {self.photo_size} must be >= size {self.size}")
+        need(0.0 <= self.crop_share <= 1.0, f"crop_share must be in [0, 1], got {self.crop_share}")
+        need(0.0 <= self.physical_share <= 1.0, f"physical_share must be in [0, 1], got {self.physical_share}")
+        need(self.batch >= 1 and self.iters >= 1, "batch and iters must be >= 1")
+        need(self.lr > 0 and 0 <= self.lr_min <= self.lr, f"need lr > 0 and 0 <= lr_min <= lr, got {self.lr}, "
+                                                          f"{self.lr_min}")
+        need(1.0 <= self.fov_deg[0] <= self.fov_deg[1] <= 170.0, f"bad fov_deg range {self.fov_deg}")
+        need(self.light_offset >= 0 and self.render_lights >= 0 and self.lambda_render >= 0,
+             "light_offset, render_lights and lambda_render must be >= 0")
+        need(set(self.camera) == set(REALISTIC), f"camera ranges need exactly the keys {sorted(REALISTIC)}")
+        unknown = set(self.families or ()) - set(FAMILIES)
+        need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
+        resolve(self.finetune_preset)  # raises on an unknown preset
+
+    def generator_multiple(self) -> int:
+        return 2 ** self.generator.decoder_blocks
+
+    def to_dict(self) -> Dict[str, Any]:
+        d = asdict(self)
+        d["generator"] = self.generator.to_dict()
+        d["betas"], d["fov_deg"] = list(self.betas), list(self.fov_deg)
+        d["camera"] = {k: list(v) for k, v in self.camera.items()}
+        d["families"] = None if self.families is None else list(self.families)
+        return d
+
+    @classmethod
+    def from_dict(cls, d: Mapping[str, Any]) -> "PriorConfig":
+        d = dict(d)
+        names = {f.name for f in dataclasses.fields(cls)}
+        unknown = set(d) - names
+        if unknown:
+            raise ValueError(f"unknown PriorConfig keys: {', '.join(sorted(unknown))}")
+        if "generator" in d:
+            d["generator"] = GeneratorConfig.from_dict(d["generator"])
+        return cls(**d)
+
+
+def _uniform(rng: torch.Generator, lo: float, hi: float) -> float:
+    return float(lo + (hi - lo) * torch.rand((), generator=rng).item())
+
+
+def lights_for(config: RenderConfig, n: int, rng: torch.Generator) -> List[Tuple[float, float, float]]:
+    """``n`` random point lights for relighting: x, y uniform in [-0.8, 0.8] half-widths, height the camera's
+    times [0.7, 1.3]."""
+    d = config.camera_distance
+    return [(_uniform(rng, -0.8, 0.8), _uniform(rng, -0.8, 0.8), d * _uniform(rng, 0.7, 1.3)) for _ in range(n)]
+
+
+def _geometry(h: int, w: int, light_pos, config: RenderConfig) -> Tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    v, l, d2 = light_vectors(h, w, light_pos, config)
+    return tuple(torch.from_numpy(a).permute(2, 0, 1)[None] for a in (v, l, d2))
+
+
+def simulate_photos(maps: torch.Tensor, config: PriorConfig, rng: torch.Generator,
+                    crop: Optional[int] = None) -> Tuple[torch.Tensor, torch.Tensor, List[Dict[str, Any]]]:
+    """Realistic flash photos of ``maps`` (see the module docstring, steps 1-3).
+
+    Args:
+        maps: (B, 8, P, P) ground-truth maps (CPU).
+        config: the prior settings (field of view, flash offset, renderer mix, camera ranges).
+        rng: the stream's generator (all draws come from it, so the stream is reproducible and resumable).
+        crop: side of a random crop taken from each photo (and its maps); None = the whole photo.
+
+    Returns:
+        ``(photos, maps, draws)``: (B, 3, S, S) linear photos in [0, 1], the (B, 8, S, S) maps under them, and
+        per photo ``{"fov_deg", "light", "physical", "camera"}``.
+    """
+    b, _, h, w = maps.shape
+    base = resolve(config.finetune_preset).render_config.replace(falloff=True)
+    photos, crops, draws = [], [], []
+    for i in range(b):
+        fov = _uniform(rng, *config.fov_deg)
+        physical = _uniform(rng, 0.0, 1.0) < config.physical_share
+        rc = base.replace(fov_deg=fov)
+        rc = physical_config(rc) if physical else rc
+        o = config.light_offset
+        light = (_uniform(rng, -o, o), _uniform(rng, -o, o), rc.camera_distance)
+        v, l, d2 = _geometry(h, w, light, rc)
+        with torch.no_grad():
+            radiance = render_maps(maps[i:i + 1].float(), v, l, rc, d2)[0].permute(1, 2, 0).numpy()
+        cam = Camera(**{k: _uniform(rng, *config.camera[k]) for k in ("ev", "vignetting", "shot", "read")},
+                     quantize=True)
+        seed = int(torch.randint(0, 2 ** 31 - 1, (), generator=rng))
+        photo = torch.from_numpy(expose(radiance, cam, seed=seed)).permute(2, 0, 1)
+        m = maps[i]
+        if crop is not None and crop < h:
+            y0 = int(torch.randint(0, h - crop + 1, (), generator=rng))
+            x0 = int(torch.randint(0, w - crop + 1, (), generator=rng))
+            photo, m = photo[:, y0:y0 + crop, x0:x0 + crop], m[:, y0:y0 + crop, x0:x0 + crop]
+        photos.append(photo)
+        crops.append(m)
+        draws.append({"fov_deg": fov, "light": light, "physical": physical, "camera": cam.to_dict()})
+    return torch.stack(photos).contiguous(), torch.stack(crops).contiguous(), draws
+
+
+def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None
+                 ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
+    """One training batch: ``(photos (B, 3, S, S), maps (B, 8, S, S), info)`` with ``S = config.size``."""
+    n = config.batch if batch is None else batch
+    crop = _uniform(rng, 0.0, 1.0) < config.crop_share
+    side = config.photo_size if crop else config.size
+    maps, families = sample_materials(n, side, rng, config.families)
+    photos, maps, draws = simulate_photos(maps, config, rng, crop=config.size if crop else None)
+    return photos, maps, {"families": families, "crop": crop, "draws": draws}
+
+
+def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rng: torch.Generator
+               ) -> Dict[str, torch.Tensor]:
+    """The prior's loss terms: per-map L1 (``maps/*``), relighting (``render``) and ``total``.
+
+    Relighting renders both map sets with the fine-tune's renderer settings under the flash and
+    ``config.render_lights`` random lights (:func:`lights_for`), on the training image as a whole photo.
+    """
+    terms = supervised_maps_loss(pred, target)
+    out = {f"maps/{k}": v for k, v in terms.items() if k != "total"}
+    total = terms["total"]
+    if config.lambda_render > 0:
+        rc = resolve(config.finetune_preset).render_config.replace(falloff=True)
+        h, w = pred.shape[-2:]
+        rel = []
+        for light in [None] + lights_for(rc, config.render_lights, rng):
+            v, l, d2 = (t.to(pred.device) for t in _geometry(h, w, light, rc))
+            rel.append(relit_loss(render_maps(pred, v, l, rc, d2), render_maps(target, v, l, rc, d2)))
+        out["render"] = torch.stack(rel).mean()
+        total = total + config.lambda_render * out["render"]
+    out["total"] = total
+    return out
+
+
+def map_errors(pred: torch.Tensor, target: torch.Tensor) -> Dict[str, float]:
+    """RMSE of diffuse (linear), specular and roughness, and the mean normal angle in degrees."""
+    out = {}
+    for name in ("diffuse", "specular", "roughness"):
+        out[name] = float(((pred[:, SLICES[name]] - target[:, SLICES[name]]) ** 2).mean().sqrt())
+    cos = (pred[:, SLICES["normal"]] * target[:, SLICES["normal"]]).sum(1).clamp(-1.0, 1.0)
+    out["normal_deg"] = float(torch.rad2deg(torch.acos(cos)).mean())
+    return out
+
+
+class PriorTrainer:
+    """Train the stage-one generator on the procedural stream.
+
+    Args:
+        config: settings.
+        device: torch device name (default CUDA if available, else CPU).
+        threads: CPU threads (default: all cores).
+        checkpoint_path: where :meth:`run` saves checkpoints (None = never).
+        log_path: JSONL log, one line per iteration (None = none).
+        callback: :data:`Callback`.
+    """
+
+    def __init__(self, config: PriorConfig, *, device: Optional[str] = None, threads: Optional[int] = None,
+                 checkpoint_path: Optional[PathLike] = None, log_path: Optional[PathLike] = None,
+                 callback: Optional[Callback] = None):
+        config.validate()
+        self.config = config
+        self.device = pick_device(device)
+        if self.device.type == "cpu":
+            set_threads(threads)
+        self.checkpoint_path = None if checkpoint_path is None else Path(checkpoint_path)
+        self.log_path = None if log_path is None else Path(log_path)
+        self.callback = callback
+        torch.manual_seed(config.seed)
+        self.generator = Generator(config.generator).to(self.device)
+        self.optimizer = torch.optim.Adam([p for p in self.generator.parameters() if p.requires_grad],
+                                          lr=config.lr, betas=config.betas)
+        self.rng = torch.Generator().manual_seed(config.seed)
+        self.step = 0
+        self.history: List[Dict[str, Any]] = []
+        self.evals: List[Dict[str, Any]] = []
+        self.seconds = 0.0
+        self.interrupted = False
+        self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
+
+    # ------------------------------------------------------------------ schedule
+    def lr_at(self, step: int) -> float:
+        """Cosine decay from ``lr`` (step 0) to ``lr_min`` (step ``iters``)."""
+        c = self.config
+        t = min(max(step, 0), c.iters) / c.iters
+        return c.lr_min + 0.5 * (c.lr - c.lr_min) * (1.0 + math.cos(math.pi * t))
+
+    # ------------------------------------------------------------------ training
+    def iteration(self) -> Dict[str, Any]:
+        """One optimiser step on a fresh batch; returns the log record."""
+        t0 = time.perf_counter()
+        photos, maps, info = sample_batch(self.config, self.rng)
+        t_data = time.perf_counter() - t0
+        photos, maps = photos.to(self.device), maps.to(self.device)
+        for group in self.optimizer.param_groups:
+            group["lr"] = self.lr_at(self.step)
+        self.generator.train()
+        pred = self.generator(photos)
+        terms = prior_loss(pred, maps, self.config, self.rng)
+        self.optimizer.zero_grad(set_to_none=True)
+        skipped = not torch.isfinite(terms["total"])
+        if not skipped:
+            terms["total"].backward()
+            self.optimizer.step()
+        self.step += 1
+        rec: Dict[str, Any] = {"step": self.step, "lr": self.lr_at(self.step - 1), "crop": info["crop"],
+                               "data_seconds": t_data, "seconds": time.perf_counter() - t0}
+        rec.update({k: (float(v.detach()) if torch.isfinite(v) else None) for k, v in terms.items()})
+        if skipped:
+            rec["skipped"] = True
+        return rec
+
+    def eval_set(self) -> Tuple[torch.Tensor, torch.Tensor]:
+        """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch)."""
+        if self._eval_set is None:
+            rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
+            cfg = dataclasses.replace(self.config, crop_share=0.0)
+            photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch)
+            self._eval_set = photos.to(self.device), maps.to(self.device)
+        return self._eval_set
+
+    @torch.no_grad()
+    def evaluate(self) -> Dict[str, float]:
+        """Map errors on the validation batch (:func:`map_errors`)."""
+        photos, maps = self.eval_set()
+        self.generator.eval()
+        return map_errors(self.generator(photos), maps)
+
+    def run(self) -> List[Dict[str, Any]]:
+        """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback."""
+        c = self.config
+        log = None if self.log_path is None else open(self.log_path, "a", encoding="utf-8")
+        try:
+            while self.step < c.iters:
+                rec = self.iteration()
+                self.seconds += rec["seconds"]
+                if c.eval_every and (self.step % c.eval_every == 0 or self.step == c.iters):
+                    ev = {"step": self.step, **self.evaluate()}
+                    self.evals.append(ev)
+                    rec["eval"] = ev
+                self.history.append({k: v for k, v in rec.items() if k != "eval"})
+                if log is not None:
+                    import json
+
+                    log.write(json.dumps(rec) + "\n")
+                    log.flush()
+                stop = bool(self.callback(self, rec)) if self.callback else False
+                at_end = self.step == c.iters
+                if self.checkpoint_path is not None and (
+                        at_end or stop or (c.checkpoint_every and self.step % c.checkpoint_every == 0)):
+                    self.save()
+                if stop:
+                    self.interrupted = True
+                    break
+        finally:
+            if log is not None:
+                log.close()
+        return self.history
+
+    # ------------------------------------------------------------------ checkpoints
+    def checkpoint(self) -> Dict[str, Any]:
+        """The state as a project checkpoint (see the module docstring)."""
+        finetune = resolve(self.config.finetune_preset)
+        ckpt = ckpt_io.build_checkpoint(
+            generator=self.generator, discriminator=None, train_config=finetune.to_dict(), stage=STAGE,
+            step=self.step, iters=self.config.iters, optimizers={"g": self.optimizer}, history=self.history,
+            photo={"name": "procedural materials", "sha256": None, "height": self.config.size,
+                   "width": self.config.size},
+            rng={"torch": torch.get_rng_state(), "stream": self.rng.get_state()},
+            notes=[f"stage one learned from procedural materials ({self.step} iterations of {self.config.batch})"])
+        ckpt["prior_config"] = self.config.to_dict()
+        ckpt["evals"] = [dict(e) for e in self.evals]
+        ckpt["seconds"] = float(self.seconds)
+        return ckpt
+
+    def save(self, path: Optional[PathLike] = None) -> Path:
+        """Write a checkpoint atomically to ``path`` (default ``checkpoint_path``)."""
+        path = Path(path) if path is not None else self.checkpoint_path
+        if path is None:
+            raise ValueError("no checkpoint path")
+        return ckpt_io.save_checkpoint(path, self.checkpoint())
+
+    def load_resume(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
+        """Continue exactly where ``ckpt`` stood (weights, Adam, step, history, stream and torch RNG states)."""
+        from svbrdf.runtime.errors import ModelError
+
+        if ckpt.get("stage") != STAGE or "prior_config" not in ckpt:
+            raise ModelError(f"{source}: not a prior checkpoint (stage {ckpt.get('stage')!r})")
+        if not ckpt.get("optimizers") or not ckpt.get("rng"):
+            raise ModelError(f"{source}: cleaned checkpoint (no optimiser/RNG state); cannot resume")
+        try:
+            self.generator.load_state_dict(ckpt["generator"])
+            self.optimizer.load_state_dict(ckpt["optimizers"]["g"])
+        except (KeyError, ValueError, RuntimeError) as e:
+            raise ModelError(f"{source}: does not fit this configuration ({str(e).splitlines()[0][:120]})") from None
+        self.step = int(ckpt["step"])
+        self.history = [dict(h) for h in ckpt.get("history", [])]
+        self.evals = [dict(e) for e in ckpt.get("evals", [])]
+        self.seconds = float(ckpt.get("seconds", 0.0))
+        torch.set_rng_state(ckpt["rng"]["torch"])
+        self.rng.set_state(ckpt["rng"]["stream"])
+
+
+def train_prior(config: PriorConfig, **kw) -> PriorTrainer:
+    """Train a prior from scratch (``kw``: see :class:`PriorTrainer`)."""
+    trainer = PriorTrainer(config, **kw)
+    trainer.run()
+    return trainer
+
+
+def resume_prior(checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optional[int] = None,
+                 **kw) -> PriorTrainer:
+    """Continue a prior run where ``checkpoint`` stood (its settings; ``iters`` may extend it)."""
+    source = checkpoint if not isinstance(checkpoint, Mapping) else "checkpoint"
+    ckpt = ckpt_io.load_checkpoint(checkpoint) if not isinstance(checkpoint, Mapping) else checkpoint
+    cfg = PriorConfig.from_dict(ckpt["prior_config"])
+    if iters is not None:
+        cfg = dataclasses.replace(cfg, iters=int(iters))
+    trainer = PriorTrainer(cfg, **kw)
+    trainer.load_resume(ckpt, source)
+    trainer.run()
+    return trainer
+
+
+__all__ = ["PriorConfig", "PriorTrainer", "train_prior", "resume_prior", "sample_batch", "simulate_photos",
+           "prior_loss", "map_errors", "lights_for", "STAGE"]
