@@ -18,6 +18,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     perceptual_backend, notes   what actually ran (backend name, fallbacks)
     eval_maps                   maps of the fixed evaluation tiles at the last evaluation (for the map-change signal)
     camera                      the photo's learned camera ({"vignetting": tensor}) or None
+    anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor``) or None
     versions, date              library versions, ISO date (UTC)
 
 Files are written atomically (temp file in the same folder, then ``os.replace``).
@@ -75,6 +76,7 @@ def build_checkpoint(
     notes=(),
     eval_maps: Optional[torch.Tensor] = None,
     camera: Optional[Mapping[str, torch.Tensor]] = None,
+    anchor: Optional[torch.Tensor] = None,
 ) -> Dict[str, Any]:
     """Assemble the checkpoint dict (see the module docstring); tensors are moved to the CPU."""
     def cpu(obj):
@@ -107,6 +109,7 @@ def build_checkpoint(
         "notes": list(notes),
         "eval_maps": None if eval_maps is None else cpu(eval_maps),
         "camera": None if camera is None else cpu(dict(camera)),
+        "anchor": None if anchor is None else cpu(anchor).half(),
         "versions": library_versions(),
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
     }
@@ -205,6 +208,7 @@ def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool =
     ckpt["optimizers"] = None
     ckpt["rng"] = None
     ckpt["eval_maps"] = None
+    ckpt["anchor"] = None
     if not keep_discriminator:
         ckpt["discriminator"] = None
     return save_checkpoint(dst, ckpt)

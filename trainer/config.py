@@ -64,6 +64,10 @@ class TrainConfig:
             as in the paper).
         lambda_specular_prior: weight of the dielectric prior on the specular albedo
             (:func:`svbrdf.trainer.losses.specular_prior_loss`; 0 = off, as in the paper).
+        lambda_anchor: weight of the pull of a fine-tune towards its starting point: the initial checkpoint's
+            prediction of the whole photo (the preview), compared per map as the prior is trained
+            (:func:`svbrdf.trainer.losses.supervised_maps_loss`); keeps what the photo does not constrain where a
+            learned stage one put it (0 = off, as in the paper; only a fine-tune has a starting point).
         lambda_flash: weight of the flash-correlation stationarity loss on both decoders
             (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
         learn_vignetting: fit the photo's vignetting (a darkening ``1 - v r^2`` towards the corners, one scalar
@@ -120,6 +124,7 @@ class TrainConfig:
     lambda_render: float = 0.0
     lambda_flash: float = 0.0
     lambda_specular_prior: float = 0.0
+    lambda_anchor: float = 0.0
     saturate: bool = False
     learn_vignetting: bool = False
     learn_offsets: bool = False
@@ -181,7 +186,7 @@ class TrainConfig:
         need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "
              f"got {self.betas}")
         for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash",
-                     "lambda_specular_prior"):
+                     "lambda_specular_prior", "lambda_anchor"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
         need(0 <= self.perceptual_min_clipped <= 1,
              f"perceptual_min_clipped must be in [0, 1], got {self.perceptual_min_clipped}")

@@ -42,7 +42,7 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
-                                   guessed_diffuse, render_loss, specular_prior_loss)
+                                   guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss)
 from svbrdf.trainer.models import (DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
                                    pack_maps)
 from svbrdf.trainer.perceptual import PerceptualLoss
@@ -272,6 +272,8 @@ class Trainer:
         eval_rng = torch.Generator().manual_seed(config.seed + 1)
         self.eval_boxes = [self._draw_tile(eval_rng) for _ in range(config.eval_tiles)]
         self.eval_maps: Optional[torch.Tensor] = None
+        #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``lambda_anchor``; set by load_init).
+        self.anchor: Optional[torch.Tensor] = None
 
         self.step = 0
         self.history: List[Dict[str, Any]] = []
@@ -363,6 +365,9 @@ class Trainer:
                         group["lr"], group["betas"] = self.config.lr, tuple(self.config.betas)
         self.init = {"path": str(source), "stage": ckpt.get("stage"), "step": ckpt.get("step"),
                      "photo": dict(ckpt.get("photo") or {})}
+        if self.config.lambda_anchor > 0:
+            with torch.no_grad():
+                self.anchor = self.predict().float()
 
     def load_resume(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
         """Continue exactly where ``ckpt`` stood: weights, Adam states, step, history, counters and RNG states."""
@@ -391,6 +396,10 @@ class Trainer:
             torch.cuda.set_rng_state_all(rng["cuda"])
         eval_maps = ckpt.get("eval_maps")
         self.eval_maps = None if eval_maps is None else eval_maps.to(self.device)
+        anchor = ckpt.get("anchor")
+        self.anchor = None if anchor is None else anchor.to(self.device, torch.float32)
+        if self.config.lambda_anchor > 0 and self.anchor is None and self.stage == "finetune":
+            raise ModelError(f"{source}: a fine-tune with lambda_anchor > 0 but no stored anchor; cannot resume")
 
     def _load_models(self, ckpt: Mapping[str, Any], source: PathLike) -> None:
         for key, cfg, net in (("generator", self.config.generator, self.generator),
@@ -418,7 +427,7 @@ class Trainer:
             stage=self.stage, step=self.step, iters=self.iters, optimizers=self.optimizers, history=self.history,
             photo=self.photo_info, rng=rng, counters=self.counters, init=self.init,
             perceptual_backend=self.perceptual_backend, notes=self.notes, eval_maps=self.eval_maps,
-            camera=self.camera_state())
+            camera=self.camera_state(), anchor=self.anchor)
 
     def camera_state(self) -> Optional[Dict[str, torch.Tensor]]:
         """The learned camera of this photo (``{"vignetting_logit", "vignetting"}``: 0-d tensors), or None."""
@@ -548,6 +557,9 @@ class Trainer:
         if self.flash_basis is not None:
             logged["flash"] = lfl = flash_correlation_loss(maps, self._crop(self.flash_basis, y0, x0))
             weighted.append(cfg.lambda_flash * lfl)
+        if self.anchor is not None and cfg.lambda_anchor > 0:
+            logged["anchor"] = la = supervised_maps_loss(maps, self._crop(self.anchor, y0, x0))["total"]
+            weighted.append(cfg.lambda_anchor * la)
         for term in weighted:
             shared = shared + term
         total = shared

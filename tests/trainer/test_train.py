@@ -383,6 +383,34 @@ def test_finetune_starts_from_the_pretrained_state(tmp_path):
     assert reset.optimizers["nr"].state_dict()["state"][0]["step"] == 1
 
 
+def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_path):
+    # Tiles = the whole photo, so the anchor is exactly the generator's starting output on every tile.
+    photo_a, photo_b = random_photo(48, 48, seed=1), random_photo(48, 48, seed=2)
+    ckpt = tmp_path / "pre.pt"
+    pre = pretrain(photo_a, resolve("tiny", iters_pretrain=3, tile=48), checkpoint_path=ckpt, threads=1)
+    with torch.no_grad():
+        start = predict_full(pre.generator, photo_b)
+    drift = {}
+    for w in (0.0, 50.0):
+        cfg = resolve("tiny", iters_finetune=20, lr=2e-3, lambda_anchor=w, tile=48)
+        tuned = finetune(photo_b, ckpt, cfg, threads=1)
+        if w:
+            assert torch.allclose(tuned.anchor, start, atol=1e-5)
+            assert all(h.get("ds/anchor") is not None for h in tuned.history)
+        else:
+            assert tuned.anchor is None and "ds/anchor" not in tuned.history[0]
+        drift[w] = float((tuned.predict() - start).abs().mean())
+    assert drift[50.0] < 0.7 * drift[0.0]
+    # The anchor is stored with the checkpoint, so a resumed fine-tune pulls to the same maps.
+    cfg = resolve("tiny", iters_finetune=4, lambda_anchor=1.0, tile=48)
+    path = tmp_path / "ft.pt"
+    finetune(photo_b, ckpt, dataclasses.replace(cfg, iters_finetune=2), threads=1, checkpoint_path=path)
+    stored = torch.load(path, weights_only=True)["anchor"]
+    assert stored.dtype == torch.float16 and stored.shape == start.shape
+    resumed = train_mod.resume(photo_b, path, iters=4, threads=1)
+    assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
+
+
 def test_finetune_takes_the_architecture_of_the_checkpoint(tmp_path):
     ckpt = tmp_path / "pre.pt"
     pretrain(random_photo(), resolve("tiny", iters_pretrain=1), checkpoint_path=ckpt, threads=1)
