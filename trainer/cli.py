@@ -36,7 +36,8 @@ PRESET_HELP = """training presets (cost: seconds per iteration on one thread; "A
   fast   quarter-width networks, 128 px tiles, the "joint" 1:1:1 schedule (one tile, one generator pass and one
          backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, multi-scale
          filter-bank perceptual loss ("pyramid", skipped on photos without a clipped highlight), bf16 autocast
-         where the CPU has it; 6k / 600 / 6k iterations; and the highlight-free flash model: inverse-square
+         where the CPU has it; 6k / 150 / 6k iterations (150: from the procedural stage one,
+         docs/benchmarks/prior/); and the highlight-free flash model: inverse-square
          fall-off, learned vignetting, renderings clipped like the photo, a per-pixel re-render term, the
          flash-correlation stationarity term, a scale-free L_d, learned output offsets and a dielectric
          specular prior instead of the Fourier term (docs/benchmarks/accuracy/). AMD: 0.27 s/it (0.43 s/it
