@@ -199,7 +199,7 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
         maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, overlap=overlap, maps=args.maps)
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
-    maps.meta["render_config"] = config.to_dict()
+    maps.render_config = config
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
     extra = {"tool": f"{PROG} {__version__}"}
     if args.target == "generic":

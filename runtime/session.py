@@ -292,10 +292,11 @@ def estimate(
         linear [0, 1], specular and roughness (H, W, 1) [0, 1], normal (H, W, 3) unit OpenGL. ``meta`` holds
         ``source``, ``model`` (path, sha256, verified, ``graph``: ``"full"`` or the part that ran), ``maps``
         (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
-        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``),
-        ``render_config`` and ``burn_in``: the label-free highlight burn-in of the maps computed
+        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
+        ``burn_in``: the label-free highlight burn-in of the maps computed
         (:func:`svbrdf.runtime.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, about 0.1 for a
-        stationary material, higher when the flash highlight stayed in the maps).
+        stationary material, higher when the flash highlight stayed in the maps). ``render_config`` is the
+        session's (the model's training renderer).
 
     Raises:
         ImageError: unreadable photo, bad array, or an image smaller than 8 px (before or after downsizing).
@@ -350,9 +351,8 @@ def estimate(
         "tile": tile,
         "overlap": overlap,
         "threads": session.threads,
-        "render_config": session.render_config.to_dict(),
     }
-    out = Maps.unpack(packed, meta, maps=names).clipped()
+    out = Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped()
     out.meta["burn_in"] = photo_burn_in(out, image)
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings

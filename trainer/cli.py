@@ -203,7 +203,8 @@ def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[
     from svbrdf.trainer.train import to_maps
 
     cfg = trainer.config
-    maps = to_maps(trainer.predict(), {"render_config": dict(cfg.render)})
+    maps = to_maps(trainer.predict())
+    maps.render_config = cfg.render_config
     photo = trainer.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
     camera = trainer.camera_state()
     meta = {"source_photo": trainer.photo_info.get("name"), "photo_sha256": trainer.photo_info.get("sha256"),

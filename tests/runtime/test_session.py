@@ -131,7 +131,8 @@ def test_estimate_array_in_one_pass(session):
     assert meta["tiles"] == 1 and not meta["resized"] and meta["size"] == [37, 58]
     assert meta["model"]["sha256"] == session.info.sha256 and meta["model"]["verified"]
     assert set(meta["timings"]) == {"read", "resize", "infer", "post"}
-    assert meta["render_config"]["fov_deg"] == TINY_FOV
+    assert maps.render_config == session.render_config and maps.render_config.fov_deg == TINY_FOV
+    assert "render_config" not in meta  # a typed field, not a dict in the metadata
     raw = session.run(photo)  # the maps are the model's output, clipped/renormalised only
     np.testing.assert_allclose(maps.diffuse, np.clip(raw[..., :3], 0, 1), atol=1e-6)
     from svbrdf.runtime.burn_in import photo_burn_in
