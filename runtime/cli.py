@@ -126,7 +126,7 @@ def _refine(image, session, args, name: str):
     from svbrdf.trainer import train
     from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
 
-    from .models import find_checkpoint
+    from .manifest import find_checkpoint
 
     init_path = find_checkpoint(session.info)
     init = ckpt_io.load_checkpoint(init_path)

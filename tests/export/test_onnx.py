@@ -16,7 +16,7 @@ from svbrdf.export.cli import main  # noqa: E402
 from svbrdf.export.onnx import OPSET, export_generator  # noqa: E402
 from svbrdf.runtime.errors import ModelError, SvbrdfError  # noqa: E402
 from svbrdf.runtime.maps import MAP_NAMES, SLICES  # noqa: E402
-from svbrdf.runtime.models import MANIFEST_SCHEMA, PARTS, map_layout, sha256_file  # noqa: E402
+from svbrdf.runtime.manifest import MANIFEST_SCHEMA, PARTS, map_layout, sha256_file  # noqa: E402
 from svbrdf.trainer.checkpoint import build_checkpoint, save_checkpoint  # noqa: E402
 from svbrdf.trainer.config import resolve  # noqa: E402
 from svbrdf.trainer.models import DECODER_MAPS, MODEL_PRESETS, Generator  # noqa: E402

@@ -156,7 +156,7 @@ def test_version_imports_nothing_heavy():
 
 def test_session_and_cli_do_not_import_torch():
     res = _subprocess(
-        "import svbrdf.runtime.session, svbrdf.runtime.cli, svbrdf.runtime.models, svbrdf.runtime.tiling, sys; "
+        "import svbrdf.runtime.session, svbrdf.runtime.cli, svbrdf.runtime.manifest, svbrdf.runtime.tiling, sys; "
         "assert 'torch' not in sys.modules, 'torch was imported'"
     )
     assert res.returncode == 0, res.stderr

@@ -16,7 +16,7 @@ from hypothesis import strategies as st
 
 from svbrdf.runtime.errors import ImageError, SvbrdfError
 from svbrdf.runtime.imageio import ImageWarning, read_image
-from svbrdf.runtime.models import MIN_SIZE
+from svbrdf.runtime.manifest import MIN_SIZE
 
 pytest.importorskip("onnxruntime")
 from svbrdf.runtime.cli import main  # noqa: E402
