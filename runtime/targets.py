@@ -42,6 +42,7 @@ from typing import Callable, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
+from .choices import TARGETS
 from .conversions import (
     roughness_to_smoothness,
     specgloss_to_metalrough,
@@ -55,8 +56,6 @@ from .materials import gltf_document, mtlx_document, usda_document
 from .render import ZHAO, RenderConfig
 from .texture_set import write_texture_set
 
-#: Target names, in the order shown to users.
-TARGETS: Tuple[str, ...] = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
 
 
 @dataclass(frozen=True)

@@ -59,6 +59,7 @@ class _Fail(Exception):
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from svbrdf.runtime.choices import TARGETS
     from svbrdf.trainer.config import TRAIN_PRESETS
 
     common = argparse.ArgumentParser(add_help=False)
@@ -85,7 +86,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "changing (--iters is the maximum)")
     o = common.add_argument_group("output and machine")
     o.add_argument("--out", metavar="DIR", help="output folder (default ./<photo stem>-<stage>)")
-    o.add_argument("--target", choices=("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx"),
+    o.add_argument("--target", choices=TARGETS,
                    default="generic", help="final texture set layout and material document (docs/targets.md)")
     o.add_argument("--resume", action="store_true", help="continue the run saved in --out exactly where it stopped")
     o.add_argument("--force", action="store_true", help="start over in an existing output folder")
