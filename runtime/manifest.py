@@ -22,8 +22,9 @@ session then reads the layout from the embedded metadata). The packaged model al
 Part graphs (maps on demand). onnxruntime runs the whole graph whatever outputs are fetched, so
 ``svbrdf-export`` also writes one graph per decoder of the generator, ``NAME.<part>.onnx`` for each part of
 :data:`PARTS` (one per entry of :data:`DECODERS`, the table of decoder names): the encoder plus that decoder
-only. A part has the same input and output names and shapes as the full graph (``image`` (1, 3, H, W) -> ``maps`` (1, 8, H, W), layout :data:`~svbrdf.runtime.maps.SLICES`):
-the channels of its own maps equal the full graph's, **the channels of the other maps are NaN**. The
+only. A part has the same input and output names and shapes as the full graph (``image`` (1, 3, H, W) ->
+``maps`` (1, 8, H, W), layout :data:`~svbrdf.runtime.maps.SLICES`): the channels of its own maps equal the
+full graph's, **the channels of the other maps are NaN**. The
 manifest lists them under ``"parts"``: ``{part: {"file", "sha256", "maps", "parity"}}``, file names relative to
 the manifest's folder; each part file is verified against its sha256 when it is first used
 (:meth:`ModelInfo.verify_part`). A model without ``"parts"`` (an older export) works as before with the full
