@@ -16,19 +16,22 @@ from pathlib import Path
 from typing import List, Optional
 
 from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.manifest import DECODERS, part_file_name
 
 PROG = "svbrdf-export"
 
+_PART_FILES = " and ".join(part_file_name("NAME.onnx", d.part) for d in DECODERS)
 EXAMPLES = f"""\
 examples:
   {PROG} runs/wood/checkpoint.pt                    writes runs/wood/checkpoint.onnx + checkpoint.json
   {PROG} runs/pretrain/final.pt -o models/svbrdf-v1.onnx --force
 
-Besides NAME.onnx (all four maps) it writes one graph per decoder, NAME.normal_roughness.onnx and
-NAME.diffuse_specular.onnx, so that `svbrdf-preview --maps` runs only the decoder it needs; NAME.json lists them
-with their sha256. Every graph is checked (onnx.checker, then onnxruntime against torch at 64x64, 75x101 and
-96x160) before anything is written; if any output file exists, nothing is written without --force. To ship a
-model as the packaged default, put the three .onnx files and the checkpoint into models/ and rename NAME.json
+Besides NAME.onnx (all four maps) it writes one graph per decoder
+({_PART_FILES}),
+so that `svbrdf-preview --maps` runs only the decoder it needs; NAME.json lists them with their sha256.
+Every graph is checked (onnx.checker, then onnxruntime against torch at 64x64, 75x101 and 96x160) before
+anything is written; if any output file exists, nothing is written without --force. To ship a model as the
+packaged default, put the three .onnx files and the checkpoint into models/ and rename NAME.json
 to models/manifest.json.
 """
 

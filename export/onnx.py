@@ -10,14 +10,14 @@ The graph (torch.onnx dynamo exporter, opset :data:`OPSET`, one file: ``external
   normal 5:8 unit OpenGL).
 
 Part graphs (maps on demand): beside ``NAME.onnx`` the same generator is exported once per decoder,
-``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.models.PARTS` (encoder + that decoder only; the
+``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.manifest.PARTS` (encoder + that decoder only; the
 other decoder's weights are not in the file). Same input and output contract, the channels of the maps a part
-does not compute are NaN (specified in :mod:`svbrdf.runtime.models`). Each part is checked like the full graph
+does not compute are NaN (specified in :mod:`svbrdf.runtime.manifest`). Each part is checked like the full graph
 (checker; onnxruntime against torch on its own channels, NaN on the others).
 
 Provenance goes twice: into the ONNX ``metadata_props`` (every manifest key except ``file``/``sha256``/
 ``parts``, values JSON-encoded; a part adds ``"part": {"name", "maps"}``) and into a manifest ``NAME.json``
-beside ``NAME.onnx`` (schema :data:`svbrdf.runtime.models.MANIFEST_SCHEMA`, with the file's sha256, the parity
+beside ``NAME.onnx`` (schema :data:`svbrdf.runtime.manifest.MANIFEST_SCHEMA`, with the file's sha256, the parity
 result and the ``"parts"`` entry), which the runtime verifies at load. Every file is written atomically, and
 none before all the checks pass; existing files are refused (all of them) unless ``force``.
 """
@@ -39,7 +39,7 @@ from torch import nn
 from svbrdf.runtime.errors import ModelError, SvbrdfError
 from svbrdf.runtime.files import staged_write
 from svbrdf.runtime.maps import MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES
-from svbrdf.runtime.models import (
+from svbrdf.runtime.manifest import (
     INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, input_contract, map_layout, part_file_name,
     sha256_file,
 )

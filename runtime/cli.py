@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import List, Optional
 
 from . import __version__
+from .choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
 from .errors import SvbrdfError
 from .maps import MAP_NAMES, select_maps
 
@@ -46,10 +47,6 @@ SKIP_REFINE_RMSE = 0.117
 # percentile of the ground-truth maps' own burn-in over the 38 shared ground-truth sets at 256 px (mean 0.115,
 # median 0.109, p90 0.173, p95 0.246, max 0.462), i.e. a level a stationary material rarely reaches by chance.
 SKIP_REFINE_BURN_IN = 0.25
-
-# Kept in step with svbrdf.runtime.targets.TARGETS (a test checks); listed here so --help stays import-free.
-_TARGETS = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
-
 
 def _positive(text: str) -> int:
     try:
@@ -84,15 +81,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fov", metavar="DEG", type=float,
                    help="camera field of view across the photo width, for the relit preview "
                         "(default: the model's training value)")
-    p.add_argument("--normal", choices=("gl", "dx"), default="gl",
-                   help="normal map convention: gl = OpenGL, green up; dx = DirectX, green down (default: gl)")
+    p.add_argument("--normal", type=normal_convention, choices=SUPPORTED_NORMAL_CONVENTIONS, default="opengl",
+                   help="normal map convention: opengl (or gl) = green up; dx = DirectX, green down (default: opengl)")
     p.add_argument("--format", choices=("png", "exr"), default="png",
                    help="normal/roughness/specular files: 16-bit png or float exr (default: png)")
     p.add_argument("--max-size", metavar="N", type=_positive, default=2048,
                    help="downsize photos whose long side exceeds N pixels (default: 2048)")
     p.add_argument("--tile", metavar="N", type=_positive, default=1024,
                    help="process larger images in overlapping N x N tiles to bound memory (default: 1024)")
-    p.add_argument("--target", choices=_TARGETS, default="generic",
+    p.add_argument("--target", choices=TARGETS, default="generic",
                    help="output preset: file names, normal convention, packing and material document "
                         "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
     p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES,
@@ -126,7 +123,7 @@ def _refine(image, session, args, name: str):
     from svbrdf.trainer import train
     from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
 
-    from .models import find_checkpoint
+    from .manifest import find_checkpoint
 
     init_path = find_checkpoint(session.info)
     init = ckpt_io.load_checkpoint(init_path)
@@ -203,7 +200,7 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
     extra = {"tool": f"{PROG} {__version__}"}
     if args.target == "generic":
-        write_texture_set(maps, out_dir, name, normal="dx" if args.normal == "dx" else "opengl", fmt=args.format,
+        write_texture_set(maps, out_dir, name, normal=args.normal, fmt=args.format,
                           force=args.force, extra_meta=extra, relit=relit)
     else:
         write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra, relit=relit)
@@ -213,7 +210,7 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
 
 
 def _run(args) -> int:
-    if args.target != "generic" and (args.normal != "gl" or args.format != "png"):
+    if args.target != "generic" and (args.normal != "opengl" or args.format != "png"):
         raise SvbrdfError("--normal and --format apply to --target generic only; the other targets fix them")
     if args.refine:
         try:  # before any work: every photo would fail the same way

@@ -25,7 +25,7 @@ Use :data:`SLICES` (or :func:`channel_slice`) rather than bare indices.
 
 Subsets ("maps on demand"): a caller may ask for some of the maps only (:func:`select_maps` validates the
 names). A :class:`Maps` then holds ``None`` for the others; a packed array keeps the full 8-channel layout and
-the channels of maps that were not computed are NaN (see :mod:`svbrdf.runtime.models` for the part graphs).
+the channels of maps that were not computed are NaN (see :mod:`svbrdf.runtime.manifest` for the part graphs).
 """
 
 from __future__ import annotations

@@ -40,6 +40,7 @@ from typing import Callable, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
+from .choices import TARGETS
 from .conversions import (
     roughness_to_smoothness,
     specgloss_to_metalrough,
@@ -59,8 +60,6 @@ from .texture_set import (
     write_layout,
 )
 
-#: Target names, in the order shown to users.
-TARGETS: Tuple[str, ...] = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
 
 
 @dataclass(frozen=True)

@@ -219,12 +219,12 @@ def default_checkpoint(model: Optional[PathLike] = None) -> Optional[Path]:
     verified): where ``svbrdf-preview --refine``, ``svbrdf-train finetune`` and ``svbrdf-bench`` start by default.
 
     Args:
-        model: as in :func:`svbrdf.runtime.models.find_model` (None = ``$SVBRDF_MODEL``, else the packaged model).
+        model: as in :func:`svbrdf.runtime.manifest.find_model` (None = ``$SVBRDF_MODEL``, else the packaged model).
 
     Returns:
         The path, or None where that model names no checkpoint or the file is missing or altered.
     """
-    from svbrdf.runtime.models import find_checkpoint, find_model
+    from svbrdf.runtime.manifest import find_checkpoint, find_model
 
     try:
         return find_checkpoint(find_model(model))

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from svbrdf.runtime.cli import TORCH_HINT, main
+from svbrdf.runtime.cli import TORCH_HINT, build_parser, main
 from svbrdf.runtime.imageio import read_image, write_image
 
 pytest.importorskip("onnxruntime")
@@ -156,7 +156,7 @@ def test_version_imports_nothing_heavy():
 
 def test_session_and_cli_do_not_import_torch():
     res = _subprocess(
-        "import svbrdf.runtime.session, svbrdf.runtime.cli, svbrdf.runtime.models, svbrdf.runtime.tiling, sys; "
+        "import svbrdf.runtime.session, svbrdf.runtime.cli, svbrdf.runtime.manifest, svbrdf.runtime.tiling, sys; "
         "assert 'torch' not in sys.modules, 'torch was imported'"
     )
     assert res.returncode == 0, res.stderr
@@ -182,10 +182,14 @@ def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
     assert meta["refine"]["iterations"] == 1 and meta["refine"]["checkpoint"] == str(tiny_model.with_suffix(".pt"))
 
 
-def test_target_choices_match_targets_module():
-    from svbrdf.runtime import cli, targets
-
-    assert tuple(cli._TARGETS) == tuple(targets.TARGETS)
+def test_normal_accepts_the_api_names_and_the_short_alias():
+    parser = build_parser()
+    assert parser.parse_args(["a.png"]).normal == "opengl"
+    assert parser.parse_args(["a.png", "--normal", "gl"]).normal == "opengl"
+    assert parser.parse_args(["a.png", "--normal", "opengl"]).normal == "opengl"
+    assert parser.parse_args(["a.png", "--normal", "dx"]).normal == "dx"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["a.png", "--normal", "directx"])
 
 
 def test_target_gltf_writes_a_material(photo, tiny_model, tmp_path, capsys):

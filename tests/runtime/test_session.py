@@ -1,4 +1,4 @@
-"""Model lookup and verification (svbrdf.runtime.models) and onnxruntime preview inference (svbrdf.runtime.session)."""
+"""Model lookup and verification (svbrdf.runtime.manifest) and onnxruntime preview inference (svbrdf.runtime.session)."""
 
 import json
 import shutil
@@ -10,7 +10,7 @@ import pytest
 from svbrdf.runtime.errors import ImageError, ModelError, SvbrdfError
 from svbrdf.runtime.imageio import write_image
 from svbrdf.runtime.maps import MAP_NAMES
-from svbrdf.runtime.models import MODEL_ENV, find_checkpoint, find_model, map_layout
+from svbrdf.runtime.manifest import MODEL_ENV, find_checkpoint, find_model, map_layout
 from svbrdf.runtime.tiling import tile_boxes
 
 from .conftest import TINY_FOV

@@ -7,6 +7,7 @@ import OpenImageIO as oiio
 import pytest
 
 from svbrdf.runtime import conversions as cv
+from svbrdf.runtime.colour import srgb_to_linear
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.imageio import image_info, read_image
 from svbrdf.runtime.maps import Maps, normalize_normals
@@ -44,10 +45,6 @@ def _read_raw(path):
         return np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float32)
     finally:
         inp.close()
-
-
-def _srgb_decode(s):
-    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
 
 
 # ---------------------------------------------------------------------------------------------- conversions
@@ -230,7 +227,7 @@ def test_unity_smoothness_in_alpha(tmp_path, maps):
     assert ss.shape == (H, W, 4) and image_info(p["specular_smoothness"])["dtype"] == "uint16"
     np.testing.assert_allclose(ss[..., 3:], 1.0 - maps.roughness, atol=Q16)  # alpha: linear, not premultiplied
     for c in range(3):  # RGB: sRGB-encoded F0, untouched by the alpha
-        np.testing.assert_allclose(_srgb_decode(ss[..., c:c + 1]), maps.specular, atol=1e-4)
+        np.testing.assert_allclose(srgb_to_linear(ss[..., c:c + 1]), maps.specular, atol=1e-4)
     np.testing.assert_allclose(read_image(p["basecolor"]),
                                cv.to_weighted_base(maps.diffuse, maps.specular, ZHAO), atol=5e-3)
 

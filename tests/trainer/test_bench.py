@@ -7,6 +7,7 @@ import numpy as np
 import pytest
 
 from svbrdf.runtime.camera import REALISTIC, Camera
+from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import read_image, write_image
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
@@ -18,12 +19,6 @@ from svbrdf.trainer.bench.cli import main, run_benchmark
 from svbrdf.trainer.bench.methods import BenchOptions, torch_available
 
 S = 48
-
-
-def _srgb(x):
-    """The IEC 61966-2-1 encoding, written out independently of the project's colour module."""
-    x = np.asarray(x, dtype=np.float64)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0), 1 / 2.4) - 0.055)
 
 
 def _maps(n=S, seed=0, diffuse=None, roughness=0.4, specular=0.05, normal=None):
@@ -58,8 +53,8 @@ def test_known_shifts_give_known_rmse():
     assert e["diffuse_rmse"] == pytest.approx(0.1, abs=1e-6)
     assert e["roughness_rmse"] == pytest.approx(0.2, abs=1e-6)
     assert e["specular_rmse"] == pytest.approx(0.06, abs=1e-6)
-    assert e["diffuse_rmse_srgb"] == pytest.approx(float(_srgb(0.4) - _srgb(0.3)), abs=1e-4)
-    assert e["specular_rmse_srgb"] == pytest.approx(float(_srgb(0.1) - _srgb(0.04)), abs=1e-4)
+    assert e["diffuse_rmse_srgb"] == pytest.approx(float(linear_to_srgb(0.4) - linear_to_srgb(0.3)), abs=1e-4)
+    assert e["specular_rmse_srgb"] == pytest.approx(float(linear_to_srgb(0.1) - linear_to_srgb(0.04)), abs=1e-4)
     assert e["normal_rmse"] == pytest.approx(0.0, abs=1e-7)
 
 
@@ -111,7 +106,7 @@ def test_simulate_photo_camera_and_clip():
     assert not np.allclose(noisy, clean)
     assert np.array_equal(noisy, bc.simulate_photo(m, camera=Camera(read=0.05), seed=7))  # seeded
     q = bc.simulate_photo(m, camera=Camera(quantize=True))
-    codes = _srgb(q) * 255
+    codes = linear_to_srgb(q) * 255
     assert np.abs(codes - np.round(codes)).max() < 0.02
     with pytest.raises(ValueError):
         bc.simulate_photo(m, renderer="povray")

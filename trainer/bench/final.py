@@ -30,7 +30,7 @@ from svbrdf.runtime.imageio import write_image
 
 from . import report
 from .cases import load_cases
-from .cli import default_data, repo_root
+from .common import default_data, repo_root
 
 MODES = {"auto": ["--refine", "--quality", "auto"], "fixed": ["--refine"]}
 

@@ -63,7 +63,7 @@ def rmse(a: np.ndarray, b: np.ndarray) -> float:
 
 def to_srgb(linear: np.ndarray) -> np.ndarray:
     """Linear values -> clipped to [0, 1] -> sRGB-encoded (exact curve), float32, same shape."""
-    return linear_to_srgb(np.clip(np.asarray(linear, dtype=np.float32), 0.0, 1.0))
+    return linear_to_srgb(linear, clip=True)
 
 
 def angular_error_deg(pred: np.ndarray, gt: np.ndarray) -> float:

@@ -150,7 +150,7 @@ def _positive(text: str) -> int:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point; returns the exit code (0 ok, 1 failure, 2 usage error)."""
-    from .cli import repo_root
+    from .common import repo_root
 
     p = argparse.ArgumentParser(prog=PROG, description="Time estimate() for subsets of the maps against all four.")
     p.add_argument("--size", type=_positive, default=1024, help="photo side in pixels (default: 1024)")
@@ -170,7 +170,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if existing and not args.force:
         print(f"{PROG}: error: {existing[0]}: exists (use --force to overwrite)", file=sys.stderr)
         return 1
-    from .cli import machine_info
+    from .common import machine_info
     from .methods import BenchOptions
 
     try:

@@ -30,7 +30,7 @@ import torch
 from svbrdf.runtime.errors import SvbrdfError
 
 from . import report
-from .cli import repo_root
+from .common import repo_root
 
 VARIANTS = ("base", "fp32", "channels_last", "compile", "alternating", "joint")
 
