@@ -43,8 +43,7 @@ from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss)
-from svbrdf.trainer.models import (DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
-                                   pack_maps)
+from svbrdf.trainer.models import DECODER_MAPS, Discriminator, Generator, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
 from svbrdf.trainer.render import FlashGeometry
 
@@ -698,21 +697,6 @@ def last_good_path(path: PathLike) -> Path:
     return path.with_name(f"{path.stem}_last_good{path.suffix}")
 
 
-# ----------------------------------------------------------------------------------------------- stages
-def pretrain(photo: torch.Tensor, config: TrainConfig, **kw) -> Trainer:
-    """Stage 1: train from scratch for ``config.iters_pretrain`` iterations. ``kw``: see :class:`Trainer`."""
-    trainer = Trainer(photo, config, stage="pretrain", **kw)
-    trainer.run()
-    return trainer
-
-
-def fit(photo: torch.Tensor, config: TrainConfig, **kw) -> Trainer:
-    """Train from scratch on one photo for ``config.iters_fit`` iterations. ``kw``: see :class:`Trainer`."""
-    trainer = Trainer(photo, config, stage="fit", **kw)
-    trainer.run()
-    return trainer
-
-
 def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool:
     """Patience rule on the label-free re-render L1 (one value per evaluation, oldest first): True when the best
     of the last ``window`` values is not lower than ``1 - tol`` times the best before them.
@@ -728,46 +712,5 @@ def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool
     return min(render_l1[-window:]) >= (1.0 - tol) * min(render_l1[:-window])
 
 
-def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[TrainConfig, List[str]]:
-    """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept)."""
-    gen = GeneratorConfig.from_dict({**init["generator_config"], "train_encoder": config.train_encoder})
-    disc = config.discriminator
-    if init.get("discriminator_config"):
-        disc = DiscriminatorConfig.from_dict(init["discriminator_config"])
-    notes = []
-    if gen != config.generator or disc != config.discriminator:
-        notes.append("model architecture taken from the initial checkpoint")
-    d = config.to_dict()
-    d.update(generator=gen.to_dict(), discriminator=disc.to_dict())
-    return TrainConfig.from_dict(d), notes
-
-
-def finetune(photo: torch.Tensor, init: Union[PathLike, Mapping[str, Any]], config: TrainConfig, **kw) -> Trainer:
-    """Stage 2: start from a pretrained checkpoint (path or loaded dict) and train ``config.iters_finetune``
-    iterations on a new photo. The architecture comes from the checkpoint. ``kw``: see :class:`Trainer`."""
-    source = init if not isinstance(init, Mapping) else "checkpoint"
-    ckpt = ckpt_io.load_checkpoint(init) if not isinstance(init, Mapping) else init
-    config, notes = finetune_config(config, ckpt)
-    trainer = Trainer(photo, config, stage="finetune", **kw)
-    trainer.notes.extend(notes)
-    trainer.load_init(ckpt, source)
-    trainer.run()
-    return trainer
-
-
-def resume(photo: torch.Tensor, checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optional[int] = None,
-           **kw) -> Trainer:
-    """Continue a run exactly where ``checkpoint`` stood (same settings; ``iters`` may extend it)."""
-    source = checkpoint if not isinstance(checkpoint, Mapping) else "checkpoint"
-    ckpt = ckpt_io.load_checkpoint(checkpoint) if not isinstance(checkpoint, Mapping) else checkpoint
-    config = TrainConfig.from_dict(ckpt["train_config"])
-    trainer = Trainer(photo, config, stage=ckpt["stage"], iters=iters if iters is not None else ckpt.get("iters"),
-                      **kw)
-    trainer.load_resume(ckpt, source)
-    trainer.run()
-    return trainer
-
-
-__all__ = ["Trainer", "pretrain", "finetune", "fit", "resume", "finetune_config", "plateau_reached", "predict_full", "to_maps",
-           "load_photo", "photo_to_tensor", "tensor_photo_info", "pick_device", "bf16_support", "set_threads",
-           "last_good_path"]
+__all__ = ["Trainer", "plateau_reached", "predict_full", "to_maps", "load_photo", "photo_to_tensor", "tensor_photo_info",
+           "pick_device", "bf16_support", "set_threads", "last_good_path"]
