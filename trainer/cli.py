@@ -323,7 +323,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from svbrdf.trainer import checkpoint as ckpt_io
     from svbrdf.trainer.config import TRAIN_PRESETS, resolve
     from svbrdf.trainer.stage import make_trainer
-    from svbrdf.trainer.train import last_good_path, load_photo
+    from svbrdf.trainer.train import load_photo
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -374,7 +374,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         if args.stage == "finetune":
             init, source = ckpt_io.load_checkpoint(args.init), args.init
         if out.exists():  # --force: remove only this tool's files; the texture set is overwritten at the end
-            for p in (ckpt_path, last_good_path(ckpt_path), out / LOG):
+            for p in (ckpt_path, ckpt_io.last_good_path(ckpt_path), out / LOG):
                 p.unlink(missing_ok=True)
         created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)

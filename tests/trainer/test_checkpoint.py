@@ -9,7 +9,8 @@ from svbrdf.runtime.errors import ModelError
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.stage import make_trainer
-from svbrdf.trainer.train import Trainer, last_good_path
+from svbrdf.trainer.checkpoint import last_good_path
+from svbrdf.trainer.train import Trainer
 
 
 # threads=1: see tests/trainer/test_train.py.

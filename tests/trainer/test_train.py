@@ -335,7 +335,7 @@ def test_nonfinite_gradient_skips_the_step(monkeypatch):
 def test_repeated_nonfinite_steps_roll_back(monkeypatch):
     trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, guard_rollback_after=3), threads=1)
     trainer.iteration()
-    trainer._take_snapshot()
+    trainer.guard.take_snapshot()
     good_g, good_d = params(trainer.generator), params(trainer.discriminator)
     trainer.iteration()  # moves away from the snapshot
     assert not torch.equal(good_g, params(trainer.generator))
