@@ -591,5 +591,5 @@ def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool
     return min(render_l1[-window:]) >= (1.0 - tol) * min(render_l1[:-window])
 
 
-__all__ = ["Trainer", "plateau_reached", "predict_full", "to_maps", "load_photo", "photo_to_tensor", "tensor_photo_info",
-           "pick_device", "bf16_support", "set_threads"]
+__all__ = ["Trainer", "plateau_reached", "predict_full", "to_maps", "load_photo", "photo_to_tensor",
+           "tensor_photo_info", "pick_device", "bf16_support", "set_threads"]

@@ -12,8 +12,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from svbrdf.runtime.maps import Maps, normal_gl_to_dx
-from svbrdf.runtime.render import (ALPHA_MIN, DESCHAINTRE, ZHAO, RenderConfig, novel_lights, render, rerender_rmse, shade,
-                                   to_srgb)
+from svbrdf.runtime.render import (ALPHA_MIN, DESCHAINTRE, ZHAO, RenderConfig, novel_lights, render, rerender_rmse,
+                                   shade, to_srgb)
 
 
 def _constant_maps(h, w, diffuse=(0.5, 0.5, 0.5), specular=0.0, roughness=0.5, normal=(0.0, 0.0, 1.0)):
