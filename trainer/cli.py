@@ -321,7 +321,8 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     # Imported here so that --help and usage errors stay fast (no torch import).
     from svbrdf.trainer import checkpoint as ckpt_io
     from svbrdf.trainer.config import TRAIN_PRESETS, resolve
-    from svbrdf.trainer.train import Trainer, finetune_config, last_good_path, load_photo
+    from svbrdf.trainer.stage import make_trainer
+    from svbrdf.trainer.train import load_photo
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -355,20 +356,10 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     kw = dict(device=args.device, threads=args.threads, photo_info=info, checkpoint_path=ckpt_path,
               log_path=out / LOG)
     if args.resume:
-        ckpt = ckpt_io.load_checkpoint(ckpt_path)
-        if ckpt["stage"] != args.stage:
-            raise _Fail(f"{ckpt_path}: is a {ckpt['stage']!r} run, not {args.stage!r}")
-        from svbrdf.trainer.config import TrainConfig
-
-        try:
-            config = TrainConfig.from_dict(ckpt["train_config"])
-        except (TypeError, ValueError) as e:
-            raise _Fail(f"{ckpt_path}: bad training settings ({e})") from None
-        iters = args.iters if args.iters is not None else ckpt.get("iters")
-        trainer = Trainer(photo, config, stage=args.stage, iters=iters, **kw)
-        trainer.load_resume(ckpt, ckpt_path)
+        trainer = make_trainer(photo, args.stage, resume=ckpt_path, iters=args.iters, **kw)
         log(f"resuming {ckpt_path} at iteration {trainer.step}/{trainer.iters} (settings from the checkpoint)")
-        ignored = [k for k, v in _overrides(args, config).items() if v is not None and k != f"iters_{args.stage}"]
+        ignored = [k for k, v in _overrides(args, trainer.config).items()
+                   if v is not None and k != f"iters_{args.stage}"]
         if ignored or args.preset is not None:
             log("note: training settings given with --resume are ignored (they come from the checkpoint)")
     else:
@@ -377,27 +368,24 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             config = resolve(preset, **_overrides(args, TRAIN_PRESETS[preset]))
         except ValueError as e:
             parser.error(str(e))
-        init = None
+        # Read before anything is removed: a bad --init leaves the folder as it was.
+        init = source = None
         if args.stage == "finetune":
-            init = ckpt_io.load_checkpoint(args.init)
-            config, notes = finetune_config(config, init)
+            init, source = ckpt_io.load_checkpoint(args.init), args.init
         if out.exists():  # --force: remove only this tool's files; the texture set is overwritten at the end
-            for p in (ckpt_path, last_good_path(ckpt_path), out / LOG):
+            for p in (ckpt_path, ckpt_io.last_good_path(ckpt_path), out / LOG):
                 p.unlink(missing_ok=True)
         created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         try:
-            trainer = Trainer(photo, config, stage=args.stage, **kw)
+            trainer = make_trainer(photo, args.stage, config, init=init, source=source, **kw)
         except BaseException:
-            if created:  # a refused photo or setting leaves no empty folder behind
+            if created:  # a refused photo, setting or checkpoint leaves no empty folder behind
                 try:
                     out.rmdir()
                 except OSError:
                     pass
             raise
-        if init is not None:
-            trainer.notes.extend(notes)
-            trainer.load_init(init, args.init)
     cfg = trainer.config
     log(f"{args.stage} {photo_path.name} ({info['width']}x{info['height']}) preset {cfg.preset}, "
         f"{trainer.iters} iterations, tile {trainer.tile}, device {trainer.device}"

@@ -80,7 +80,7 @@ def run_benchmark(
     """Run every selected method on every case and return the benchmark document (the JSON of ``--json``).
 
     Args:
-        data: folder (or file) searched by :func:`svbrdf.runtime.datasets.find_cases`.
+        data: folder (or file) searched by :func:`svbrdf.trainer.bench.datasets.find_cases`.
         methods: names in :data:`svbrdf.trainer.bench.methods.METHODS`; a training method may name its own
             presets, ``"scratch:fast+zhao"`` (default: ``presets``), and a cap on its evaluated iteration
             counts, ``"finetune@600"``.
@@ -140,7 +140,7 @@ def run_benchmark(
         raise SvbrdfError("--noise and --quantize apply to --clean inputs; realistic inputs draw their own camera")
     kw = dict(realistic=realistic, renderer=renderer, config=opts.config, noise=noise, quantize=quantize)
     if quick and cases is None:
-        from svbrdf.runtime.datasets import find_cases
+        from svbrdf.trainer.bench.datasets import find_cases
 
         found = find_cases(data)
         if not found:

@@ -209,7 +209,7 @@ def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[
     ``SKIP_REFINE_RMSE``, a label-free test) does on these cases: how many it skips, the fine-tune time it saves
     (fraction of the summed fine-tune seconds at each run's last point) and the error price on the skipped cases
     (mean preview error / fine-tuned error)."""
-    from svbrdf.runtime.cli import SKIP_REFINE_RMSE
+    from svbrdf.runtime.preview_check import SKIP_REFINE_RMSE
 
     prev = {r["case"]: r for r in records if r["method"] == "preview" and r["kind"] == kind}
     last: Dict[str, Mapping[str, Any]] = {}

@@ -16,7 +16,7 @@ Start: camera and light above the brightest point of the (blurred) input panel, 
 e from the mean ratio, g = 1.
 
 A second table gives an independent, fit-free check of the normal convention:
-:func:`svbrdf.runtime.datasets.normal_curl_ratio` of every ground-truth set (Des18, Des19, Xuejiao).
+:func:`svbrdf.trainer.bench.datasets.normal_curl_ratio` of every ground-truth set (Des18, Des19, Xuejiao).
 
 Usage::
 
@@ -39,7 +39,7 @@ import numpy as np
 import torch
 import torch.nn.functional as F
 
-from svbrdf.runtime.datasets import find_cases, normal_curl_ratio, read_des18, read_gt
+from svbrdf.trainer.bench.datasets import find_cases, normal_curl_ratio, read_des18, read_gt
 from svbrdf.runtime.maps import MAP_NAMES, Maps
 from svbrdf.runtime.render import DESCHAINTRE, plane_positions
 from svbrdf.trainer.colour import linear_to_srgb

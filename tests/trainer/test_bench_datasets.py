@@ -1,4 +1,4 @@
-"""Ground-truth readers, format detection and the case finder (svbrdf.runtime.datasets)."""
+"""Ground-truth readers, format detection and the case finder (svbrdf.trainer.bench.datasets)."""
 
 import math
 from pathlib import Path
@@ -7,7 +7,7 @@ import numpy as np
 import pytest
 
 from svbrdf.runtime.colour import srgb_to_linear
-from svbrdf.runtime.datasets import (
+from svbrdf.trainer.bench.datasets import (
     Case, detect_format, find_cases, normal_curl_ratio, read_des18, read_des19, read_gt, read_xuejiao,
 )
 from svbrdf.runtime.errors import ImageError
