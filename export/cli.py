@@ -15,7 +15,7 @@ import warnings
 from pathlib import Path
 from typing import List, Optional
 
-from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.errors import SvbrdfError, parse_command_line
 from svbrdf.runtime.manifest import DECODERS, part_file_name
 
 PROG = "svbrdf-export"
@@ -64,10 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``svbrdf-export``; returns the exit code."""
     parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help / --version (0) and usage errors (2)
-        return int(exc.code or 0)
+    args, code = parse_command_line(parser, argv)
+    if args is None:  # --help / --version (0) or a usage error (2)
+        return code
     out = args.out if args.out is not None else args.checkpoint.with_suffix(".onnx")
     if out.suffix != ".onnx":
         parser.print_usage(sys.stderr)

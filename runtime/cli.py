@@ -18,7 +18,7 @@ from typing import List, Optional
 
 from . import __version__
 from .choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
-from .errors import SvbrdfError
+from .errors import SvbrdfError, parse_command_line
 from .maps import MAP_NAMES, select_maps
 from .preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
 
@@ -240,10 +240,9 @@ def _run(args) -> int:
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``svbrdf-preview``; returns the exit code (see the module docstring)."""
     parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help / --version (0) and usage errors (2)
-        return int(exc.code or 0)
+    args, code = parse_command_line(parser, argv)
+    if args is None:  # --help / --version (0) or a usage error (2)
+        return code
     if args.fov is not None and not 1.0 <= args.fov <= 170.0:
         return _usage(parser, f"--fov must be in [1, 170] degrees, got {args.fov}")
     if args.max_size < 8 or args.tile < 8:

@@ -21,7 +21,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor``) or None
     versions, date              library versions, ISO date (UTC)
 
-Files are written atomically (temp file in the same folder, then ``os.replace``).
+Files are written atomically (:func:`svbrdf.runtime.files.atomic_write`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,6 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import platform
-import secrets
 import shutil
 from pathlib import Path
 from typing import Any, Dict, Mapping, Optional, Tuple, Union
@@ -38,6 +37,7 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.errors import ModelError
+from svbrdf.runtime.files import atomic_write
 from svbrdf.trainer.models import Generator, GeneratorConfig
 
 FORMAT = "svbrdf-train-checkpoint"
@@ -118,13 +118,8 @@ def build_checkpoint(
 
 def _atomic_save(obj: Any, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
+    with atomic_write(path, force=True, error=ModelError) as tmp:
         torch.save(obj, tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 
@@ -354,16 +349,12 @@ def save_trainer(trainer, path: PathLike) -> Path:
     save_checkpoint(path, trainer_checkpoint(trainer))
     if trainer.counters["nonfinite_skips"] == trainer._skips_at_last_save:
         good = last_good_path(path)
-        tmp = good.with_name(f".{good.name}.tmp")
-        try:
-            tmp.unlink(missing_ok=True)
+        with atomic_write(good, force=True, error=ModelError) as tmp:
+            tmp.unlink()  # the reserved temporary name, for a hard link (no copy) where the file system allows
             try:
-                os.link(path, tmp)  # no copy: the next checkpoint is a new file (os.replace), this one stays
+                os.link(path, tmp)  # the next checkpoint is a new file (os.replace), this one stays
             except OSError:
                 shutil.copyfile(path, tmp)
-            os.replace(tmp, good)
-        finally:
-            tmp.unlink(missing_ok=True)
     trainer._skips_at_last_save = trainer.counters["nonfinite_skips"]
     return path
 

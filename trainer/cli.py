@@ -22,6 +22,8 @@ import warnings
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Tuple
 
+from svbrdf.runtime.errors import parse_command_line
+
 PROG = "svbrdf-train"
 CHECKPOINT = "checkpoint.pt"
 LOG = "train_log.jsonl"
@@ -436,10 +438,9 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 def main(argv: Optional[List[str]] = None) -> int:
     parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as e:  # --help (0) or a usage error (2)
-        return int(e.code or 0)
+    args, code = parse_command_line(parser, argv)
+    if args is None:  # --help / --version (0) or a usage error (2)
+        return code
     try:
         from svbrdf.runtime.errors import SvbrdfError
 

@@ -35,6 +35,7 @@ import torch
 
 from svbrdf.runtime.camera import radius2
 from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
 from svbrdf.trainer import checkpoint as ckpt_io
@@ -43,11 +44,14 @@ from svbrdf.trainer.guard import NumericalGuard
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss)
-from svbrdf.trainer.models import DECODER_MAPS, Discriminator, Generator, pack_maps
+from svbrdf.trainer.models import Discriminator, Generator, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
 from svbrdf.trainer.render import FlashGeometry
 
 PathLike = Union[str, os.PathLike]
+
+_DECODER_BY_KEY = {d.key: d for d in DECODERS}
+
 #: Start of the learned vignetting's logit: v = 0.9 sigmoid(t) = 0.05 (a mild lens darkening).
 VIGNETTING_START_LOGIT = math.log(0.05 / 0.85)
 #: ``callback(trainer, record)`` after every iteration; returning True stops the run (after this iteration).
@@ -236,12 +240,11 @@ class Trainer:
             self.perceptual_backend = self.perceptual.backend_name
             if config.perceptual == "auto" or self.perceptual_backend != config.perceptual:
                 self.notes.append(f"perceptual loss backend: {self.perceptual_backend}")
-        self.params = {
-            "nr": list(self.generator.decoder_nr.parameters()),
-            "ds": list(self.generator.decoder_ds.parameters())
-            + (list(self.generator.encoder.parameters()) if config.train_encoder else []),
-            "d": list(self.discriminator.parameters()),
-        }
+        # One optimiser per decoder (DECODERS' keys, "nr" then "ds"; the encoder trains with "ds"), one for D.
+        self.params = {d.key: list(getattr(self.generator, d.module).parameters()) for d in DECODERS}
+        if config.train_encoder:
+            self.params["ds"] += list(self.generator.encoder.parameters())
+        self.params["d"] = list(self.discriminator.parameters())
         # The photo's learned camera (per photo: never taken from a stage-one checkpoint) and the generator's output
         # offsets, trained by their own Adam at camera_lr.
         self.vignetting_logit: Optional[torch.Tensor] = None
@@ -394,7 +397,7 @@ class Trainer:
     def _g_step(self, key: str, terms: Dict[str, List[torch.Tensor]]) -> None:
         y0, x0 = self._draw_tile(self.tile_rng)
         x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
-        trained = DECODER_MAPS["decoder_nr" if key == "nr" else "decoder_ds"]
+        trained = _DECODER_BY_KEY[key].maps
         frozen = tuple(n for n in MAP_NAMES if n not in trained)
         size = (x.shape[-2], x.shape[-1])
         with self._amp():
