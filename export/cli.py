@@ -15,20 +15,23 @@ import warnings
 from pathlib import Path
 from typing import List, Optional
 
-from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.errors import SvbrdfError, parse_command_line
+from svbrdf.runtime.manifest import DECODERS, part_file_name
 
 PROG = "svbrdf-export"
 
+_PART_FILES = " and ".join(part_file_name("NAME.onnx", d.part) for d in DECODERS)
 EXAMPLES = f"""\
 examples:
   {PROG} runs/wood/checkpoint.pt                    writes runs/wood/checkpoint.onnx + checkpoint.json
   {PROG} runs/pretrain/final.pt -o models/svbrdf-v1.onnx --force
 
-Besides NAME.onnx (all four maps) it writes one graph per decoder, NAME.normal_roughness.onnx and
-NAME.diffuse_specular.onnx, so that `svbrdf-preview --maps` runs only the decoder it needs; NAME.json lists them
-with their sha256. Every graph is checked (onnx.checker, then onnxruntime against torch at 64x64, 75x101 and
-96x160) before anything is written; if any output file exists, nothing is written without --force. To ship a
-model as the packaged default, put the three .onnx files and the checkpoint into models/ and rename NAME.json
+Besides NAME.onnx (all four maps) it writes one graph per decoder
+({_PART_FILES}),
+so that `svbrdf-preview --maps` runs only the decoder it needs; NAME.json lists them with their sha256.
+Every graph is checked (onnx.checker, then onnxruntime against torch at 64x64, 75x101 and 96x160) before
+anything is written; if any output file exists, nothing is written without --force. To ship a model as the
+packaged default, put the three .onnx files and the checkpoint into models/ and rename NAME.json
 to models/manifest.json.
 """
 
@@ -61,10 +64,9 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``svbrdf-export``; returns the exit code."""
     parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help / --version (0) and usage errors (2)
-        return int(exc.code or 0)
+    args, code = parse_command_line(parser, argv)
+    if args is None:  # --help / --version (0) or a usage error (2)
+        return code
     out = args.out if args.out is not None else args.checkpoint.with_suffix(".onnx")
     if out.suffix != ".onnx":
         parser.print_usage(sys.stderr)

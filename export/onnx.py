@@ -10,14 +10,14 @@ The graph (torch.onnx dynamo exporter, opset :data:`OPSET`, one file: ``external
   normal 5:8 unit OpenGL).
 
 Part graphs (maps on demand): beside ``NAME.onnx`` the same generator is exported once per decoder,
-``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.models.PARTS` (encoder + that decoder only; the
+``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.manifest.PARTS` (encoder + that decoder only; the
 other decoder's weights are not in the file). Same input and output contract, the channels of the maps a part
-does not compute are NaN (specified in :mod:`svbrdf.runtime.models`). Each part is checked like the full graph
+does not compute are NaN (specified in :mod:`svbrdf.runtime.manifest`). Each part is checked like the full graph
 (checker; onnxruntime against torch on its own channels, NaN on the others).
 
 Provenance goes twice: into the ONNX ``metadata_props`` (every manifest key except ``file``/``sha256``/
 ``parts``, values JSON-encoded; a part adds ``"part": {"name", "maps"}``) and into a manifest ``NAME.json``
-beside ``NAME.onnx`` (schema :data:`svbrdf.runtime.models.MANIFEST_SCHEMA`, with the file's sha256, the parity
+beside ``NAME.onnx`` (schema :data:`svbrdf.runtime.manifest.MANIFEST_SCHEMA`, with the file's sha256, the parity
 result and the ``"parts"`` entry), which the runtime verifies at load. Every file is written atomically, and
 none before all the checks pass; existing files are refused (all of them) unless ``force``.
 """
@@ -27,7 +27,6 @@ from __future__ import annotations
 import datetime as _dt
 import json
 import os
-import secrets
 import time
 from pathlib import Path
 from typing import Any, Dict, Mapping, Optional, Sequence, Tuple, Union
@@ -38,8 +37,9 @@ import torch
 from torch import nn
 
 from svbrdf.runtime.errors import ModelError, SvbrdfError
+from svbrdf.runtime.files import staged_write
 from svbrdf.runtime.maps import MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES
-from svbrdf.runtime.models import (
+from svbrdf.runtime.manifest import (
     INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, input_contract, map_layout, part_file_name,
     sha256_file,
 )
@@ -239,10 +239,9 @@ def export_generator(
     generator = generator.eval()
 
     out.parent.mkdir(parents=True, exist_ok=True)
-    token = secrets.token_hex(4)
-    tmps = {g: path.with_name(f".{path.name}.{token}.tmp") for g, (path, _) in graphs.items()}
-    manifest_tmp = manifest_path.with_name(f".{manifest_path.name}.{token}.tmp")
-    try:
+    # The graphs before the manifest that lists their sha256; the full graph after its parts.
+    order = [path.name for g, (path, _) in graphs.items() if g != "full"] + [out.name, manifest_path.name]
+    with staged_write(out.parent, order, force=force) as stage:
         manifest: Dict[str, Any] = {
             "schema": MANIFEST_SCHEMA,
             "file": out.name,
@@ -258,12 +257,13 @@ def export_generator(
         props = {k: json.dumps(v) for k, v in manifest.items() if k not in ("file", "sha256")}
         results: Dict[str, Dict[str, Any]] = {}
         for g, (path, maps) in graphs.items():
-            model = _export(_Graph(generator, maps).eval(), tmps[g], opset, source)
+            tmp = stage / path.name
+            model = _export(_Graph(generator, maps).eval(), tmp, opset, source)
             part = {} if g == "full" else {"part": json.dumps({"name": g, "maps": list(maps)})}
             onnx.helper.set_model_props(model, {**props, **part})
-            onnx.save(model, str(tmps[g]))
-            parity = _check(tmps[g], path, generator, sizes, maps) if check else []
-            results[g] = {"path": path, "sha256": sha256_file(tmps[g]), "bytes": tmps[g].stat().st_size,
+            onnx.save(model, str(tmp))
+            parity = _check(tmp, path, generator, sizes, maps) if check else []
+            results[g] = {"path": path, "sha256": sha256_file(tmp), "bytes": tmp.stat().st_size,
                           "parity": parity, "max_abs_diff": max((p["max_abs_diff"] for p in parity), default=None)}
         full = results["full"]
         manifest["sha256"] = full["sha256"]
@@ -273,15 +273,7 @@ def export_generator(
                 "parity": {"atol": PARITY_ATOL, "results": results[p]["parity"]}}
             for p in PARTS
         }
-        manifest_tmp.write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
-        for g, (path, _) in graphs.items():  # the graphs before the manifest that lists their sha256
-            if g != "full":
-                os.replace(tmps[g], path)
-        os.replace(tmps["full"], out)
-        os.replace(manifest_tmp, manifest_path)
-    finally:
-        for tmp in (*tmps.values(), manifest_tmp):
-            tmp.unlink(missing_ok=True)
+        (stage / manifest_path.name).write_text(json.dumps(manifest, indent=2) + "\n", encoding="utf-8")
     return {
         "path": out,
         "manifest_path": manifest_path,

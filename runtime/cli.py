@@ -17,8 +17,10 @@ from pathlib import Path
 from typing import List, Optional
 
 from . import __version__
-from .errors import SvbrdfError
+from .choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
+from .errors import SvbrdfError, parse_command_line
 from .maps import MAP_NAMES, select_maps
+from .preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
 
 PROG = "svbrdf-preview"
 TORCH_HINT = '--refine needs torch: pip install "svbrdf[train]"'
@@ -37,18 +39,6 @@ Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name
 --maps only those maps' files and the sidecar are written (no relit panel: it needs all four maps).
 """
 
-
-# --refine --quality auto skips the fine-tune when the preview's sRGB RMSE under the input flash is already at or
-# below this: the mean that 200 fast fine-tune iterations reach on the 12 Henzler photos
-# (docs/benchmarks/finetune-henzler/results.md: 0.117).
-SKIP_REFINE_RMSE = 0.117
-# ... and only when the preview's label-free burn-in (svbrdf.runtime.burn_in) is at or below this: the 95th
-# percentile of the ground-truth maps' own burn-in over the 38 shared ground-truth sets at 256 px (mean 0.115,
-# median 0.109, p90 0.173, p95 0.246, max 0.462), i.e. a level a stationary material rarely reaches by chance.
-SKIP_REFINE_BURN_IN = 0.25
-
-# Kept in step with svbrdf.runtime.targets.TARGETS (a test checks); listed here so --help stays import-free.
-_TARGETS = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
 
 
 def _positive(text: str) -> int:
@@ -84,15 +74,15 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--fov", metavar="DEG", type=float,
                    help="camera field of view across the photo width, for the relit preview "
                         "(default: the model's training value)")
-    p.add_argument("--normal", choices=("gl", "dx"), default="gl",
-                   help="normal map convention: gl = OpenGL, green up; dx = DirectX, green down (default: gl)")
+    p.add_argument("--normal", type=normal_convention, choices=SUPPORTED_NORMAL_CONVENTIONS, default="opengl",
+                   help="normal map convention: opengl (or gl) = green up; dx = DirectX, green down (default: opengl)")
     p.add_argument("--format", choices=("png", "exr"), default="png",
                    help="normal/roughness/specular files: 16-bit png or float exr (default: png)")
     p.add_argument("--max-size", metavar="N", type=_positive, default=2048,
                    help="downsize photos whose long side exceeds N pixels (default: 2048)")
     p.add_argument("--tile", metavar="N", type=_positive, default=1024,
                    help="process larger images in overlapping N x N tiles to bound memory (default: 1024)")
-    p.add_argument("--target", choices=_TARGETS, default="generic",
+    p.add_argument("--target", choices=TARGETS, default="generic",
                    help="output preset: file names, normal convention, packing and material document "
                         "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
     p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES,
@@ -120,41 +110,47 @@ def _error(msg: str) -> None:
     print(f"{PROG}: error: {msg}", file=sys.stderr)
 
 
-def _refine(image, session, args, name: str):
-    """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear) and return the trainer's Maps."""
-    from svbrdf.trainer import checkpoint as ckpt_io
-    from svbrdf.trainer import train
-    from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
+def _load_refine():
+    """The runtime's one call into the trainer, :func:`svbrdf.trainer.refine.refine`, imported only for ``--refine``.
 
-    from .models import find_checkpoint
+    Raises:
+        SvbrdfError: torch (the training side) is not installed.
+    """
+    try:
+        from svbrdf.trainer.refine import refine
+    except ImportError as exc:
+        if (exc.name or "").split(".")[0] not in ("torch", "kornia"):
+            raise
+        raise SvbrdfError(TORCH_HINT) from None
+    return refine
 
-    init_path = find_checkpoint(session.info)
-    init = ckpt_io.load_checkpoint(init_path)
-    # The checkpoint's preset as this version defines it (fine-tune length, stopping rule...); the architecture
-    # comes from the checkpoint itself (train.finetune_config). An unknown preset keeps the recorded settings.
-    preset = init["train_config"].get("preset")
-    cfg = (resolve(preset) if preset in TRAIN_PRESETS else TrainConfig.from_dict(init["train_config"])).to_dict()
-    cfg["quality"] = "auto" if args.quality == "auto" else "fixed"
-    if args.iters:
-        cfg["iters_finetune"] = args.iters
-    photo = train.photo_to_tensor(image)
+
+def _refine(refine, image, session, config, args, name: str):
+    """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear), or with ``--quality auto`` keep
+    the preview when it already explains the photo; returns the Maps (``meta["refine"]`` says which)."""
+    from .manifest import find_checkpoint
+    from .session import DEFAULT_OVERLAP, estimate
+
+    preview = None
+    if args.quality == "auto":  # the skip rule compares the instant preview with the photo
+        preview = estimate(image, session, max_size=args.max_size, tile=args.tile,
+                           overlap=min(DEFAULT_OVERLAP, args.tile // 4), maps=MAP_NAMES)
 
     def progress(trainer, record):  # a one-line counter, only for a person watching a terminal
         print(f"\r{name}: refining {trainer.step}/{trainer.iters}", end="", file=sys.stderr, flush=True)
 
     show = not args.quiet and sys.stderr.isatty()
-    trainer = train.finetune(photo, init, TrainConfig.from_dict(cfg), threads=args.threads,
-                             photo_info=train.tensor_photo_info(photo, name), callback=progress if show else None)
-    if show:
+    maps = refine(image, lambda: find_checkpoint(session.info), quality=args.quality or "fixed", iters=args.iters,
+                  threads=args.threads, name=name, callback=progress if show else None, preview=preview,
+                  render_config=config)
+    if show and not maps.meta["refine"].get("skipped"):
         print(file=sys.stderr)
-    meta = {"refine": {"checkpoint": str(init_path), "iterations": trainer.step,
-                       "stopped_early": trainer.stopped_early, "notes": list(trainer.notes)}}
-    return train.to_maps(trainer.predict(), meta)
+    return maps
 
 
-def _process(photo: Path, session, config, args, out_dir: Path) -> str:
-    """Estimate (or refine), render and write one texture set; returns the report line."""
-    from .burn_in import photo_burn_in
+def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> str:
+    """Estimate (or refine with ``refine``, see :func:`_load_refine`), render and write one texture set; returns the
+    report line."""
     from .session import DEFAULT_OVERLAP, estimate
     from .targets import write_target
     from .texture_set import relit_panel, write_texture_set
@@ -169,27 +165,13 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
         from .session import resize_long_side
 
         image = resize_long_side(read_image(photo), args.max_size)
-        maps, preview_rmse, preview_burn = None, None, None
-        if args.quality == "auto":  # skip the fine-tune when the instant preview already explains the photo
-            from svbrdf.trainer.bench.metrics import rerender_rmse
-
-            preview = estimate(image, session, max_size=args.max_size, tile=args.tile,
-                               overlap=min(DEFAULT_OVERLAP, args.tile // 4), maps=MAP_NAMES)
-            preview_rmse = rerender_rmse(preview, image, [None], config)
-            preview_burn = preview.meta["burn_in"]["burn_in"]
-            if preview_rmse <= SKIP_REFINE_RMSE and preview_burn <= SKIP_REFINE_BURN_IN:
-                maps = preview
-                maps.meta["refine"] = {"skipped": True, "preview_input_rmse": preview_rmse,
-                                       "threshold": SKIP_REFINE_RMSE, "preview_burn_in": preview_burn,
-                                       "burn_in_threshold": SKIP_REFINE_BURN_IN}
-                detail = f"refine skipped: the preview explains the photo (RMSE {preview_rmse:.3f}, burn-in " \
-                         f"{preview_burn:.2f})"
-        if maps is None:
-            maps = _refine(image, session, args, photo.name)
-            maps.meta["burn_in"] = photo_burn_in(maps, image)
-            if preview_rmse is not None:
-                maps.meta["refine"].update(preview_input_rmse=preview_rmse, preview_burn_in=preview_burn)
-            detail = f"refined {maps.meta['refine']['iterations']} it"
+        maps = _refine(refine, image, session, config, args, photo.name)
+        record = maps.meta["refine"]
+        if record.get("skipped"):
+            detail = f"refine skipped: the preview explains the photo (RMSE {record['preview_input_rmse']:.3f}, " \
+                     f"burn-in {record['preview_burn_in']:.2f})"
+        else:
+            detail = f"refined {record['iterations']} it"
         # The fine-tune trains (and its losses render) every map; only the requested ones are written.
         maps = maps.subset(args.maps)
         maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256},
@@ -199,11 +181,11 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
         maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, overlap=overlap, maps=args.maps)
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
-    maps.meta["render_config"] = config.to_dict()
+    maps.render_config = config
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
     extra = {"tool": f"{PROG} {__version__}"}
     if args.target == "generic":
-        write_texture_set(maps, out_dir, name, normal="dx" if args.normal == "dx" else "opengl", fmt=args.format,
+        write_texture_set(maps, out_dir, name, normal=args.normal, fmt=args.format,
                           force=args.force, extra_meta=extra, relit=relit)
     else:
         write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra, relit=relit)
@@ -213,13 +195,9 @@ def _process(photo: Path, session, config, args, out_dir: Path) -> str:
 
 
 def _run(args) -> int:
-    if args.target != "generic" and (args.normal != "gl" or args.format != "png"):
+    if args.target != "generic" and (args.normal != "opengl" or args.format != "png"):
         raise SvbrdfError("--normal and --format apply to --target generic only; the other targets fix them")
-    if args.refine:
-        try:  # before any work: every photo would fail the same way
-            import torch  # noqa: F401
-        except ImportError:
-            raise SvbrdfError(TORCH_HINT) from None
+    refine = _load_refine() if args.refine else None  # before any work: every photo would fail the same way
     from .session import load_session
 
     session = load_session(args.model, threads=args.threads, maps=args.maps)
@@ -246,7 +224,7 @@ def _run(args) -> int:
             seen[key] = photo
             with warnings.catch_warnings(record=True) as caught:
                 warnings.simplefilter("always")
-                line = _process(photo, session, config, args, out_dir)
+                line = _process(photo, session, config, args, out_dir, refine)
             if not args.quiet:
                 for w in caught:
                     print(f"{PROG}: warning: {w.message}", file=sys.stderr)
@@ -262,10 +240,9 @@ def _run(args) -> int:
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``svbrdf-preview``; returns the exit code (see the module docstring)."""
     parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help / --version (0) and usage errors (2)
-        return int(exc.code or 0)
+    args, code = parse_command_line(parser, argv)
+    if args is None:  # --help / --version (0) or a usage error (2)
+        return code
     if args.fov is not None and not 1.0 <= args.fov <= 170.0:
         return _usage(parser, f"--fov must be in [1, 170] degrees, got {args.fov}")
     if args.max_size < 8 or args.tile < 8:

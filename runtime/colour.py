@@ -12,7 +12,9 @@ Rec.709 primaries, so only the transfer function changes, and it is the exact pi
 
 and its inverse (``12.92 l`` for ``l <= 0.0031308``, else ``1.055 l^{1/2.4} - 0.055``), to within 3e-5
 (measured against this closed form; see ``tests/runtime/test_colour.py``). It is applied per channel.
-Values below 0 follow the linear segment and values above 1 the power segment (no clamping here).
+Values below 0 follow the linear segment and values above 1 the power segment (no clamping here, unless
+:func:`linear_to_srgb` is asked to ``clip``). The torch pair of the trainer, :mod:`svbrdf.trainer.colour`, is the
+same curve with the same convention.
 
 Two traps this module avoids (see the platform notes): converting a uint8 buffer keeps uint8 precision, and
 OpenImageIO's ``"scene_linear"`` role is a different gamut (ACEScg), not linear sRGB.
@@ -63,15 +65,19 @@ def srgb_to_linear(arr: np.ndarray) -> np.ndarray:
     return _convert(arr, SRGB_SPACE, LINEAR_SPACE)
 
 
-def linear_to_srgb(arr: np.ndarray) -> np.ndarray:
+def linear_to_srgb(arr: np.ndarray, clip: bool = False) -> np.ndarray:
     """Encode linear values to sRGB (exact IEC 61966-2-1 curve, per channel).
 
     Args:
         arr: float array of any shape (typically (H, W, C)), linear, nominally in [0, 1].
+        clip: clip the linear values to [0, 1] first (as for display, or for an error measured on what a
+            viewer sees); default: no clamping (see the module docstring).
 
     Returns:
-        float32 array of the same shape, sRGB-encoded. Clip to [0, 1] before quantising.
+        float32 array of the same shape, sRGB-encoded. Without ``clip``, clip to [0, 1] before quantising.
     """
+    if clip:
+        arr = np.clip(np.asarray(arr, dtype=np.float32), 0.0, 1.0)
     return _convert(arr, LINEAR_SPACE, SRGB_SPACE)
 
 

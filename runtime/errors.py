@@ -14,3 +14,16 @@ class ImageError(SvbrdfError):
 
 class ModelError(SvbrdfError):
     """A model file is missing, corrupt, or does not match its manifest."""
+
+
+def parse_command_line(parser, argv=None):
+    """Parse ``argv`` with an ``argparse.ArgumentParser`` the way every command of the project does.
+
+    Returns:
+        ``(args, None)`` on success, or ``(None, code)`` when argparse ended the command: 0 after ``--help`` or
+        ``--version``, 2 after a usage error (already printed by argparse). A CLI's ``main`` returns the code.
+    """
+    try:
+        return parser.parse_args(argv), None
+    except SystemExit as exc:
+        return None, int(exc.code or 0)

@@ -11,8 +11,8 @@ Reading (:func:`read_image`): any format OpenImageIO reads (PNG 8/16-bit, JPEG, 
 * grayscale becomes RGB; alpha (read unassociated, so colour is not premultiplied) and any channel after
   the third are dropped with an :class:`ImageWarning`.
 
-Writing (:func:`write_image`): PNG (8/16-bit), OpenEXR (half/float) or TIFF (8/16/32-bit), atomically (temp
-file in the same folder, then ``os.replace``), never over an existing file unless ``force=True``.
+Writing (:func:`write_image`): PNG (8/16-bit), OpenEXR (half/float) or TIFF (8/16/32-bit), atomically
+(:func:`svbrdf.runtime.files.atomic_write`), never over an existing file unless ``force=True``.
 
 OpenImageIO never raises on a bad file; every call here is checked and turned into an
 :class:`~svbrdf.runtime.errors.ImageError` with a one-line message ``"<path>: <problem>"``.
@@ -21,7 +21,6 @@ OpenImageIO never raises on a bad file; every call here is checked and turned in
 from __future__ import annotations
 
 import os
-import secrets
 import warnings
 from pathlib import Path
 from typing import Union
@@ -31,6 +30,7 @@ import OpenImageIO as oiio
 
 from .colour import linear_to_srgb, srgb_to_linear
 from .errors import ImageError
+from .files import atomic_write
 
 PathLike = Union[str, os.PathLike]
 
@@ -247,22 +247,7 @@ def write_image(
         spec.attribute("oiio:UnassociatedAlpha", 1)
     if not is_float:
         spec.attribute("oiio:ColorSpace", "sRGB" if srgb_encode else "Raw")
-    # Same folder (so os.replace is atomic) and the real extension (so OpenImageIO picks the format).
-    # The name is reserved with O_EXCL; mode 0o666 lets the umask give the usual permissions.
-    tmp = None
-    for _ in range(100):
-        cand = path.with_name(f".{path.stem}.tmp-{secrets.token_hex(4)}{path.suffix}")
-        try:
-            os.close(os.open(cand, os.O_CREAT | os.O_EXCL | os.O_WRONLY, 0o666))
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            raise ImageError(f"{path}: cannot create a file in {path.parent} ({exc.strerror})") from None
-        tmp = cand
-        break
-    if tmp is None:
-        raise ImageError(f"{path}: cannot create a temporary file in {path.parent}")
-    try:
+    with atomic_write(path, force=force, error=ImageError) as tmp:  # keeps the extension: OIIO picks the format
         out = oiio.ImageOutput.create(str(tmp))
         if out is None:
             raise ImageError(f"{path}: cannot write ({_one_line(oiio.geterror())})")
@@ -271,13 +256,6 @@ def write_image(
         ok = out.close() and ok
         if not ok:
             raise ImageError(f"{path}: write failed ({_one_line(err or out.geterror())})")
-        try:
-            os.replace(tmp, path)
-        except OSError as exc:
-            raise ImageError(f"{path}: cannot replace the file ({exc.strerror})") from None
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
     return path
 
 

@@ -25,17 +25,20 @@ Use :data:`SLICES` (or :func:`channel_slice`) rather than bare indices.
 
 Subsets ("maps on demand"): a caller may ask for some of the maps only (:func:`select_maps` validates the
 names). A :class:`Maps` then holds ``None`` for the others; a packed array keeps the full 8-channel layout and
-the channels of maps that were not computed are NaN (see :mod:`svbrdf.runtime.models` for the part graphs).
+the channels of maps that were not computed are NaN (see :mod:`svbrdf.runtime.manifest` for the part graphs).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass, field
-from typing import Dict, Iterable, Iterator, Mapping, Optional, Tuple, Union
+from typing import TYPE_CHECKING, Dict, Iterable, Iterator, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
 from .errors import SvbrdfError
+
+if TYPE_CHECKING:  # render.py imports this module
+    from .render import RenderConfig
 
 #: Map names in packing order.
 MAP_NAMES: Tuple[str, ...] = ("diffuse", "specular", "roughness", "normal")
@@ -159,6 +162,9 @@ class Maps:
         roughness: (H, W, 1) perceptual roughness r in [0, 1]; alpha = r**2.
         normal: (H, W, 3) unit normals, OpenGL convention (see module docstring).
         meta: free-form provenance (source file, timings, ...), copied into sidecars.
+        render_config: the :class:`~svbrdf.runtime.render.RenderConfig` the maps were estimated for (set by
+            :func:`~svbrdf.runtime.session.estimate` and the CLIs; ``None`` = unknown). Writers describe it in
+            the sidecar and the ``--target`` conversions use its diffuse weighting (``ZHAO`` when ``None``).
 
     A map that was not computed is ``None`` (at least one is present; :attr:`names` lists them). What needs
     every map (:meth:`pack`, rendering, the relit panel, the ``--target`` conversions) checks with
@@ -170,6 +176,7 @@ class Maps:
     roughness: Optional[np.ndarray] = None
     normal: Optional[np.ndarray] = None
     meta: dict = field(default_factory=dict)
+    render_config: Optional["RenderConfig"] = None
 
     def __post_init__(self) -> None:
         shape = None
@@ -188,6 +195,12 @@ class Maps:
             setattr(self, name, arr)
         if shape is None:
             raise ValueError(f"a texture set needs at least one of the maps {', '.join(MAP_NAMES)}")
+        if self.render_config is not None:
+            from .render import RenderConfig
+
+            if not isinstance(self.render_config, RenderConfig):
+                raise TypeError(f"render_config must be a RenderConfig or None, "
+                                f"got {type(self.render_config).__name__}")
 
     @property
     def names(self) -> Tuple[str, ...]:
@@ -223,29 +236,35 @@ class Maps:
 
     @classmethod
     def unpack(cls, packed: np.ndarray, meta: dict | None = None,
-               maps: Union[None, str, Iterable[str]] = None) -> "Maps":
+               maps: Union[None, str, Iterable[str]] = None,
+               render_config: Optional["RenderConfig"] = None) -> "Maps":
         """Inverse of :meth:`pack` for a channel-last (H, W, 8) array; ``maps`` keeps only those maps
         (:func:`select_maps`; default all), e.g. the channels a part graph computed."""
         packed = np.asarray(packed, dtype=np.float32)
         if packed.ndim != 3 or packed.shape[-1] != N_CHANNELS:
             raise ValueError(f"packed maps must be (H, W, {N_CHANNELS}), got {packed.shape}")
-        return cls(**{n: packed[..., SLICES[n]] for n in select_maps(maps)}, meta=dict(meta or {}))
+        return cls(**{n: packed[..., SLICES[n]] for n in select_maps(maps)}, meta=dict(meta or {}),
+                   render_config=render_config)
 
     def subset(self, maps: Union[str, Iterable[str]]) -> "Maps":
         """The same set restricted to ``maps`` (:func:`select_maps`), which must be present; meta copied."""
         names = select_maps(maps)
         self.require(names, "subset()")
-        return Maps(**{n: getattr(self, n) for n in names}, meta=dict(self.meta))
+        return self._with({n: getattr(self, n) for n in names})
 
     def crop(self, y0: int, x0: int, h: int, w: int) -> "Maps":
-        return Maps(**{n: a[y0:y0 + h, x0:x0 + w] for n, a in self.items()}, meta=dict(self.meta))
+        return self._with({n: a[y0:y0 + h, x0:x0 + w] for n, a in self.items()})
 
     def clipped(self) -> "Maps":
         """Copy with every map clipped to its valid range and unit normals."""
         out = {n: np.clip(a, *MAP_RANGES[n]) for n, a in self.items()}
         if "normal" in out:
             out["normal"] = normalize_normals(out["normal"])
-        return Maps(**out, meta=dict(self.meta))
+        return self._with(out)
+
+    def _with(self, arrays: Mapping[str, np.ndarray]) -> "Maps":
+        """A set of these arrays with a copy of this set's meta and its render config."""
+        return Maps(**arrays, meta=dict(self.meta), render_config=self.render_config)
 
     def save(self, out_dir, name: str, **kwargs):
         """Write this texture set (only the maps present); see :func:`svbrdf.runtime.texture_set.write_texture_set`."""

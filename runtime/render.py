@@ -36,7 +36,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, replace
-from typing import Any, Optional, Sequence, Tuple
+from typing import Any, Iterable, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -270,7 +270,49 @@ def novel_lights(config: RenderConfig = ZHAO, grid: int = 3, spread: float = 0.6
     return np.array([[x, y, d] for y in ticks[::-1] for x in ticks], dtype=np.float32)
 
 
+def rerender_rmse(
+    pred: Maps,
+    reference: Union[Maps, np.ndarray],
+    lights: Iterable[Optional[Sequence[float]]],
+    config: RenderConfig = ZHAO,
+) -> float:
+    """sRGB RMSE between renders of ``pred`` and of ``reference``, pooled over ``lights``.
+
+    Every render is clipped to [0, 1] (as a display or a camera would) and sRGB-encoded
+    (:func:`svbrdf.runtime.colour.linear_to_srgb` with ``clip=True``).
+
+    Args:
+        pred: predicted texture set (H, W).
+        reference: ground-truth texture set (rendered the same way), or a linear photo (H, W, 3) that is
+            compared with every render (only meaningful for its own light).
+        lights: light positions (3,) in scene units; ``None`` = the co-located flash.
+        config: renderer settings (the same for both sides).
+
+    Returns:
+        ``sqrt(mean over lights, pixels, channels of (srgb(render_pred) - srgb(render_ref))^2)``.
+    """
+    pred = pred.clipped()
+    ref_maps = reference.clipped() if isinstance(reference, Maps) else None
+    from .colour import linear_to_srgb  # OpenImageIO: only when a metric is computed
+
+    def to_srgb(linear):
+        return linear_to_srgb(linear, clip=True)
+
+    ref_img = None if ref_maps is not None else to_srgb(reference)
+    total, count = 0.0, 0
+    for light in lights:
+        a = to_srgb(render(pred, light, config)).astype(np.float64)
+        b = ref_img if ref_maps is None else to_srgb(render(ref_maps, light, config))
+        if a.shape != b.shape:
+            raise ValueError(f"size mismatch: prediction {a.shape} vs reference {b.shape}")
+        total += float(np.sum((a - b) ** 2))
+        count += a.size
+    if count == 0:
+        raise ValueError("no lights given")
+    return float(np.sqrt(total / count))
+
+
 __all__ = [
     "RenderConfig", "ZHAO", "DESCHAINTRE", "physical_config", "shade", "render", "light_vectors", "plane_positions",
-    "camera_position", "novel_lights", "ALPHA_MIN", "COS_EPS",
+    "camera_position", "novel_lights", "rerender_rmse", "ALPHA_MIN", "COS_EPS",
 ]

@@ -2,7 +2,7 @@
 
 ::
 
-    session = load_session()                     # model lookup: see svbrdf.runtime.models
+    session = load_session()                     # model lookup: see svbrdf.runtime.manifest
     maps = estimate("photo.jpg", session)        # Maps, linear, OpenGL normals, meta with timings
     normal = estimate("photo.jpg", session, maps=["normal"]).normal   # runs only the normal decoder
 
@@ -37,7 +37,7 @@ import numpy as np
 from .burn_in import photo_burn_in
 from .errors import ImageError, ModelError, SvbrdfError
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
-from .models import (
+from .manifest import (
     INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, ModelInfo, check_layout, find_model,
 )
 from .render import ZHAO, RenderConfig
@@ -71,18 +71,18 @@ class PreviewSession:
     """onnxruntime sessions on an exported generator, with what its manifest says about it.
 
     A session may hold up to three onnxruntime sessions: the full graph and the part graphs of
-    :data:`~svbrdf.runtime.models.PARTS`, each created on first use (:meth:`graph_for` picks the graph for a
+    :data:`~svbrdf.runtime.manifest.PARTS`, each created on first use (:meth:`graph_for` picks the graph for a
     set of maps). The graph the session's default ``maps`` need is created at once, so a file onnxruntime
     cannot load fails here.
 
     Args:
-        info: the located model (:func:`svbrdf.runtime.models.find_model`).
+        info: the located model (:func:`svbrdf.runtime.manifest.find_model`).
         threads: intra-op threads (default: every core this process may run on).
         maps: the maps :func:`estimate` computes by default (:func:`~svbrdf.runtime.maps.select_maps`;
             default all four).
 
     Attributes:
-        info: :class:`~svbrdf.runtime.models.ModelInfo` (path, sha256, manifest, note).
+        info: :class:`~svbrdf.runtime.manifest.ModelInfo` (path, sha256, manifest, note).
         maps: the default maps, in :data:`~svbrdf.runtime.maps.MAP_NAMES` order.
         metadata: the manifest, or the metadata embedded in the ONNX file when there is no manifest.
         render_config: :class:`RenderConfig` the model was trained with (``ZHAO`` if unrecorded).
@@ -215,7 +215,7 @@ class PreviewSession:
 
 def load_session(model: Union[str, os.PathLike, None] = None, threads: Optional[int] = None,
                  maps: Union[None, str, Iterable[str]] = None) -> PreviewSession:
-    """Find, verify and load a model (lookup order in :mod:`svbrdf.runtime.models`).
+    """Find, verify and load a model (lookup order in :mod:`svbrdf.runtime.manifest`).
 
     ``maps`` (default all) are the maps :func:`estimate` computes by default; only the graph they need is
     loaded now (a part graph for the maps of one decoder, when the model has it), others on first use.
@@ -292,10 +292,11 @@ def estimate(
         linear [0, 1], specular and roughness (H, W, 1) [0, 1], normal (H, W, 3) unit OpenGL. ``meta`` holds
         ``source``, ``model`` (path, sha256, verified, ``graph``: ``"full"`` or the part that ran), ``maps``
         (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
-        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``),
-        ``render_config`` and ``burn_in``: the label-free highlight burn-in of the maps computed
+        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
+        ``burn_in``: the label-free highlight burn-in of the maps computed
         (:func:`svbrdf.runtime.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, about 0.1 for a
-        stationary material, higher when the flash highlight stayed in the maps).
+        stationary material, higher when the flash highlight stayed in the maps). ``render_config`` is the
+        session's (the model's training renderer).
 
     Raises:
         ImageError: unreadable photo, bad array, or an image smaller than 8 px (before or after downsizing).
@@ -350,9 +351,8 @@ def estimate(
         "tile": tile,
         "overlap": overlap,
         "threads": session.threads,
-        "render_config": session.render_config.to_dict(),
     }
-    out = Maps.unpack(packed, meta, maps=names).clipped()
+    out = Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped()
     out.meta["burn_in"] = photo_burn_in(out, image)
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings

@@ -18,45 +18,48 @@ every file, and the material document written next to the textures (layouts and 
 * ``mtlx``: the same files; ``<n>.mtlx`` (``standard_surface``).
 
 All files are PNG; base colours are 8-bit sRGB, data maps linear ("Non-Color") and untagged. Every preset
-also writes the ``<n>.json`` sidecar of :func:`write_texture_set` (BRDF model, render config, metadata) with
-its ``files`` entry describing the preset's files and a ``target`` entry (conversion, import notes), and the
-optional ``<n>_relit.png`` preview.
+also writes the ``<n>.json`` sidecar of :func:`~svbrdf.runtime.texture_set.write_texture_set` (BRDF model,
+render config, metadata) with its ``files`` entry describing the preset's files and a ``target`` entry
+(conversion, import notes), and the optional ``<n>_relit.png`` preview.
 
 The parameter conversions (base colour, F0, metal-rough, smoothness) are those of
 :mod:`svbrdf.runtime.conversions`.
 
-Safety is that of :func:`write_texture_set`: all files are made in a hidden staging folder inside ``out_dir``
-(the four maps and the sidecar by :func:`write_texture_set` itself) and only moved into place when all were
+Each preset is a layout (:class:`~svbrdf.runtime.texture_set.Layout`: file role -> image or document) that
+the one texture-set writer, :func:`~svbrdf.runtime.texture_set.write_layout`, plans and commits; ``generic``
+is :func:`~svbrdf.runtime.texture_set.generic_layout`. Safety is therefore that of every texture set: all
+files are made in a hidden staging folder inside ``out_dir`` and only moved into place when all were
 written; an existing file is never replaced unless ``force``.
 """
 
 from __future__ import annotations
 
-import json
-import os
-import secrets
-import shutil
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from pathlib import Path
 from typing import Callable, Dict, Mapping, Optional, Tuple
 
 import numpy as np
 
+from .choices import TARGETS
 from .conversions import (
     roughness_to_smoothness,
     specgloss_to_metalrough,
     to_khr_specular,
     to_weighted_base,
 )
-from .errors import ImageError
-from .imageio import write_image
 from .maps import Maps, encode_normal
 from .materials import gltf_document, mtlx_document, usda_document
-from .render import ZHAO, RenderConfig
-from .texture_set import write_texture_set
+from .render import RenderConfig
+from .texture_set import (
+    GENERIC_FILES,
+    RELIT_FILE,
+    SIDECAR_FILE,
+    Layout,
+    TextureFile,
+    generic_layout,
+    write_layout,
+)
 
-#: Target names, in the order shown to users.
-TARGETS: Tuple[str, ...] = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
 
 
 @dataclass(frozen=True)
@@ -83,13 +86,12 @@ class TargetPreset:
 _AMBIENTCG = {"basecolor": "{name}_Color.png", "normal": "{name}_NormalGL.png",
               "roughness": "{name}_Roughness.png", "specular": "{name}_Specular.png"}
 
-#: The presets (``generic`` is :func:`write_texture_set` with its defaults).
+#: The presets (``generic`` is :func:`~svbrdf.runtime.texture_set.write_texture_set` with its defaults).
 PRESETS: Mapping[str, TargetPreset] = {
     "generic": TargetPreset(
         "generic", "the project's own layout: diffuse, specular (F0), roughness, normal (OpenGL), JSON sidecar",
         "opengl", 16,
-        {"basecolor": "{name}_basecolor.png", "normal": "{name}_normal.png", "roughness": "{name}_roughness.png",
-         "specular": "{name}_specular.png"}),
+        {role: template.replace("{ext}", "png") for role, (_, template) in GENERIC_FILES.items()}),
     "gltf": TargetPreset(
         "gltf", "web glTF 2.0: unit quad, KHR_materials_specular material and a metal-rough fallback, 8-bit PNG",
         "opengl", 8,
@@ -132,20 +134,7 @@ PRESETS: Mapping[str, TargetPreset] = {
         ("load <name>.mtlx (MaterialX Viewer, Houdini, Maya, Arnold, Omniverse); texture paths are relative to it",)),
 }
 
-_SIDECAR = "{name}.json"
-_RELIT = "{name}_relit.png"
-
-
-@dataclass
-class _Plan:
-    """How one target is made from a :func:`write_texture_set` output written in the staging folder."""
-
-    maps: Maps  # what write_texture_set writes (its base colour is the target's base colour)
-    keep: Dict[str, str]  # write_texture_set role -> target role (file kept, renamed)
-    images: Dict[str, Tuple[np.ndarray, int, bool]]  # target role -> (array, bits, sRGB-encode)
-    files: Dict[str, dict]  # target role -> sidecar description of the file
-    documents: Dict[str, Callable[[str, Mapping[str, str]], str]] = field(default_factory=dict)  # (name, files)
-    conversion: str = ""
+Builder = Callable[[Maps, RenderConfig, TargetPreset, str], Layout]
 
 
 def _describe(content: str, colour_space: str, bits: int, channels: int, **more) -> dict:
@@ -160,8 +149,17 @@ def _grey3(a: np.ndarray) -> np.ndarray:
     return np.repeat(a, 3, axis=-1)
 
 
-def _metal_rough(m: Maps, config: RenderConfig) -> Tuple[np.ndarray, np.ndarray]:
-    return specgloss_to_metalrough(to_weighted_base(m.diffuse, m.specular, config), m.specular)
+def _generic_files(p: TargetPreset, name: str, files: Mapping[str, str], info: Mapping[str, dict],
+                   **maps: np.ndarray) -> Dict[str, TextureFile]:
+    """Files of the project's own layout (base colour 8-bit sRGB, data maps 16-bit PNG, normal in the
+    preset's convention) for ``maps``, renamed and described as the preset's roles ``info``."""
+    layout = generic_layout(Maps(**maps), name, p.normal).files
+    return {role: replace(layout[role], file=files[role], info=info[role]) for role in info}
+
+
+def _layout(p: TargetPreset, files: Dict[str, TextureFile], conversion: str) -> Layout:
+    return Layout(files, p.normal, {"name": p.name, "description": p.description, "conversion": conversion,
+                                    "import_notes": list(p.notes)})
 
 
 _WEIGHTED_BASE = "base colour = diffuse * w_d / (1 - specular) (diffuse lobe weighted by 1 - F0)"
@@ -169,113 +167,104 @@ _KHRONOS_MR = ("metal-rough by the Khronos spec-gloss conversion of (diffuse * w
                "specular); roughness unchanged")
 
 
-def _plan_gltf(m: Maps, config: RenderConfig, p: TargetPreset) -> _Plan:
+def _plan_generic(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
+    return generic_layout(maps, name, p.normal)
+
+
+def _plan_gltf(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
+    m = maps.clipped()
+    f = target_files(name, p.name)
     base = to_weighted_base(m.diffuse, m.specular, config)
     factor, spec_tex = to_khr_specular(m.specular)
     fb_base, metallic = specgloss_to_metalrough(base, m.specular)
     orm = np.concatenate([np.ones_like(m.roughness), m.roughness, metallic], axis=-1)
     aspect = m.shape[0] / m.shape[1]
-
-    def main(name, f):
-        return gltf_document(name, aspect, base_color=f["basecolor"], normal=f["normal"],
-                             metallic_roughness=f["orm"], metallic_factor=0.0, specular_color=f["specularcolor"],
-                             specular_color_factor=factor)
-
-    def fallback(name, f):
-        return gltf_document(name + "_metalrough", aspect, base_color=f["fallback_basecolor"], normal=f["normal"],
-                             metallic_roughness=f["orm"], metallic_factor=1.0)
-
-    return _Plan(
-        maps=Maps(base, m.specular, m.roughness, m.normal),
-        keep={"basecolor": "basecolor"},
-        images={"normal": (encode_normal(m.normal), p.data_bits, False), "orm": (orm, p.data_bits, False),
-                "specularcolor": (spec_tex, 8, True), "fallback_basecolor": (fb_base, 8, True)},
-        files={
-            "basecolor": _describe(_WEIGHTED_BASE, "sRGB", 8, 3),
-            "normal": _normal_file(p),
-            "orm": _describe("R = 1 (no occlusion), G = roughness, B = metallic of the fallback material",
-                             "data", p.data_bits, 3),
-            "specularcolor": _describe(f"KHR_materials_specular specularColorTexture: specular / max(specular); "
-                                       f"specularColorFactor = max(specular) / 0.04 = {factor:.6g}", "sRGB", 8, 1),
-            "fallback_basecolor": _describe("base colour of the metal-rough fallback (Khronos conversion)",
-                                            "sRGB", 8, 3),
-            "gltf": {"content": "glTF 2.0, unit quad, KHR_materials_specular material, metallicFactor 0"},
-            "gltf_fallback": {"content": "glTF 2.0 core metal-rough fallback (Khronos conversion)"},
-        },
-        documents={"gltf": main, "gltf_fallback": fallback},
-        conversion=f"{_WEIGHTED_BASE}; F0 = 0.04 * specularColorFactor * specularColorTexture; fallback: "
-                   f"{_KHRONOS_MR}",
+    files = _generic_files(p, name, f, {"basecolor": _describe(_WEIGHTED_BASE, "sRGB", 8, 3)}, diffuse=base)
+    files.update(
+        normal=TextureFile(f["normal"], _normal_file(p), encode_normal(m.normal), p.data_bits),
+        orm=TextureFile(f["orm"], _describe("R = 1 (no occlusion), G = roughness, B = metallic of the fallback "
+                                            "material", "data", p.data_bits, 3), orm, p.data_bits),
+        specularcolor=TextureFile(f["specularcolor"], _describe(
+            f"KHR_materials_specular specularColorTexture: specular / max(specular); "
+            f"specularColorFactor = max(specular) / 0.04 = {factor:.6g}", "sRGB", 8, 1), spec_tex, 8, srgb=True),
+        fallback_basecolor=TextureFile(f["fallback_basecolor"], _describe(
+            "base colour of the metal-rough fallback (Khronos conversion)", "sRGB", 8, 3), fb_base, 8, srgb=True),
+        gltf=TextureFile(f["gltf"],
+                         {"content": "glTF 2.0, unit quad, KHR_materials_specular material, metallicFactor 0"},
+                         text=gltf_document(name, aspect, base_color=f["basecolor"], normal=f["normal"],
+                                            metallic_roughness=f["orm"], metallic_factor=0.0,
+                                            specular_color=f["specularcolor"], specular_color_factor=factor)),
+        gltf_fallback=TextureFile(f["gltf_fallback"],
+                                  {"content": "glTF 2.0 core metal-rough fallback (Khronos conversion)"},
+                                  text=gltf_document(name + "_metalrough", aspect, base_color=f["fallback_basecolor"],
+                                                     normal=f["normal"], metallic_roughness=f["orm"],
+                                                     metallic_factor=1.0)),
     )
+    return _layout(p, files, f"{_WEIGHTED_BASE}; F0 = 0.04 * specularColorFactor * specularColorTexture; "
+                             f"fallback: {_KHRONOS_MR}")
 
 
-def _plan_metal_rough(m: Maps, config: RenderConfig, p: TargetPreset) -> _Plan:
-    base, metallic = _metal_rough(m, config)
-    plan = _Plan(
-        maps=Maps(base, m.specular, m.roughness, m.normal),
-        keep={"basecolor": "basecolor", "normal": "normal"},
-        images={},
-        files={"basecolor": _describe("metal-rough base colour (Khronos conversion)", "sRGB", 8, 3),
-               "normal": _normal_file(p)},
-        conversion=_KHRONOS_MR,
-    )
+def _plan_metal_rough(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
+    m = maps.clipped()
+    f = target_files(name, p.name)
+    base, metallic = specgloss_to_metalrough(to_weighted_base(m.diffuse, m.specular, config), m.specular)
+    info = {"basecolor": _describe("metal-rough base colour (Khronos conversion)", "sRGB", 8, 3),
+            "normal": _normal_file(p)}
     if p.name == "unreal":
+        files = _generic_files(p, name, f, info, diffuse=base, normal=m.normal)
         orm = np.concatenate([np.ones_like(m.roughness), m.roughness, metallic], axis=-1)
-        plan.images["orm"] = (orm, p.data_bits, False)
-        plan.files["orm"] = _describe("R = ambient occlusion (1, none estimated), G = roughness, B = metallic",
-                                      "data", p.data_bits, 3)
+        files["orm"] = TextureFile(f["orm"], _describe("R = ambient occlusion (1, none estimated), G = roughness, "
+                                                       "B = metallic", "data", p.data_bits, 3), orm, p.data_bits)
     else:
-        plan.keep["roughness"] = "roughness"
-        plan.images["metallic"] = (metallic, p.data_bits, False)
-        plan.files["roughness"] = _describe("roughness (alpha = roughness^2)", "data", p.data_bits, 1)
-        plan.files["metallic"] = _describe("metallic (Khronos conversion)", "data", p.data_bits, 1)
-    return plan
+        info["roughness"] = _describe("roughness (alpha = roughness^2)", "data", p.data_bits, 1)
+        files = _generic_files(p, name, f, info, diffuse=base, normal=m.normal, roughness=m.roughness)
+        files["metallic"] = TextureFile(f["metallic"], _describe("metallic (Khronos conversion)", "data",
+                                                                 p.data_bits, 1), metallic, p.data_bits)
+    return _layout(p, files, _KHRONOS_MR)
 
 
-def _plan_unity(m: Maps, config: RenderConfig, p: TargetPreset) -> _Plan:
+def _plan_unity(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
+    m = maps.clipped()
+    f = target_files(name, p.name)
     albedo = to_weighted_base(m.diffuse, m.specular, config)
     spec_smooth = np.concatenate([_grey3(m.specular), roughness_to_smoothness(m.roughness)], axis=-1)
-    return _Plan(
-        maps=Maps(albedo, m.specular, m.roughness, m.normal),
-        keep={"basecolor": "basecolor", "normal": "normal"},
-        images={"specular_smoothness": (spec_smooth, p.data_bits, True)},
-        files={"basecolor": _describe(_WEIGHTED_BASE, "sRGB", 8, 3),
-               "normal": _normal_file(p),
-               "specular_smoothness": _describe("RGB = specular F0 (grey), A = smoothness = 1 - roughness",
-                                                "sRGB (RGB), linear (A)", p.data_bits, 4)},
-        conversion=f"{_WEIGHTED_BASE}; smoothness = 1 - roughness",
-    )
+    files = _generic_files(p, name, f, {"basecolor": _describe(_WEIGHTED_BASE, "sRGB", 8, 3),
+                                        "normal": _normal_file(p)}, diffuse=albedo, normal=m.normal)
+    files["specular_smoothness"] = TextureFile(
+        f["specular_smoothness"], _describe("RGB = specular F0 (grey), A = smoothness = 1 - roughness",
+                                            "sRGB (RGB), linear (A)", p.data_bits, 4), spec_smooth, p.data_bits,
+        srgb=True)
+    return _layout(p, files, f"{_WEIGHTED_BASE}; smoothness = 1 - roughness")
 
 
-def _plan_specular_workflow(m: Maps, config: RenderConfig, p: TargetPreset) -> _Plan:
+def _plan_specular_workflow(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
+    m = maps.clipped()
+    f = target_files(name, p.name)
     base = to_weighted_base(m.diffuse, m.specular, config)
-    aspect = m.shape[0] / m.shape[1]
+    files = _generic_files(p, name, f, {
+        "basecolor": _describe(_WEIGHTED_BASE, "sRGB", 8, 3),
+        "normal": _normal_file(p),
+        "roughness": _describe("roughness (alpha = roughness^2)", "data", p.data_bits, 1),
+        "specular": _describe("specular F0 (grey)", "linear", p.data_bits, 1),
+    }, diffuse=base, specular=m.specular, roughness=m.roughness, normal=m.normal)
     if p.name == "usd":
-        documents = {"usda": lambda name, f: usda_document(
-            name, aspect, diffuse_color=f["basecolor"], specular_color=f["specular"], roughness=f["roughness"],
-            normal=f["normal"])}
-        doc = {"content": "USD stage: unit quad + UsdPreviewSurface (useSpecularWorkflow = 1)"}
+        files["usda"] = TextureFile(
+            f["usda"], {"content": "USD stage: unit quad + UsdPreviewSurface (useSpecularWorkflow = 1)"},
+            text=usda_document(name, m.shape[0] / m.shape[1], diffuse_color=f["basecolor"],
+                               specular_color=f["specular"], roughness=f["roughness"], normal=f["normal"]))
     else:
-        documents = {"mtlx": lambda name, f: mtlx_document(
-            name, base_color=f["basecolor"], specular_f0=f["specular"], roughness=f["roughness"],
-            normal=f["normal"])}
-        doc = {"content": "MaterialX standard_surface, specular_IOR computed from F0"}
-    return _Plan(
-        maps=Maps(base, m.specular, m.roughness, m.normal),
-        keep={r: r for r in ("basecolor", "normal", "roughness", "specular")},
-        images={},
-        files={"basecolor": _describe(_WEIGHTED_BASE, "sRGB", 8, 3),
-               "normal": _normal_file(p),
-               "roughness": _describe("roughness (alpha = roughness^2)", "data", p.data_bits, 1),
-               "specular": _describe("specular F0 (grey)", "linear", p.data_bits, 1),
-               next(iter(documents)): doc},
-        documents=documents,
-        conversion=f"{_WEIGHTED_BASE}; F0, roughness and normal unchanged"
-                   + ("; specular_IOR = (1 + sqrt F0) / (1 - sqrt F0)" if p.name == "mtlx" else ""),
-    )
+        files["mtlx"] = TextureFile(
+            f["mtlx"], {"content": "MaterialX standard_surface, specular_IOR computed from F0"},
+            text=mtlx_document(name, base_color=f["basecolor"], specular_f0=f["specular"], roughness=f["roughness"],
+                               normal=f["normal"]))
+    return _layout(p, files, f"{_WEIGHTED_BASE}; F0, roughness and normal unchanged"
+                   + ("; specular_IOR = (1 + sqrt F0) / (1 - sqrt F0)" if p.name == "mtlx" else ""))
 
 
-_PLANS = {"gltf": _plan_gltf, "blender": _plan_metal_rough, "unreal": _plan_metal_rough, "unity": _plan_unity,
-          "usd": _plan_specular_workflow, "mtlx": _plan_specular_workflow}
+#: Target -> layout builder ``(maps, config, preset, name) -> Layout``.
+_PLANS: Mapping[str, Builder] = {
+    "generic": _plan_generic, "gltf": _plan_gltf, "blender": _plan_metal_rough, "unreal": _plan_metal_rough,
+    "unity": _plan_unity, "usd": _plan_specular_workflow, "mtlx": _plan_specular_workflow}
 
 
 def target_files(name: str, target: str = "generic", relit: bool = False) -> Dict[str, str]:
@@ -283,9 +272,9 @@ def target_files(name: str, target: str = "generic", relit: bool = False) -> Dic
     if target not in PRESETS:
         raise ValueError(f"unknown target {target!r}; expected one of {', '.join(TARGETS)}")
     names = {role: t.format(name=name) for role, t in PRESETS[target].files.items()}
-    names["sidecar"] = _SIDECAR.format(name=name)
+    names["sidecar"] = SIDECAR_FILE.format(name=name)
     if relit:
-        names["relit"] = _RELIT.format(name=name)
+        names["relit"] = RELIT_FILE.format(name=name)
     return names
 
 
@@ -302,13 +291,14 @@ def write_target(
     """Write a texture set for a target tool (see the module docstring), all or nothing.
 
     Args:
-        maps: the texture set (our model; ``maps.meta["render_config"]`` selects the diffuse weighting used by
-            the conversions, default ``ZHAO``).
+        maps: the texture set (our model; ``maps.render_config`` selects the diffuse weighting used by the
+            conversions, default ``ZHAO``).
         out_dir: output folder, created (with parents) if missing.
         name: base name of the files (no path separators).
-        target: one of :data:`TARGETS`. ``"generic"`` is exactly :func:`write_texture_set` with its defaults.
+        target: one of :data:`TARGETS`. ``"generic"`` is exactly
+            :func:`~svbrdf.runtime.texture_set.write_texture_set` with its defaults.
         force: overwrite existing files.
-        extra_meta: more metadata for the sidecar (see :func:`write_texture_set`).
+        extra_meta: more metadata for the sidecar (see :func:`~svbrdf.runtime.texture_set.write_texture_set`).
         relit: optional sRGB-encoded (h, w, 3) preview, written as ``<name>_relit.png``.
 
     Returns:
@@ -316,99 +306,17 @@ def write_target(
 
     Raises:
         ValueError: unknown target, a subset of the maps for a target other than ``generic`` (and the argument
-            errors of :func:`write_texture_set`).
+            errors of :func:`~svbrdf.runtime.texture_set.write_texture_set`).
         ImageError: a target file exists (and not ``force``), bad name or folder, NaN/Inf in a map, or a write
             failed. Nothing is left behind in these cases.
     """
     if target not in PRESETS:
         raise ValueError(f"unknown target {target!r}; expected one of {', '.join(TARGETS)}")
-    if target == "generic":
-        return write_texture_set(maps, out_dir, name, force=force, extra_meta=extra_meta, relit=relit)
-    maps.require(what=f"target {target!r}")  # every preset's base colour / packing converts all four maps
+    if target != "generic":
+        maps.require(what=f"target {target!r}")  # every preset's base colour / packing converts all four maps
     preset = PRESETS[target]
-    out_dir = Path(out_dir)
-    if not name or name in (".", "..") or "/" in name or os.sep in name:
-        raise ImageError(f"{out_dir}: invalid texture-set name {name!r}")
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ImageError(f"{out_dir}: exists and is not a folder")
-    names = target_files(name, target, relit is not None)
-    targets = {role: out_dir / f for role, f in names.items()}
-    if not force:
-        existing = [p for p in targets.values() if p.exists()]
-        if existing:
-            more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
-            raise ImageError(f"{existing[0]}: exists{more} (use --force to overwrite)")
-    for map_name, arr in maps.items():
-        if not np.all(np.isfinite(arr)):
-            raise ImageError(f"{out_dir / name}: map {map_name!r} has NaN/Inf values")
-
-    meta = {**maps.meta, **(extra_meta or {})}
-    config = meta.get("render_config", ZHAO)
-    if isinstance(config, dict):
-        config = RenderConfig(**config)
-    clipped = maps.clipped()
-    plan = _PLANS[target](clipped, config, preset)
-    plan.maps.meta = dict(maps.meta)
-
-    created = not out_dir.exists()
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ImageError(f"{out_dir}: cannot create folder ({exc.strerror})") from None
-    stage = out_dir / f".{name}.{target}.tmp-{secrets.token_hex(4)}"
-    try:
-        stage.mkdir()
-        written = write_texture_set(plan.maps, stage, name, normal=preset.normal, fmt="png",
-                                    extra_meta=extra_meta, relit=relit)
-        sidecar = json.loads(written["sidecar"].read_text(encoding="utf-8"))
-        written["sidecar"].unlink()
-        kept = {}
-        for role, path in written.items():  # park the kept files, drop the others
-            if role in plan.keep:
-                kept[plan.keep[role]] = path.rename(stage / f".keep-{role}{path.suffix}")
-            elif role == "relit":
-                kept["relit"] = path.rename(stage / f".keep-relit{path.suffix}")
-            elif role != "sidecar":
-                path.unlink()
-        for role, path in kept.items():
-            path.rename(stage / names[role])
-        for role, (arr, bits, srgb) in plan.images.items():
-            write_image(stage / names[role], arr, bits=bits, srgb_encode=srgb)
-        for role, make in plan.documents.items():
-            (stage / names[role]).write_text(make(name, names), encoding="utf-8")
-        files = {role: {"file": names[role], **desc} for role, desc in plan.files.items()}
-        if relit is not None:
-            files["relit"] = sidecar["files"]["relit"]
-        sidecar["files"] = files
-        sidecar["target"] = {"name": target, "description": preset.description, "conversion": plan.conversion,
-                             "import_notes": list(preset.notes)}
-        (stage / names["sidecar"]).write_text(json.dumps(sidecar, indent=2) + "\n", encoding="utf-8")
-        if not force:  # re-check: a file may have appeared meanwhile
-            for p in targets.values():
-                if p.exists():
-                    raise ImageError(f"{p}: exists (use --force to overwrite)")
-        for role, target_path in targets.items():
-            os.replace(stage / names[role], target_path)
-    except ImageError as exc:  # name the target, not the staging copy
-        _remove_created(stage, out_dir if created else None)
-        raise ImageError(str(exc).replace(str(stage) + os.sep, str(out_dir) + os.sep)) from None
-    except OSError as exc:
-        _remove_created(stage, out_dir if created else None)
-        raise ImageError(f"{out_dir}: cannot write texture set ({exc.strerror or exc})") from None
-    except BaseException:
-        _remove_created(stage, out_dir if created else None)
-        raise
-    shutil.rmtree(stage, ignore_errors=True)
-    return targets
-
-
-def _remove_created(stage: Path, created_dir: Optional[Path]) -> None:
-    shutil.rmtree(stage, ignore_errors=True)
-    if created_dir is not None:
-        try:
-            created_dir.rmdir()  # only if still empty
-        except OSError:
-            pass
+    return write_layout(maps, out_dir, name, lambda m, config: _PLANS[target](m, config, preset, name),
+                        force=force, extra_meta=extra_meta, relit=relit)
 
 
 __all__ = ["TARGETS", "PRESETS", "TargetPreset", "write_target", "target_files"]

@@ -18,9 +18,13 @@ file                    content                                      encoding
 (:meth:`Maps.clipped`) before writing. A :class:`Maps` holding a subset of the maps writes only their files;
 the sidecar's ``"maps"`` lists the maps written.
 
-Safety: every target is checked before anything is written; if one exists and ``force`` is false, an
-:class:`~svbrdf.runtime.errors.ImageError` names it and nothing is written. The files are first written into
-a hidden staging folder inside ``out_dir`` and then moved into place, so a failure never leaves half a set.
+How it is written: a layout (this module's :func:`generic_layout`, or a ``--target`` preset of
+:mod:`svbrdf.runtime.targets`) turns the maps into a *plan*, file role -> :class:`TextureFile` (an image with
+its bit depth and colour encoding, or a document), and :func:`commit` writes any plan all or nothing.
+
+Safety: if a file of the plan exists and ``force`` is false, an :class:`~svbrdf.runtime.errors.ImageError`
+names it and nothing is written. The files are first written into a hidden staging folder inside ``out_dir``
+and then moved into place (:func:`svbrdf.runtime.files.staged_write`), so a failure never leaves half a set.
 """
 
 from __future__ import annotations
@@ -28,25 +32,74 @@ from __future__ import annotations
 import dataclasses
 import json
 import os
-import secrets
-import shutil
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, Optional, Sequence
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence
 
 import numpy as np
 
 from .colour import linear_to_srgb
 from .errors import ImageError
+from .files import staged_write
 from .imageio import write_image
 from .maps import SUPPORTED_NORMAL_CONVENTIONS, Maps, encode_normal, normal_gl_to_dx
 from .render import ZHAO, RenderConfig, novel_lights, render
 
 #: Sidecar format version (bump when keys change meaning).
 SIDECAR_VERSION = 1
+#: File name templates of the sidecar and the relit preview, shared by every layout (``{name}``: the set).
+SIDECAR_FILE = "{name}.json"
+RELIT_FILE = "{name}_relit.png"
 
 _NORMAL_AXES = {
     "opengl": "+x right, +y up the image (green up), +z out of the surface",
     "dx": "+x right, +y down the image (green down, DirectX), +z out of the surface",
+}
+
+
+@dataclass(frozen=True)
+class TextureFile:
+    """One file of a texture-set plan: an image (``pixels``) or a document (``text``).
+
+    Attributes:
+        file: file name inside the output folder.
+        info: its entry in the sidecar's ``"files"`` (content, colour space, bits, ...; ``"file"`` is added).
+        pixels: image as (H, W, C) float, C in 1, 3, 4 (see :func:`~svbrdf.runtime.imageio.write_image`).
+        bits: bit depth of the image (PNG 8 or 16, EXR 16 or 32).
+        srgb: the image is linear colour to sRGB-encode (RGB only; alpha stays linear); otherwise the values
+            are stored as given (data maps, or an image already sRGB-encoded).
+        text: a document (glTF, USD, MaterialX, the sidecar), written as UTF-8.
+    """
+
+    file: str
+    info: Mapping[str, Any]
+    pixels: Optional[np.ndarray] = None
+    bits: int = 8
+    srgb: bool = False
+    text: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What a layout makes of a texture set: its files and what the sidecar says about them.
+
+    Attributes:
+        files: role -> file, in the order the sidecar lists them (sidecar and relit preview excluded).
+        normal: normal convention on disk, ``"opengl"`` or ``"dx"``.
+        target: the sidecar's ``"target"`` entry (``None`` for the project's own layout: no entry).
+    """
+
+    files: Mapping[str, TextureFile]
+    normal: str
+    target: Optional[Mapping[str, Any]] = None
+
+
+#: The project's own layout: role -> (map, file name template; ``{ext}`` is the format of the data maps).
+GENERIC_FILES: Mapping[str, tuple] = {
+    "basecolor": ("diffuse", "{name}_basecolor.png"),
+    "normal": ("normal", "{name}_normal.{ext}"),
+    "roughness": ("roughness", "{name}_roughness.{ext}"),
+    "specular": ("specular", "{name}_specular.{ext}"),
 }
 
 
@@ -82,6 +135,122 @@ def _brdf_description(config: RenderConfig) -> dict:
     }
 
 
+def generic_layout(maps: Maps, name: str, normal: str = "opengl", fmt: str = "png") -> Layout:
+    """The project's own layout (module docstring) of the maps present in ``maps``, clipped to their ranges.
+
+    Args:
+        maps: the texture set (unclipped; :meth:`Maps.clipped` is applied here).
+        name: base name of the files.
+        normal: normal convention on disk, ``"opengl"`` or ``"dx"``.
+        fmt: ``"png"`` (16-bit) or ``"exr"`` (32-bit float) for the data maps.
+    """
+    data_bits = 16 if fmt == "png" else 32
+    m = maps.clipped()
+    info = {
+        "basecolor": {"map": "diffuse", "colour_space": "sRGB", "bits": 8},
+        "normal": {"map": "normal", "colour_space": "data", "bits": data_bits, "encoding": "(n + 1) / 2",
+                   "convention": normal},
+        "roughness": {"map": "roughness", "colour_space": "data", "bits": data_bits, "alpha": "roughness ** 2"},
+        "specular": {"map": "specular", "colour_space": "linear", "bits": data_bits},
+    }
+    files = {}
+    for role, (map_name, template) in GENERIC_FILES.items():
+        arr = getattr(m, map_name)
+        if arr is None:
+            continue
+        if role == "normal":
+            arr = encode_normal(normal_gl_to_dx(arr) if normal == "dx" else arr)
+        bits = 8 if role == "basecolor" else data_bits
+        files[role] = TextureFile(template.format(name=name, ext=fmt), info[role], arr, bits,
+                                  srgb=role == "basecolor")
+    return Layout(files, normal)
+
+
+def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> Dict[str, Path]:
+    """Write a plan (role -> :class:`TextureFile`) into ``out_dir``, all or nothing.
+
+    The files are written into a hidden staging folder inside ``out_dir`` (created with its parents when
+    missing) and moved into place, in the plan's order, once all were written
+    (:func:`~svbrdf.runtime.files.staged_write`).
+
+    Returns:
+        Paths written, keyed by role.
+
+    Raises:
+        ImageError: a file exists (and not ``force``), ``out_dir`` is not a folder, or a write failed. The
+            message names the target file; nothing is left behind.
+    """
+    out_dir = Path(out_dir)
+    with staged_write(out_dir, [f.file for f in plan.values()], force=force, error=ImageError) as stage:
+        for f in plan.values():
+            if f.text is not None:
+                (stage / f.file).write_text(f.text, encoding="utf-8")
+            else:
+                write_image(stage / f.file, f.pixels, bits=f.bits, srgb_encode=f.srgb)
+    return {role: out_dir / f.file for role, f in plan.items()}
+
+
+def write_layout(
+    maps: Maps,
+    out_dir,
+    name: str,
+    layout: Callable[[Maps, RenderConfig], Layout],
+    *,
+    force: bool = False,
+    extra_meta: Optional[dict] = None,
+    relit: Optional[np.ndarray] = None,
+) -> Dict[str, Path]:
+    """Check the inputs, plan a texture set with ``layout`` (plus the sidecar and the relit preview) and
+    :func:`commit` it. The writer behind :func:`write_texture_set` and
+    :func:`~svbrdf.runtime.targets.write_target`; their docs give the arguments.
+
+    Args:
+        layout: ``layout(maps, config) -> Layout`` with ``config`` the maps' render config (``ZHAO`` when
+            ``maps.render_config`` is ``None``).
+    """
+    out_dir = Path(out_dir)
+    if not name or name in (".", "..") or "/" in name or os.sep in name:
+        raise ImageError(f"{out_dir}: invalid texture-set name {name!r}")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ImageError(f"{out_dir}: exists and is not a folder")
+    for map_name, arr in maps.items():
+        if not np.all(np.isfinite(arr)):
+            raise ImageError(f"{out_dir / name}: map {map_name!r} has NaN/Inf values")
+    if relit is not None:
+        relit = np.asarray(relit, dtype=np.float32)
+        if relit.ndim != 3 or relit.shape[-1] != 3:
+            raise ValueError(f"relit must be (h, w, 3), got {relit.shape}")
+
+    config = maps.render_config or ZHAO
+    plan = layout(maps, config)
+    files = dict(plan.files)
+    if relit is not None:
+        files["relit"] = TextureFile(RELIT_FILE.format(name=name), {
+            "colour_space": "sRGB", "bits": 8, "content": "renders under the flash and novel lights, side by side"},
+            np.clip(relit, 0.0, 1.0), bits=8)
+    h, w = maps.shape
+    sidecar = {
+        "format_version": SIDECAR_VERSION,
+        "name": name,
+        "size": {"width": w, "height": h},
+        "maps": list(maps.names),
+        "brdf": _brdf_description(config),
+        "normal_convention": {"name": plan.normal, "axes": _NORMAL_AXES[plan.normal]},
+        "files": {role: {"file": f.file, **f.info} for role, f in files.items()},
+        "meta": {**maps.meta, **(extra_meta or {})},
+    }
+    if plan.target is not None:
+        sidecar["target"] = dict(plan.target)
+    try:
+        text = json.dumps(sidecar, indent=2, default=_json_default, allow_nan=False) + "\n"
+    except (TypeError, ValueError) as exc:  # e.g. an arbitrary object or a NaN timing in the metadata
+        raise ValueError(f"sidecar metadata is not JSON-serialisable: {exc}") from None
+    sidecar_file = TextureFile(SIDECAR_FILE.format(name=name), {}, text=text)
+    # Roles in the order of the existence check (and its message): the layout's files, sidecar, relit.
+    ordered = {**plan.files, "sidecar": sidecar_file, **({"relit": files["relit"]} if relit is not None else {})}
+    return commit(out_dir, ordered, force=force)
+
+
 def write_texture_set(
     maps: Maps,
     out_dir,
@@ -93,12 +262,12 @@ def write_texture_set(
     extra_meta: Optional[dict] = None,
     relit: Optional[np.ndarray] = None,
 ) -> Dict[str, Path]:
-    """Write a texture set (see the module docstring for the files), all or nothing.
+    """Write a texture set in the project's own layout (see the module docstring for the files), all or nothing.
 
     Args:
         maps: the texture set (all four maps or a subset: only the maps present are written); ``maps.meta``
-            is copied into the sidecar. A ``"render_config"`` entry
-            (:class:`RenderConfig` or its dict) selects the BRDF described in the sidecar (default: ``ZHAO``).
+            is copied into the sidecar and ``maps.render_config`` selects the BRDF it describes (default:
+            ``ZHAO``).
         out_dir: output folder, created (with parents) if missing.
         name: base name of the files (no path separators).
         normal: normal-map convention on disk, ``"opengl"`` (default, +y up) or ``"dx"`` (+y down).
@@ -121,99 +290,8 @@ def write_texture_set(
         raise ValueError(f"normal must be one of {SUPPORTED_NORMAL_CONVENTIONS}, got {normal!r}")
     if fmt not in ("png", "exr"):
         raise ValueError(f"fmt must be 'png' or 'exr', got {fmt!r}")
-    out_dir = Path(out_dir)
-    if not name or name in (".", "..") or "/" in name or os.sep in name:
-        raise ImageError(f"{out_dir}: invalid texture-set name {name!r}")
-    if out_dir.exists() and not out_dir.is_dir():
-        raise ImageError(f"{out_dir}: exists and is not a folder")
-
-    data_bits = 16 if fmt == "png" else 32
-    # role -> (file name, array, write_image kwargs, sidecar description)
-    plan = {
-        "basecolor": (f"{name}_basecolor.png", "diffuse", dict(bits=8, srgb_encode=True),
-                      {"map": "diffuse", "colour_space": "sRGB", "bits": 8}),
-        "normal": (f"{name}_normal.{fmt}", "normal", dict(bits=data_bits),
-                   {"map": "normal", "colour_space": "data", "bits": data_bits, "encoding": "(n + 1) / 2",
-                    "convention": normal}),
-        "roughness": (f"{name}_roughness.{fmt}", "roughness", dict(bits=data_bits),
-                      {"map": "roughness", "colour_space": "data", "bits": data_bits, "alpha": "roughness ** 2"}),
-        "specular": (f"{name}_specular.{fmt}", "specular", dict(bits=data_bits),
-                     {"map": "specular", "colour_space": "linear", "bits": data_bits}),
-    }
-    plan = {role: p for role, p in plan.items() if p[1] in maps.names}
-    names = {role: p[0] for role, p in plan.items()}
-    names["sidecar"] = f"{name}.json"
-    if relit is not None:
-        names["relit"] = f"{name}_relit.png"
-    targets = {role: out_dir / fname for role, fname in names.items()}
-
-    if not force:
-        existing = [p for p in targets.values() if p.exists()]
-        if existing:
-            more = f" (and {len(existing) - 1} more)" if len(existing) > 1 else ""
-            raise ImageError(f"{existing[0]}: exists{more} (use --force to overwrite)")
-
-    for map_name, arr in maps.items():
-        if not np.all(np.isfinite(arr)):
-            raise ImageError(f"{out_dir / name}: map {map_name!r} has NaN/Inf values")
-    if relit is not None:
-        relit = np.asarray(relit, dtype=np.float32)
-        if relit.ndim != 3 or relit.shape[-1] != 3:
-            raise ValueError(f"relit must be (h, w, 3), got {relit.shape}")
-
-    meta = {**maps.meta, **(extra_meta or {})}
-    config = meta.get("render_config", ZHAO)
-    if isinstance(config, dict):
-        config = RenderConfig(**config)
-    h, w = maps.shape
-    clipped = maps.clipped()
-    arrays = {role: getattr(clipped, p[1]) for role, p in plan.items()}
-    if "normal" in arrays:
-        arrays["normal"] = encode_normal(normal_gl_to_dx(arrays["normal"]) if normal == "dx" else arrays["normal"])
-
-    sidecar = {
-        "format_version": SIDECAR_VERSION,
-        "name": name,
-        "size": {"width": w, "height": h},
-        "maps": list(maps.names),
-        "brdf": _brdf_description(config),
-        "normal_convention": {"name": normal, "axes": _NORMAL_AXES[normal]},
-        "files": {role: {"file": plan[role][0], **plan[role][3]} for role in plan},
-        "meta": {k: v for k, v in meta.items() if k != "render_config"},
-    }
-    if relit is not None:
-        sidecar["files"]["relit"] = {"file": names["relit"], "colour_space": "sRGB", "bits": 8,
-                                     "content": "renders under the flash and novel lights, side by side"}
-    try:
-        text = json.dumps(sidecar, indent=2, default=_json_default, allow_nan=False) + "\n"
-    except (TypeError, ValueError) as exc:  # e.g. an arbitrary object or a NaN timing in the metadata
-        raise ValueError(f"sidecar metadata is not JSON-serialisable: {exc}") from None
-
-    try:
-        out_dir.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise ImageError(f"{out_dir}: cannot create folder ({exc.strerror})") from None
-    stage = out_dir / f".{name}.tmp-{secrets.token_hex(4)}"
-    try:
-        stage.mkdir()
-        for role, (fname, _, kwargs, _) in plan.items():
-            write_image(stage / fname, arrays[role], **kwargs)
-        if relit is not None:
-            write_image(stage / names["relit"], np.clip(relit, 0.0, 1.0), bits=8)
-        (stage / names["sidecar"]).write_text(text, encoding="utf-8")
-        if not force:  # re-check: a file may have appeared meanwhile
-            for p in targets.values():
-                if p.exists():
-                    raise ImageError(f"{p}: exists (use --force to overwrite)")
-        for role, target in targets.items():
-            os.replace(stage / names[role], target)
-    except ImageError as exc:  # name the target, not the staging copy
-        raise ImageError(str(exc).replace(str(stage) + os.sep, str(out_dir) + os.sep)) from None
-    except OSError as exc:
-        raise ImageError(f"{out_dir}: cannot write texture set ({exc.strerror or exc})") from None
-    finally:
-        shutil.rmtree(stage, ignore_errors=True)
-    return targets
+    return write_layout(maps, out_dir, name, lambda m, config: generic_layout(m, name, normal, fmt),
+                        force=force, extra_meta=extra_meta, relit=relit)
 
 
 def relit_panel(
@@ -251,4 +329,5 @@ def relit_panel(
     return np.clip(linear_to_srgb(panel), 0.0, 1.0)
 
 
-__all__ = ["write_texture_set", "relit_panel", "SIDECAR_VERSION"]
+__all__ = ["write_texture_set", "relit_panel", "SIDECAR_VERSION", "TextureFile", "Layout", "generic_layout",
+           "commit", "write_layout", "GENERIC_FILES", "SIDECAR_FILE", "RELIT_FILE"]

@@ -21,7 +21,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor``) or None
     versions, date              library versions, ISO date (UTC)
 
-Files are written atomically (temp file in the same folder, then ``os.replace``).
+Files are written atomically (:func:`svbrdf.runtime.files.atomic_write`).
 """
 
 from __future__ import annotations
@@ -29,7 +29,7 @@ from __future__ import annotations
 import datetime as _dt
 import os
 import platform
-import secrets
+import shutil
 from pathlib import Path
 from typing import Any, Dict, Mapping, Optional, Tuple, Union
 
@@ -37,6 +37,7 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.errors import ModelError
+from svbrdf.runtime.files import atomic_write
 from svbrdf.trainer.models import Generator, GeneratorConfig
 
 FORMAT = "svbrdf-train-checkpoint"
@@ -117,13 +118,8 @@ def build_checkpoint(
 
 def _atomic_save(obj: Any, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
+    with atomic_write(path, force=True, error=ModelError) as tmp:
         torch.save(obj, tmp)
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
     return path
 
 
@@ -219,12 +215,12 @@ def default_checkpoint(model: Optional[PathLike] = None) -> Optional[Path]:
     verified): where ``svbrdf-preview --refine``, ``svbrdf-train finetune`` and ``svbrdf-bench`` start by default.
 
     Args:
-        model: as in :func:`svbrdf.runtime.models.find_model` (None = ``$SVBRDF_MODEL``, else the packaged model).
+        model: as in :func:`svbrdf.runtime.manifest.find_model` (None = ``$SVBRDF_MODEL``, else the packaged model).
 
     Returns:
         The path, or None where that model names no checkpoint or the file is missing or altered.
     """
-    from svbrdf.runtime.models import find_checkpoint, find_model
+    from svbrdf.runtime.manifest import find_checkpoint, find_model
 
     try:
         return find_checkpoint(find_model(model))
@@ -232,5 +228,137 @@ def default_checkpoint(model: Optional[PathLike] = None) -> Optional[Path]:
         return None
 
 
-__all__ = ["FORMAT", "default_checkpoint", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint", "load_generator",
-           "generator_from_checkpoint", "clean_checkpoint", "library_versions"]
+# ----------------------------------------------------------------------------------------------- a Trainer's state
+# The functions below read and write the state of a svbrdf.trainer.train.Trainer (given as ``trainer``; this module
+# does not import it): the Trainer's load_init / load_resume / checkpoint / save methods call them.
+def last_good_path(path: PathLike) -> Path:
+    """``checkpoint.pt`` -> ``checkpoint_last_good.pt``."""
+    path = Path(path)
+    return path.with_name(f"{path.stem}_last_good{path.suffix}")
+
+
+def load_init(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
+    """Start ``trainer`` (a :class:`~svbrdf.trainer.train.Trainer`) from a pretrained checkpoint (finetune): G, D
+    and, unless ``reset_optimizers``, the Adam states; with ``lambda_anchor``, its starting maps as the anchor.
+
+    The generator/discriminator configuration must match ``trainer.config`` (use
+    :func:`svbrdf.trainer.stage.make_trainer`, which takes them from the checkpoint).
+
+    Raises:
+        ModelError: an architecture or weights that do not fit.
+    """
+    _load_models(trainer, ckpt, source)
+    if ckpt.get("discriminator") is None:
+        trainer.notes.append(f"{Path(source).name}: no discriminator weights; D starts from scratch")
+    if trainer.config.reset_optimizers:
+        trainer.notes.append("optimiser states reset")
+    elif not ckpt.get("optimizers"):
+        trainer.notes.append(f"{Path(source).name}: no optimiser states; Adam starts fresh")
+    else:
+        for key, opt in trainer.optimizers.items():
+            if key == "cam":  # the new photo's own camera and offsets: a fresh Adam
+                continue
+            try:
+                opt.load_state_dict(ckpt["optimizers"][key])
+            except (KeyError, ValueError) as e:
+                trainer.optimizers[key] = trainer._adam(trainer.params[key])
+                trainer.notes.append(f"optimiser {key!r} state not reusable ({str(e)[:80]}); started fresh")
+            else:
+                for group in opt.param_groups:  # the new run's learning rate and betas win
+                    group["lr"], group["betas"] = trainer.config.lr, tuple(trainer.config.betas)
+    trainer.init = {"path": str(source), "stage": ckpt.get("stage"), "step": ckpt.get("step"),
+                    "photo": dict(ckpt.get("photo") or {})}
+    if trainer.config.lambda_anchor > 0:
+        with torch.no_grad():
+            trainer.anchor = trainer.predict().float()
+
+
+def load_resume(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
+    """Continue ``trainer`` exactly where ``ckpt`` stood: weights, Adam states, step, history, counters, RNG
+    states, camera, evaluation maps and anchor.
+
+    Raises:
+        ModelError: another photo, a cleaned checkpoint, states that do not fit.
+    """
+    if ckpt.get("photo", {}).get("sha256") != trainer.photo_info.get("sha256"):
+        raise ModelError(f"{source}: was trained on {ckpt.get('photo', {}).get('name')!r}, not on this photo "
+                         f"{trainer.photo_info.get('name')!r}")
+    if not ckpt.get("optimizers") or not ckpt.get("rng") or ckpt.get("discriminator") is None:
+        raise ModelError(f"{source}: cleaned checkpoint (no optimiser/RNG/discriminator state); cannot resume")
+    _load_models(trainer, ckpt, source)
+    try:
+        for key, opt in trainer.optimizers.items():
+            opt.load_state_dict(ckpt["optimizers"][key])
+    except (KeyError, ValueError) as e:
+        raise ModelError(f"{source}: optimiser states do not match the model ({str(e)[:120]})") from None
+    trainer.load_camera(ckpt.get("camera"))
+    trainer.step = int(ckpt["step"])
+    trainer.history = [dict(h) for h in ckpt.get("history", [])]
+    trainer.counters.update({k: int(v) for k, v in (ckpt.get("counters") or {}).items()})
+    trainer._skips_at_last_save = trainer.counters["nonfinite_skips"]
+    trainer.init = ckpt.get("init")
+    trainer.notes.extend(n for n in ckpt.get("notes", []) if n not in trainer.notes)
+    rng = ckpt["rng"]
+    torch.set_rng_state(rng["torch"])
+    trainer.tile_rng.set_state(rng["tiles"])
+    if rng.get("cuda") and torch.cuda.is_available():
+        torch.cuda.set_rng_state_all(rng["cuda"])
+    eval_maps = ckpt.get("eval_maps")
+    trainer.eval_maps = None if eval_maps is None else eval_maps.to(trainer.device)
+    anchor = ckpt.get("anchor")
+    trainer.anchor = None if anchor is None else anchor.to(trainer.device, torch.float32)
+    if trainer.config.lambda_anchor > 0 and trainer.anchor is None and trainer.stage == "finetune":
+        raise ModelError(f"{source}: a fine-tune with lambda_anchor > 0 but no stored anchor; cannot resume")
+
+
+def _load_models(trainer, ckpt: Mapping[str, Any], source: PathLike) -> None:
+    for key, cfg, net in (("generator", trainer.config.generator, trainer.generator),
+                          ("discriminator", trainer.config.discriminator, trainer.discriminator)):
+        state = ckpt.get(key)
+        if state is None:
+            continue
+        stored = ckpt.get(f"{key}_config") or {}
+        mine = {k: v for k, v in cfg.to_dict().items() if k != "train_encoder"}
+        theirs = {k: v for k, v in stored.items() if k != "train_encoder"}
+        if mine != theirs:
+            raise ModelError(f"{source}: {key} configuration {theirs} differs from the run's {mine}")
+        try:
+            net.load_state_dict(state)
+        except RuntimeError as e:
+            raise ModelError(f"{source}: {key} weights do not fit ({str(e).splitlines()[0][:120]})") from None
+
+
+def trainer_checkpoint(trainer) -> Dict[str, Any]:
+    """The current state of ``trainer`` as a checkpoint dict (see the module docstring)."""
+    rng = {"torch": torch.get_rng_state(), "tiles": trainer.tile_rng.get_state(),
+           "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else []}
+    return build_checkpoint(
+        generator=trainer.generator, discriminator=trainer.discriminator, train_config=trainer.config.to_dict(),
+        stage=trainer.stage, step=trainer.step, iters=trainer.iters, optimizers=trainer.optimizers,
+        history=trainer.history,
+        photo=trainer.photo_info, rng=rng, counters=trainer.counters, init=trainer.init,
+        perceptual_backend=trainer.perceptual_backend, notes=trainer.notes, eval_maps=trainer.eval_maps,
+        camera=trainer.camera_state(), anchor=trainer.anchor)
+
+
+def save_trainer(trainer, path: PathLike) -> Path:
+    """Write the checkpoint of ``trainer`` to ``path`` and, when no non-finite step occurred since its previous
+    save, refresh the last-good copy beside it (:func:`last_good_path`, a hard link where the file system allows).
+    """
+    path = Path(path)
+    save_checkpoint(path, trainer_checkpoint(trainer))
+    if trainer.counters["nonfinite_skips"] == trainer._skips_at_last_save:
+        good = last_good_path(path)
+        with atomic_write(good, force=True, error=ModelError) as tmp:
+            tmp.unlink()  # the reserved temporary name, for a hard link (no copy) where the file system allows
+            try:
+                os.link(path, tmp)  # the next checkpoint is a new file (os.replace), this one stays
+            except OSError:
+                shutil.copyfile(path, tmp)
+    trainer._skips_at_last_save = trainer.counters["nonfinite_skips"]
+    return path
+
+
+__all__ = ["FORMAT", "default_checkpoint", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint",
+           "load_generator", "generator_from_checkpoint", "clean_checkpoint", "library_versions", "last_good_path",
+           "load_init", "load_resume", "trainer_checkpoint", "save_trainer"]

@@ -22,36 +22,34 @@ import warnings
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Tuple
 
+from svbrdf.runtime.errors import parse_command_line
+
 PROG = "svbrdf-train"
 CHECKPOINT = "checkpoint.pt"
 LOG = "train_log.jsonl"
 
-PRESET_HELP = """training presets (cost: seconds per iteration on one thread; "AMX": a shared Xeon core with bf16,
-"AMD": a shared EPYC core without bf16, where everything runs fp32; python -m svbrdf.trainer.bench.speed):
-  paper  the published setup: paper-size networks, 256 px tiles, per iteration 5 normal/roughness-decoder
-         + 1 diffuse/specular-decoder + 1 discriminator updates, Adam 2e-5 (0, 0.9),
-         loss 0.1 GAN + L_d + 0.1 Fourier + 0.2 perceptual; 10k / 3k / 20k iterations (pretrain / finetune /
-         fit). AMX: ~45 s/it fp32, ~15 s/it --bf16 (10 / 4 s/it with --tile 128); AMD: 76-139 s/it: a GPU job.
-  zhao   paper without the Fourier and perceptual losses (Zhao et al. 2020): AMX ~31 s/it fp32, ~12 s/it --bf16.
-  fast   quarter-width networks, 128 px tiles, the "joint" 1:1:1 schedule (one tile, one generator pass and one
-         backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, multi-scale
-         filter-bank perceptual loss ("pyramid", skipped on photos without a clipped highlight), bf16 autocast
-         where the CPU has it; 6k / 150 / 6k iterations (150: from the procedural stage one,
-         docs/benchmarks/prior/); and the highlight-free flash model: inverse-square
-         fall-off, learned vignetting, renderings clipped like the photo, a per-pixel re-render term, the
-         flash-correlation stationarity term, a scale-free L_d, learned output offsets and a dielectric
-         specular prior instead of the Fourier term (docs/benchmarks/accuracy/). AMD: 0.27 s/it (0.43 s/it
-         with the alternating schedule). The shipped model was pretrained with the alternating schedule and
-         the paper's losses on AMX: 6000 it in 1111 s.
-  fast-v1
-         fast with the paper's losses (GAN, L_d, Fourier, perceptual) and flash model, as before the
-         highlight-free flash model (the comparison point).
-  fast-alternating
-         fast with the published alternating sub-steps (a fresh tile and generator pass per update).
-  fast-no-fourier, fast-no-perceptual, fast-zhao
-         fast-v1 with the Fourier loss, the perceptual loss, or both off (ablations for svbrdf-bench).
-  tiny   toy networks for tests (32 px tiles, 20 iterations).
-"""
+PRESET_HEADER = """training presets (cost: seconds per iteration on one thread; "AMX": a shared Xeon core with bf16,
+"AMD": a shared EPYC core without bf16, where everything runs fp32; python -m svbrdf.trainer.bench.speed):"""
+
+
+def preset_help() -> str:
+    """The presets part of ``--help``: :data:`~svbrdf.trainer.config.PRESET_DESCRIPTIONS` of the presets this
+    command offers (:data:`~svbrdf.trainer.config.CLI_PRESETS`; the ablations are svbrdf-bench's)."""
+    import textwrap
+
+    from svbrdf.trainer.config import BENCH_PRESETS, CLI_PRESETS, PRESET_DESCRIPTIONS
+
+    lines = [PRESET_HEADER]
+    for name in CLI_PRESETS:
+        text = textwrap.wrap(PRESET_DESCRIPTIONS[name], width=115 - 9)
+        if len(name) <= 6:
+            lines.append(f"  {name:<6} {text[0]}")
+            text = text[1:]
+        else:
+            lines.append(f"  {name}")
+        lines.extend(" " * 9 + t for t in text)
+    lines.append(f"The ablations {', '.join(BENCH_PRESETS)} are svbrdf-bench's (--presets).")
+    return "\n".join(lines) + "\n"
 
 
 class _Fail(Exception):
@@ -59,11 +57,13 @@ class _Fail(Exception):
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from svbrdf.trainer.config import TRAIN_PRESETS
+    from svbrdf.runtime.choices import TARGETS
+    from svbrdf.trainer.config import CLI_PRESETS
 
+    epilog = preset_help()
     common = argparse.ArgumentParser(add_help=False)
     g = common.add_argument_group("training")
-    g.add_argument("--preset", choices=sorted(TRAIN_PRESETS),
+    g.add_argument("--preset", choices=sorted(CLI_PRESETS),
                    help="starting set of settings (see below; default paper)")
     g.add_argument("--iters", type=int, help="iterations of this stage (with --quality auto: the maximum)")
     g.add_argument("--tile", type=int, help="training tile size in pixels")
@@ -85,7 +85,7 @@ def build_parser() -> argparse.ArgumentParser:
                         "changing (--iters is the maximum)")
     o = common.add_argument_group("output and machine")
     o.add_argument("--out", metavar="DIR", help="output folder (default ./<photo stem>-<stage>)")
-    o.add_argument("--target", choices=("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx"),
+    o.add_argument("--target", choices=TARGETS,
                    default="generic", help="final texture set layout and material document (docs/targets.md)")
     o.add_argument("--resume", action="store_true", help="continue the run saved in --out exactly where it stopped")
     o.add_argument("--force", action="store_true", help="start over in an existing output folder")
@@ -98,7 +98,7 @@ def build_parser() -> argparse.ArgumentParser:
 
     parser = argparse.ArgumentParser(
         prog=PROG, description="Train the SVBRDF GAN (Wen et al. 2022) on one flash photo, or its stage one on procedural materials (prior).",
-        epilog=PRESET_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+        epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
     sub = parser.add_subparsers(dest="stage", required=True, metavar="{prior,pretrain,finetune,fit}")
     p = sub.add_parser("prior", help="stage 1 learned from procedural materials (the shipped model's recipe)",
                        description="Pretrain the stage-one generator on a seeded stream of procedural materials "
@@ -120,7 +120,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
     p.add_argument("--quiet", action="store_true", help="print errors only")
     p.add_argument("--verbose", action="store_true", help="print a traceback on errors")
-    kw = dict(parents=[common], epilog=PRESET_HELP, formatter_class=argparse.RawDescriptionHelpFormatter)
+    kw = dict(parents=[common], epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
     p = sub.add_parser("pretrain", help="stage 1: train from scratch on one photo (a reusable starting point)", **kw)
     p.add_argument("photo", help="flash photo (8/16-bit sRGB image or linear EXR)")
     p = sub.add_parser("finetune", help="stage 2: continue a pretrained checkpoint on a new photo", **kw)
@@ -203,7 +203,8 @@ def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[
     from svbrdf.trainer.train import to_maps
 
     cfg = trainer.config
-    maps = to_maps(trainer.predict(), {"render_config": dict(cfg.render)})
+    maps = to_maps(trainer.predict())
+    maps.render_config = cfg.render_config
     photo = trainer.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
     camera = trainer.camera_state()
     meta = {"source_photo": trainer.photo_info.get("name"), "photo_sha256": trainer.photo_info.get("sha256"),
@@ -322,7 +323,8 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     # Imported here so that --help and usage errors stay fast (no torch import).
     from svbrdf.trainer import checkpoint as ckpt_io
     from svbrdf.trainer.config import TRAIN_PRESETS, resolve
-    from svbrdf.trainer.train import Trainer, finetune_config, last_good_path, load_photo
+    from svbrdf.trainer.stage import make_trainer
+    from svbrdf.trainer.train import load_photo
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -356,20 +358,10 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     kw = dict(device=args.device, threads=args.threads, photo_info=info, checkpoint_path=ckpt_path,
               log_path=out / LOG)
     if args.resume:
-        ckpt = ckpt_io.load_checkpoint(ckpt_path)
-        if ckpt["stage"] != args.stage:
-            raise _Fail(f"{ckpt_path}: is a {ckpt['stage']!r} run, not {args.stage!r}")
-        from svbrdf.trainer.config import TrainConfig
-
-        try:
-            config = TrainConfig.from_dict(ckpt["train_config"])
-        except (TypeError, ValueError) as e:
-            raise _Fail(f"{ckpt_path}: bad training settings ({e})") from None
-        iters = args.iters if args.iters is not None else ckpt.get("iters")
-        trainer = Trainer(photo, config, stage=args.stage, iters=iters, **kw)
-        trainer.load_resume(ckpt, ckpt_path)
+        trainer = make_trainer(photo, args.stage, resume=ckpt_path, iters=args.iters, **kw)
         log(f"resuming {ckpt_path} at iteration {trainer.step}/{trainer.iters} (settings from the checkpoint)")
-        ignored = [k for k, v in _overrides(args, config).items() if v is not None and k != f"iters_{args.stage}"]
+        ignored = [k for k, v in _overrides(args, trainer.config).items()
+                   if v is not None and k != f"iters_{args.stage}"]
         if ignored or args.preset is not None:
             log("note: training settings given with --resume are ignored (they come from the checkpoint)")
     else:
@@ -378,27 +370,24 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             config = resolve(preset, **_overrides(args, TRAIN_PRESETS[preset]))
         except ValueError as e:
             parser.error(str(e))
-        init = None
+        # Read before anything is removed: a bad --init leaves the folder as it was.
+        init = source = None
         if args.stage == "finetune":
-            init = ckpt_io.load_checkpoint(args.init)
-            config, notes = finetune_config(config, init)
+            init, source = ckpt_io.load_checkpoint(args.init), args.init
         if out.exists():  # --force: remove only this tool's files; the texture set is overwritten at the end
-            for p in (ckpt_path, last_good_path(ckpt_path), out / LOG):
+            for p in (ckpt_path, ckpt_io.last_good_path(ckpt_path), out / LOG):
                 p.unlink(missing_ok=True)
         created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         try:
-            trainer = Trainer(photo, config, stage=args.stage, **kw)
+            trainer = make_trainer(photo, args.stage, config, init=init, source=source, **kw)
         except BaseException:
-            if created:  # a refused photo or setting leaves no empty folder behind
+            if created:  # a refused photo, setting or checkpoint leaves no empty folder behind
                 try:
                     out.rmdir()
                 except OSError:
                     pass
             raise
-        if init is not None:
-            trainer.notes.extend(notes)
-            trainer.load_init(init, args.init)
     cfg = trainer.config
     log(f"{args.stage} {photo_path.name} ({info['width']}x{info['height']}) preset {cfg.preset}, "
         f"{trainer.iters} iterations, tile {trainer.tile}, device {trainer.device}"
@@ -449,10 +438,9 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
 
 def main(argv: Optional[List[str]] = None) -> int:
     parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as e:  # --help (0) or a usage error (2)
-        return int(e.code or 0)
+    args, code = parse_command_line(parser, argv)
+    if args is None:  # --help / --version (0) or a usage error (2)
+        return code
     try:
         from svbrdf.runtime.errors import SvbrdfError
 

@@ -1,20 +1,8 @@
 """Every training choice as one named setting: :class:`TrainConfig` and the presets :data:`TRAIN_PRESETS`.
 
-Presets (``resolve(name, **overrides)``):
-
-* ``"paper"``: the published schedule (Wen et al. 2022 on top of Zhao et al. 2020): paper-size generator and
-  PatchGAN, 256 px tiles, per iteration 5 updates of the normal/roughness decoder, 1 of the
-  diffuse/specular decoder and 1 of the discriminator, each on a fresh random tile; Adam lr 2e-5, betas
-  (0, 0.9); loss ``0.1 L_GAN + L_d + 0.1 L_F + 0.2 L_P``; 10k pretrain / 3k finetune / 20k from-scratch
-  iterations; seed 24.
-* ``"zhao"``: ``"paper"`` without the Fourier and perceptual losses (Zhao et al. 2020's objective).
-* ``"fast"``: the light generator/discriminator, 128 px tiles, joint schedule 1:1:1, lr 1e-4, and the
-  highlight-free flash model: inverse-square fall-off, renderings clipped like the photo, a per-pixel re-render
-  term, the flash-correlation stationarity term and a scale-free L_d (docs/benchmarks/accuracy/).
-* ``"fast-v1"``: ``"fast"`` without the highlight-free flash model (the paper's losses on the light model).
-* ``"fast-no-fourier"``, ``"fast-no-perceptual"``, ``"fast-zhao"``: ``"fast-v1"`` with L_F, L_P or both off
-  (ablations of the paper's losses); ``"fast-alternating"``: ``"fast"`` with the alternating schedule.
-* ``"tiny"``: a toy model for tests (32 px tiles, a few iterations, pyramid perceptual loss).
+Presets (``resolve(name, **overrides)``): ``paper``, ``zhao``, ``fast``, ``fast-v1`` and ``tiny`` for
+``svbrdf-train``, and the benchmark's ablations :data:`BENCH_PRESETS`. What each one is, with its measured cost,
+is said once, in :data:`PRESET_DESCRIPTIONS` (printed by ``svbrdf-train --help``).
 """
 
 from __future__ import annotations
@@ -291,6 +279,42 @@ def _presets() -> Dict[str, TrainConfig]:
 #: The named starting points of :func:`resolve` (see the module docstring). Copies are handed out.
 TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
 
+#: What each preset is, once (``svbrdf-train --help`` prints those of :data:`CLI_PRESETS`). Costs: seconds per
+#: iteration on one thread ("AMX": a shared Xeon core with bf16, "AMD": a shared EPYC core without bf16, where
+#: everything runs fp32; ``python -m svbrdf.trainer.bench.speed``).
+PRESET_DESCRIPTIONS: Dict[str, str] = {
+    "paper": "the published setup (Wen et al. 2022 on top of Zhao et al. 2020): paper-size generator and "
+             "PatchGAN, 256 px tiles, per iteration 5 normal/roughness-decoder + 1 diffuse/specular-decoder + 1 "
+             "discriminator updates, each on a fresh random tile, Adam 2e-5 (0, 0.9), loss 0.1 GAN + L_d + 0.1 "
+             "Fourier + 0.2 perceptual; 10k / 3k / 20k iterations (pretrain / finetune / fit); seed 24. AMX: ~45 "
+             "s/it fp32, ~15 s/it --bf16 (10 / 4 s/it with --tile 128); AMD: 76-139 s/it: a GPU job.",
+    "zhao": "paper without the Fourier and perceptual losses (Zhao et al. 2020's objective): AMX ~31 s/it fp32, "
+            "~12 s/it --bf16.",
+    "fast": "quarter-width networks, 128 px tiles, the \"joint\" 1:1:1 schedule (one tile, one generator pass and "
+            "one backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, "
+            "multi-scale filter-bank perceptual loss (\"pyramid\", skipped on photos without a clipped highlight), "
+            "bf16 autocast where the CPU has it; 6k / 150 / 6k iterations (150: from the procedural stage one, "
+            "docs/benchmarks/prior/); and the highlight-free flash model: inverse-square fall-off, learned "
+            "vignetting, renderings clipped like the photo, a per-pixel re-render term, the flash-correlation "
+            "stationarity term, a scale-free L_d, learned output offsets and a dielectric specular prior instead "
+            "of the Fourier term (docs/benchmarks/accuracy/). AMD: 0.27 s/it (0.43 s/it with the alternating "
+            "schedule). The shipped model was pretrained with the alternating schedule and the paper's losses on "
+            "AMX: 6000 it in 1111 s.",
+    "fast-v1": "fast with the paper's losses (GAN, L_d, Fourier, perceptual) and flash model, as before the "
+               "highlight-free flash model (the comparison point).",
+    "fast-alternating": "fast with the published alternating sub-steps (a fresh tile and generator pass per "
+                        "update): an ablation of fast's schedule.",
+    "fast-no-fourier": "fast-v1 without the Fourier loss: an ablation of the paper's losses.",
+    "fast-no-perceptual": "fast-v1 without the perceptual loss: an ablation of the paper's losses.",
+    "fast-zhao": "fast-v1 without the Fourier and perceptual losses: an ablation of the paper's losses.",
+    "tiny": "toy networks for tests (32 px tiles, 20 iterations, pyramid perceptual loss).",
+}
+#: The benchmark's ablations: resolvable like the others (``svbrdf-bench --presets``, checkpoints that record
+#: them, :func:`resolve`) but not offered by ``svbrdf-train --preset``.
+BENCH_PRESETS: Tuple[str, ...] = ("fast-alternating", "fast-no-fourier", "fast-no-perceptual", "fast-zhao")
+#: The presets ``svbrdf-train --preset`` offers, in the order its help describes them.
+CLI_PRESETS: Tuple[str, ...] = tuple(n for n in TRAIN_PRESETS if n not in BENCH_PRESETS)
+
 
 def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
     """A copy of preset ``preset`` with ``overrides`` applied.
@@ -318,5 +342,5 @@ def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
     return TrainConfig.from_dict(d)
 
 
-__all__ = ["TrainConfig", "TRAIN_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
+__all__ = ["TrainConfig", "TRAIN_PRESETS", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
            "QUALITY_MODES", "SCHEDULES"]

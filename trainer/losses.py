@@ -14,12 +14,12 @@ from typing import Dict, Sequence
 
 import torch
 import torch.nn.functional as F
-from kornia.color import linear_rgb_to_rgb
 from kornia.filters import get_gaussian_kernel1d
 from torch import nn
 
 from svbrdf.runtime.conversions import DIELECTRIC_F0
 from svbrdf.runtime.maps import SLICES
+from svbrdf.trainer.colour import linear_to_srgb
 
 #: Added under the square root of a complex modulus so its gradient stays finite at 0.
 MODULUS_EPS = 1e-20
@@ -170,8 +170,8 @@ class DiffuseLoss(nn.Module):
 
 @lru_cache(maxsize=4)
 def _srgb_level(linear: float) -> float:
-    """The sRGB encoding of one linear value (kornia's curve, as the loss uses), computed once per value."""
-    return float(linear_rgb_to_rgb(torch.full((1, 3, 1, 1), linear, dtype=torch.float64))[0, 0, 0, 0])
+    """The sRGB encoding of one linear value (the curve the loss uses), computed once per value."""
+    return float(linear_to_srgb(torch.full((1, 3, 1, 1), linear, dtype=torch.float64))[0, 0, 0, 0])
 
 
 def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99) -> torch.Tensor:
@@ -191,9 +191,9 @@ def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float 
         scalar.
     """
     with torch.autocast(device_type=rendering.device.type, enabled=False):
-        r = linear_rgb_to_rgb(_f32(rendering).clamp_min(0.0))
+        r = linear_to_srgb(_f32(rendering).clamp_min(0.0))
         x = _f32(photo)
-        p = linear_rgb_to_rgb(x.clamp(0.0, 1.0))
+        p = linear_to_srgb(x, clip=True)
         level = _srgb_level(float(clip_level))
         err = torch.where(x >= clip_level, (level - r).clamp_min(0.0), (r - p).abs())
         return err.mean()
@@ -476,7 +476,7 @@ def supervised_maps_loss(pred: torch.Tensor, target: torch.Tensor, weights=None)
         for name in ("diffuse", "specular", "roughness", "normal"):
             a, b = p[:, SLICES[name]], t[:, SLICES[name]]
             if name == "diffuse":
-                a, b = linear_rgb_to_rgb(a.clamp(0.0, 1.0)), linear_rgb_to_rgb(b.clamp(0.0, 1.0))
+                a, b = linear_to_srgb(a, clip=True), linear_to_srgb(b, clip=True)
             out[name] = (a - b).abs().mean()
         out["total"] = sum(weights[k] * out[k] for k in ("diffuse", "specular", "roughness", "normal"))
     return out

@@ -25,14 +25,14 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
+from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES
 
 LRELU_SLOPE = 0.2
 IN_EPS = 1e-5
 INIT_STD = 0.02
-#: Maps produced by each decoder.
-DECODER_MAPS: Mapping[str, Tuple[str, ...]] = {"decoder_nr": ("normal", "roughness"),
-                                                "decoder_ds": ("diffuse", "specular")}
+#: Maps produced by each decoder, by module name (from the one table, :data:`svbrdf.runtime.manifest.DECODERS`).
+DECODER_MAPS: Mapping[str, Tuple[str, ...]] = {d.module: d.maps for d in DECODERS}
 
 
 def _from_dict(cls, d: Mapping):

@@ -21,12 +21,12 @@ from typing import Callable, Dict, List, Mapping, Optional, Sequence, Tuple, Uni
 
 import torch
 import torch.nn.functional as F
-from kornia.color import linear_rgb_to_rgb
 from kornia.filters import spatial_gradient
 from kornia.geometry.transform import pyrdown
 from torch import nn
 
 from svbrdf.runtime.errors import ModelError
+from svbrdf.trainer.colour import linear_to_srgb
 
 #: Environment variable naming a VGG-19 state-dict file.
 WEIGHTS_ENV = "SVBRDF_VGG19_WEIGHTS"
@@ -74,10 +74,6 @@ def _expected_shapes() -> Dict[str, Tuple[int, ...]]:
     return out
 
 
-def _to_srgb(x: torch.Tensor) -> torch.Tensor:
-    return linear_rgb_to_rgb(x.clamp(0.0, 1.0))
-
-
 class VGG19Features(nn.Module):
     """Frozen VGG-19 feature extractor (relu1_1 ... relu5_1).
 
@@ -117,7 +113,7 @@ class VGG19Features(nn.Module):
     def forward(self, x: torch.Tensor) -> List[torch.Tensor]:
         if min(x.shape[-2:]) < 16:  # four 2x2 max-pools come before relu5_1
             raise ValueError(f"VGG-19 features need images of at least 16 x 16 px, got {x.shape[-2]} x {x.shape[-1]}")
-        x = (_to_srgb(x) - self.mean) / self.std
+        x = (linear_to_srgb(x, clip=True) - self.mean) / self.std
         out = []
         for i, layer in enumerate(self.features):
             x = layer(x)
@@ -139,7 +135,7 @@ class PyramidFeatures(nn.Module):
         self.layer_names = tuple(f"level{i}" for i in range(levels))
 
     def forward(self, x: torch.Tensor) -> List[torch.Tensor]:
-        x = _to_srgb(x)
+        x = linear_to_srgb(x, clip=True)
         out = []
         for i in range(self.levels):
             if i:

@@ -56,9 +56,10 @@ from functools import lru_cache
 from typing import List, Optional, Sequence, Tuple
 
 import torch
-from kornia.color import hsv_to_rgb, rgb_to_linear_rgb
+from kornia.color import hsv_to_rgb
 
 from svbrdf.runtime.maps import SLICES
+from svbrdf.trainer.colour import srgb_to_linear
 from svbrdf.trainer.models import height_to_normal, pack_maps
 
 __all__ = ["FAMILIES", "sample_materials"]
@@ -622,7 +623,7 @@ def _class_materials(g: torch.Generator, pat: _Pattern, neutral: bool
         hsv[i, 0] = TWO_PI * hue
         hsv[i, 1] = 0.0 if grey else _u(g, *P["saturation"])
         hsv[i, 2] = _u(g, *(P["metal_value_srgb"] if metal[i] else P["value_srgb"]))
-    rgb = rgb_to_linear_rgb(hsv_to_rgb(hsv.T[:, :, None]))[:, :, 0].T.contiguous()  # (K, 3) linear
+    rgb = srgb_to_linear(hsv_to_rgb(hsv.T[:, :, None]))[:, :, 0].T.contiguous()  # (K, 3) linear
     for dst, src in (pat.related or {}).items():
         if not metal[dst] and not metal[src] and _chance(g, P["related_p"]):
             rgb[dst] = rgb[src] * _u(g, *P["related_factor"])

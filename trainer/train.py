@@ -21,7 +21,6 @@ snapshot. Runs are deterministic on the CPU for a given seed, including across c
 
 from __future__ import annotations
 
-import copy
 import hashlib
 import json
 import math
@@ -35,20 +34,24 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.camera import radius2
-from svbrdf.runtime.errors import ImageError, ModelError
+from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
+from svbrdf.trainer.guard import NumericalGuard
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss)
-from svbrdf.trainer.models import (DECODER_MAPS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
-                                   pack_maps)
+from svbrdf.trainer.models import Discriminator, Generator, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
 from svbrdf.trainer.render import FlashGeometry
 
 PathLike = Union[str, os.PathLike]
+
+_DECODER_BY_KEY = {d.key: d for d in DECODERS}
+
 #: Start of the learned vignetting's logit: v = 0.9 sigmoid(t) = 0.05 (a mild lens darkening).
 VIGNETTING_START_LOGIT = math.log(0.05 / 0.85)
 #: ``callback(trainer, record)`` after every iteration; returning True stops the run (after this iteration).
@@ -237,12 +240,11 @@ class Trainer:
             self.perceptual_backend = self.perceptual.backend_name
             if config.perceptual == "auto" or self.perceptual_backend != config.perceptual:
                 self.notes.append(f"perceptual loss backend: {self.perceptual_backend}")
-        self.params = {
-            "nr": list(self.generator.decoder_nr.parameters()),
-            "ds": list(self.generator.decoder_ds.parameters())
-            + (list(self.generator.encoder.parameters()) if config.train_encoder else []),
-            "d": list(self.discriminator.parameters()),
-        }
+        # One optimiser per decoder (DECODERS' keys, "nr" then "ds"; the encoder trains with "ds"), one for D.
+        self.params = {d.key: list(getattr(self.generator, d.module).parameters()) for d in DECODERS}
+        if config.train_encoder:
+            self.params["ds"] += list(self.generator.encoder.parameters())
+        self.params["d"] = list(self.discriminator.parameters())
         # The photo's learned camera (per photo: never taken from a stage-one checkpoint) and the generator's output
         # offsets, trained by their own Adam at camera_lr.
         self.vignetting_logit: Optional[torch.Tensor] = None
@@ -281,9 +283,9 @@ class Trainer:
         self.init: Optional[Dict[str, Any]] = None
         self.stopped_early = False
         self.interrupted = False
-        self._consecutive_bad = 0
-        self._skips_at_last_save = 0
-        self._snapshot: Optional[Dict[str, Any]] = None
+        self._skips_at_last_save = 0  # nonfinite_skips at the last save (svbrdf.trainer.checkpoint.save_trainer)
+        self.guard = NumericalGuard(self._guard_state, self._restore_guard_state, config.guard_rollback_after,
+                                    self.counters)
 
     # ------------------------------------------------------------------ setup helpers
     def min_tile(self) -> int:
@@ -337,98 +339,28 @@ class Trainer:
         """What the camera would record of a rendering: clipped to [0, 1] with ``saturate``, else unchanged."""
         return rendering.clamp(0.0, 1.0) if self.config.saturate else rendering
 
-    # ------------------------------------------------------------------ loading
+    # ------------------------------------------------------------------ checkpoints (svbrdf.trainer.checkpoint)
     def load_init(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
-        """Start from a pretrained checkpoint (finetune): G, D and, unless ``reset_optimizers``, the Adam states.
-
-        The generator/discriminator configuration must match ``config`` (use :func:`finetune`, which takes
-        them from the checkpoint).
-        """
-        self._load_models(ckpt, source)
-        if ckpt.get("discriminator") is None:
-            self.notes.append(f"{Path(source).name}: no discriminator weights; D starts from scratch")
-        if self.config.reset_optimizers:
-            self.notes.append("optimiser states reset")
-        elif not ckpt.get("optimizers"):
-            self.notes.append(f"{Path(source).name}: no optimiser states; Adam starts fresh")
-        else:
-            for key, opt in self.optimizers.items():
-                if key == "cam":  # the new photo's own camera and offsets: a fresh Adam
-                    continue
-                try:
-                    opt.load_state_dict(ckpt["optimizers"][key])
-                except (KeyError, ValueError) as e:
-                    self.optimizers[key] = self._adam(self.params[key])
-                    self.notes.append(f"optimiser {key!r} state not reusable ({str(e)[:80]}); started fresh")
-                else:
-                    for group in opt.param_groups:  # the new run's learning rate and betas win
-                        group["lr"], group["betas"] = self.config.lr, tuple(self.config.betas)
-        self.init = {"path": str(source), "stage": ckpt.get("stage"), "step": ckpt.get("step"),
-                     "photo": dict(ckpt.get("photo") or {})}
-        if self.config.lambda_anchor > 0:
-            with torch.no_grad():
-                self.anchor = self.predict().float()
+        """Start from a pretrained checkpoint (see :func:`svbrdf.trainer.checkpoint.load_init`)."""
+        ckpt_io.load_init(self, ckpt, source)
 
     def load_resume(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
-        """Continue exactly where ``ckpt`` stood: weights, Adam states, step, history, counters and RNG states."""
-        if ckpt.get("photo", {}).get("sha256") != self.photo_info.get("sha256"):
-            raise ModelError(f"{source}: was trained on {ckpt.get('photo', {}).get('name')!r}, not on this photo "
-                             f"{self.photo_info.get('name')!r}")
-        if not ckpt.get("optimizers") or not ckpt.get("rng") or ckpt.get("discriminator") is None:
-            raise ModelError(f"{source}: cleaned checkpoint (no optimiser/RNG/discriminator state); cannot resume")
-        self._load_models(ckpt, source)
-        try:
-            for key, opt in self.optimizers.items():
-                opt.load_state_dict(ckpt["optimizers"][key])
-        except (KeyError, ValueError) as e:
-            raise ModelError(f"{source}: optimiser states do not match the model ({str(e)[:120]})") from None
-        self._load_camera(ckpt.get("camera"))
-        self.step = int(ckpt["step"])
-        self.history = [dict(h) for h in ckpt.get("history", [])]
-        self.counters.update({k: int(v) for k, v in (ckpt.get("counters") or {}).items()})
-        self._skips_at_last_save = self.counters["nonfinite_skips"]
-        self.init = ckpt.get("init")
-        self.notes.extend(n for n in ckpt.get("notes", []) if n not in self.notes)
-        rng = ckpt["rng"]
-        torch.set_rng_state(rng["torch"])
-        self.tile_rng.set_state(rng["tiles"])
-        if rng.get("cuda") and torch.cuda.is_available():
-            torch.cuda.set_rng_state_all(rng["cuda"])
-        eval_maps = ckpt.get("eval_maps")
-        self.eval_maps = None if eval_maps is None else eval_maps.to(self.device)
-        anchor = ckpt.get("anchor")
-        self.anchor = None if anchor is None else anchor.to(self.device, torch.float32)
-        if self.config.lambda_anchor > 0 and self.anchor is None and self.stage == "finetune":
-            raise ModelError(f"{source}: a fine-tune with lambda_anchor > 0 but no stored anchor; cannot resume")
+        """Continue exactly where ``ckpt`` stood (see :func:`svbrdf.trainer.checkpoint.load_resume`)."""
+        ckpt_io.load_resume(self, ckpt, source)
 
-    def _load_models(self, ckpt: Mapping[str, Any], source: PathLike) -> None:
-        for key, cfg, net in (("generator", self.config.generator, self.generator),
-                              ("discriminator", self.config.discriminator, self.discriminator)):
-            state = ckpt.get(key)
-            if state is None:
-                continue
-            stored = ckpt.get(f"{key}_config") or {}
-            mine = {k: v for k, v in cfg.to_dict().items() if k != "train_encoder"}
-            theirs = {k: v for k, v in stored.items() if k != "train_encoder"}
-            if mine != theirs:
-                raise ModelError(f"{source}: {key} configuration {theirs} differs from the run's {mine}")
-            try:
-                net.load_state_dict(state)
-            except RuntimeError as e:
-                raise ModelError(f"{source}: {key} weights do not fit ({str(e).splitlines()[0][:120]})") from None
-
-    # ------------------------------------------------------------------ checkpoints
     def checkpoint(self) -> Dict[str, Any]:
-        """The current state as a checkpoint dict (:mod:`svbrdf.trainer.checkpoint`)."""
-        rng = {"torch": torch.get_rng_state(), "tiles": self.tile_rng.get_state(),
-               "cuda": torch.cuda.get_rng_state_all() if torch.cuda.is_available() else []}
-        return ckpt_io.build_checkpoint(
-            generator=self.generator, discriminator=self.discriminator, train_config=self.config.to_dict(),
-            stage=self.stage, step=self.step, iters=self.iters, optimizers=self.optimizers, history=self.history,
-            photo=self.photo_info, rng=rng, counters=self.counters, init=self.init,
-            perceptual_backend=self.perceptual_backend, notes=self.notes, eval_maps=self.eval_maps,
-            camera=self.camera_state(), anchor=self.anchor)
+        """The current state as a checkpoint dict (see :func:`svbrdf.trainer.checkpoint.trainer_checkpoint`)."""
+        return ckpt_io.trainer_checkpoint(self)
 
+    def save(self, path: Optional[PathLike] = None) -> Path:
+        """Write a checkpoint to ``path`` (default ``checkpoint_path``) and refresh the last-good copy
+        (:func:`svbrdf.trainer.checkpoint.save_trainer`)."""
+        path = Path(path) if path is not None else self.checkpoint_path
+        if path is None:
+            raise ValueError("no checkpoint path")
+        return ckpt_io.save_trainer(self, path)
+
+    # ------------------------------------------------------------------ the learned camera
     def camera_state(self) -> Optional[Dict[str, torch.Tensor]]:
         """The learned camera of this photo (``{"vignetting_logit", "vignetting"}``: 0-d tensors), or None."""
         if self.vignetting_logit is None:
@@ -436,81 +368,36 @@ class Trainer:
         return {"vignetting_logit": self.vignetting_logit.detach().clone(),
                 "vignetting": self.vignetting().detach().clone()}
 
-    def _load_camera(self, state: Optional[Mapping[str, torch.Tensor]]) -> None:
+    def load_camera(self, state: Optional[Mapping[str, torch.Tensor]]) -> None:
+        """Set the learned camera from :meth:`camera_state` (no-op without ``learn_vignetting`` or state)."""
         if self.vignetting_logit is not None and state and "vignetting_logit" in state:
             with torch.no_grad():
                 self.vignetting_logit.copy_(state["vignetting_logit"].to(self.device))
 
-    def save(self, path: Optional[PathLike] = None) -> Path:
-        """Write a checkpoint to ``path`` (default ``checkpoint_path``) and refresh the last-good copy."""
-        path = Path(path) if path is not None else self.checkpoint_path
-        if path is None:
-            raise ValueError("no checkpoint path")
-        ckpt_io.save_checkpoint(path, self.checkpoint())
-        if self.counters["nonfinite_skips"] == self._skips_at_last_save:
-            good = last_good_path(path)
-            tmp = good.with_name(f".{good.name}.tmp")
-            try:
-                tmp.unlink(missing_ok=True)
-                try:
-                    os.link(path, tmp)  # no copy: the next checkpoint is a new file (os.replace), this one stays
-                except OSError:
-                    import shutil
+    # ------------------------------------------------------------------ the numerical guard (svbrdf.trainer.guard)
+    def _guard_state(self) -> Dict[str, Any]:
+        """What a rollback restores: G, D, the optimiser states and the camera."""
+        return {"generator": self.generator.state_dict(), "discriminator": self.discriminator.state_dict(),
+                "optimizers": {k: o.state_dict() for k, o in self.optimizers.items()}, "camera": self.camera_state()}
 
-                    shutil.copyfile(path, tmp)
-                os.replace(tmp, good)
-            finally:
-                tmp.unlink(missing_ok=True)
-        self._skips_at_last_save = self.counters["nonfinite_skips"]
-        return path
-
-    # ------------------------------------------------------------------ guard
-    def _take_snapshot(self) -> None:
-        self._snapshot = copy.deepcopy({
-            "generator": self.generator.state_dict(), "discriminator": self.discriminator.state_dict(),
-            "optimizers": {k: o.state_dict() for k, o in self.optimizers.items()}, "camera": self.camera_state()})
-
-    def _rollback(self) -> None:
-        snap = copy.deepcopy(self._snapshot)  # optimisers would otherwise update the snapshot's tensors in place
+    def _restore_guard_state(self, snap: Dict[str, Any]) -> None:
         self.generator.load_state_dict(snap["generator"])
         self.discriminator.load_state_dict(snap["discriminator"])
         for k, o in self.optimizers.items():
             o.load_state_dict(snap["optimizers"][k])
-        self._load_camera(snap["camera"])
-        self.counters["rollbacks"] += 1
+        self.load_camera(snap["camera"])
 
     def _apply(self, keys: Union[str, Tuple[str, ...]], loss: torch.Tensor) -> bool:
-        """Backward + step of optimiser(s) ``keys`` unless the loss or a gradient is non-finite. True = stepped."""
+        """Backward + step of optimiser(s) ``keys`` through the guard (:meth:`NumericalGuard.step`). True =
+        stepped."""
         keys = (keys,) if isinstance(keys, str) else tuple(keys)
-        opts = [self.optimizers[k] for k in keys]
-        params = [p for k in keys for p in self.params[k]]
-        for opt in opts:
-            opt.zero_grad(set_to_none=True)
-        ok = bool(torch.isfinite(loss))
-        if ok:
-            # `inputs` limits the backward pass to these optimisers' parameters (no stray grads in the others).
-            loss.backward(inputs=params)
-            grads = [p.grad for p in params if p.grad is not None]
-            ok = bool(torch.stack([torch.isfinite(g).all() for g in grads]).all()) if grads else True
-        if ok:
-            for opt in opts:
-                opt.step()
-            self._consecutive_bad = 0
-            return True
-        for opt in opts:
-            opt.zero_grad(set_to_none=True)
-        self.counters["nonfinite_skips"] += 1
-        self._consecutive_bad += 1
-        if self._consecutive_bad >= self.config.guard_rollback_after and self._snapshot is not None:
-            self._rollback()
-            self._consecutive_bad = 0
-        return False
+        return self.guard.step([self.optimizers[k] for k in keys], [p for k in keys for p in self.params[k]], loss)
 
     # ------------------------------------------------------------------ one iteration
     def _g_step(self, key: str, terms: Dict[str, List[torch.Tensor]]) -> None:
         y0, x0 = self._draw_tile(self.tile_rng)
         x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
-        trained = DECODER_MAPS["decoder_nr" if key == "nr" else "decoder_ds"]
+        trained = _DECODER_BY_KEY[key].maps
         frozen = tuple(n for n in MAP_NAMES if n not in trained)
         size = (x.shape[-2], x.shape[-1])
         with self._amp():
@@ -655,7 +542,7 @@ class Trainer:
         """Iterate until ``iters`` (or a plateau with ``quality="auto"``, or the callback asks to stop); save a
         checkpoint every ``checkpoint_every`` iterations and at the end. Returns the history."""
         cfg = self.config
-        self._take_snapshot()
+        self.guard.take_snapshot()
         self._log({"event": "start" if self.step == 0 else "resume", "stage": self.stage, "step": self.step,
                    "iters": self.iters, "notes": self.notes})
         while self.step < self.iters:
@@ -663,7 +550,7 @@ class Trainer:
             self.history.append(rec)
             self._log(rec)
             if rec["skipped"] == 0 and self.step % cfg.guard_snapshot_every == 0:
-                self._take_snapshot()
+                self.guard.take_snapshot()
             if self.checkpoint_path is not None and cfg.checkpoint_every and self.step % cfg.checkpoint_every == 0 \
                     and self.step < self.iters:
                 self.save()
@@ -692,27 +579,6 @@ class Trainer:
                             overlap=self.config.predict_overlap)
 
 
-def last_good_path(path: PathLike) -> Path:
-    """``checkpoint.pt`` -> ``checkpoint_last_good.pt``."""
-    path = Path(path)
-    return path.with_name(f"{path.stem}_last_good{path.suffix}")
-
-
-# ----------------------------------------------------------------------------------------------- stages
-def pretrain(photo: torch.Tensor, config: TrainConfig, **kw) -> Trainer:
-    """Stage 1: train from scratch for ``config.iters_pretrain`` iterations. ``kw``: see :class:`Trainer`."""
-    trainer = Trainer(photo, config, stage="pretrain", **kw)
-    trainer.run()
-    return trainer
-
-
-def fit(photo: torch.Tensor, config: TrainConfig, **kw) -> Trainer:
-    """Train from scratch on one photo for ``config.iters_fit`` iterations. ``kw``: see :class:`Trainer`."""
-    trainer = Trainer(photo, config, stage="fit", **kw)
-    trainer.run()
-    return trainer
-
-
 def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool:
     """Patience rule on the label-free re-render L1 (one value per evaluation, oldest first): True when the best
     of the last ``window`` values is not lower than ``1 - tol`` times the best before them.
@@ -728,46 +594,5 @@ def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool
     return min(render_l1[-window:]) >= (1.0 - tol) * min(render_l1[:-window])
 
 
-def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[TrainConfig, List[str]]:
-    """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept)."""
-    gen = GeneratorConfig.from_dict({**init["generator_config"], "train_encoder": config.train_encoder})
-    disc = config.discriminator
-    if init.get("discriminator_config"):
-        disc = DiscriminatorConfig.from_dict(init["discriminator_config"])
-    notes = []
-    if gen != config.generator or disc != config.discriminator:
-        notes.append("model architecture taken from the initial checkpoint")
-    d = config.to_dict()
-    d.update(generator=gen.to_dict(), discriminator=disc.to_dict())
-    return TrainConfig.from_dict(d), notes
-
-
-def finetune(photo: torch.Tensor, init: Union[PathLike, Mapping[str, Any]], config: TrainConfig, **kw) -> Trainer:
-    """Stage 2: start from a pretrained checkpoint (path or loaded dict) and train ``config.iters_finetune``
-    iterations on a new photo. The architecture comes from the checkpoint. ``kw``: see :class:`Trainer`."""
-    source = init if not isinstance(init, Mapping) else "checkpoint"
-    ckpt = ckpt_io.load_checkpoint(init) if not isinstance(init, Mapping) else init
-    config, notes = finetune_config(config, ckpt)
-    trainer = Trainer(photo, config, stage="finetune", **kw)
-    trainer.notes.extend(notes)
-    trainer.load_init(ckpt, source)
-    trainer.run()
-    return trainer
-
-
-def resume(photo: torch.Tensor, checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optional[int] = None,
-           **kw) -> Trainer:
-    """Continue a run exactly where ``checkpoint`` stood (same settings; ``iters`` may extend it)."""
-    source = checkpoint if not isinstance(checkpoint, Mapping) else "checkpoint"
-    ckpt = ckpt_io.load_checkpoint(checkpoint) if not isinstance(checkpoint, Mapping) else checkpoint
-    config = TrainConfig.from_dict(ckpt["train_config"])
-    trainer = Trainer(photo, config, stage=ckpt["stage"], iters=iters if iters is not None else ckpt.get("iters"),
-                      **kw)
-    trainer.load_resume(ckpt, source)
-    trainer.run()
-    return trainer
-
-
-__all__ = ["Trainer", "pretrain", "finetune", "fit", "resume", "finetune_config", "plateau_reached", "predict_full", "to_maps",
-           "load_photo", "photo_to_tensor", "tensor_photo_info", "pick_device", "bf16_support", "set_threads",
-           "last_good_path"]
+__all__ = ["Trainer", "plateau_reached", "predict_full", "to_maps", "load_photo", "photo_to_tensor",
+           "tensor_photo_info", "pick_device", "bf16_support", "set_threads"]

@@ -16,7 +16,7 @@ from svbrdf.export.cli import main  # noqa: E402
 from svbrdf.export.onnx import OPSET, export_generator  # noqa: E402
 from svbrdf.runtime.errors import ModelError, SvbrdfError  # noqa: E402
 from svbrdf.runtime.maps import MAP_NAMES, SLICES  # noqa: E402
-from svbrdf.runtime.models import MANIFEST_SCHEMA, PARTS, map_layout, sha256_file  # noqa: E402
+from svbrdf.runtime.manifest import DECODERS, MANIFEST_SCHEMA, PARTS, map_layout, sha256_file  # noqa: E402
 from svbrdf.trainer.checkpoint import build_checkpoint, save_checkpoint  # noqa: E402
 from svbrdf.trainer.config import resolve  # noqa: E402
 from svbrdf.trainer.models import DECODER_MAPS, MODEL_PRESETS, Generator  # noqa: E402
@@ -127,7 +127,12 @@ def test_parts_are_one_decoder_each_and_match_the_full_graph(exported):
 
 
 def test_parts_follow_the_generator_decoders():
+    g = Generator(MODEL_PRESETS["tiny"])
     assert sorted(map(sorted, PARTS.values())) == sorted(map(sorted, DECODER_MAPS.values()))
+    assert sorted(m for d in DECODERS for m in d.maps) == sorted(MAP_NAMES)  # each map from one decoder
+    for d in DECODERS:
+        assert isinstance(getattr(g, d.module), torch.nn.Module) and PARTS[d.part] == DECODER_MAPS[d.module]
+        assert set(g.decode(g.forward_features(torch.zeros(1, 3, 16, 16)), maps=d.maps)) == set(d.maps)
     assert all(tuple(n for n in MAP_NAMES if n in maps) == maps for maps in PARTS.values())  # packing order
 
 

@@ -9,7 +9,7 @@ import pytest
 
 from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.runtime.imageio import read_image
-from svbrdf.runtime.models import find_checkpoint, find_model, sha256_file
+from svbrdf.runtime.manifest import find_checkpoint, find_model, sha256_file
 from svbrdf.runtime.session import estimate, load_session
 
 EXAMPLE = Path(str(resources.files("svbrdf.runtime"))) / "examples" / "carved_wood.png"

@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from svbrdf.runtime.cli import TORCH_HINT, main
+from svbrdf.runtime.cli import TORCH_HINT, build_parser, main
 from svbrdf.runtime.imageio import read_image, write_image
 
 pytest.importorskip("onnxruntime")
@@ -156,7 +156,7 @@ def test_version_imports_nothing_heavy():
 
 def test_session_and_cli_do_not_import_torch():
     res = _subprocess(
-        "import svbrdf.runtime.session, svbrdf.runtime.cli, svbrdf.runtime.models, svbrdf.runtime.tiling, sys; "
+        "import svbrdf.runtime.session, svbrdf.runtime.cli, svbrdf.runtime.manifest, svbrdf.runtime.tiling, sys; "
         "assert 'torch' not in sys.modules, 'torch was imported'"
     )
     assert res.returncode == 0, res.stderr
@@ -182,10 +182,14 @@ def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
     assert meta["refine"]["iterations"] == 1 and meta["refine"]["checkpoint"] == str(tiny_model.with_suffix(".pt"))
 
 
-def test_target_choices_match_targets_module():
-    from svbrdf.runtime import cli, targets
-
-    assert tuple(cli._TARGETS) == tuple(targets.TARGETS)
+def test_normal_accepts_the_api_names_and_the_short_alias():
+    parser = build_parser()
+    assert parser.parse_args(["a.png"]).normal == "opengl"
+    assert parser.parse_args(["a.png", "--normal", "gl"]).normal == "opengl"
+    assert parser.parse_args(["a.png", "--normal", "opengl"]).normal == "opengl"
+    assert parser.parse_args(["a.png", "--normal", "dx"]).normal == "dx"
+    with pytest.raises(SystemExit):
+        parser.parse_args(["a.png", "--normal", "directx"])
 
 
 def test_target_gltf_writes_a_material(photo, tiny_model, tmp_path, capsys):
@@ -200,10 +204,10 @@ def test_target_gltf_writes_a_material(photo, tiny_model, tmp_path, capsys):
 def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, tiny_model, tmp_path, capsys,
                                                                          monkeypatch):
     pytest.importorskip("torch")
-    from svbrdf.runtime import cli
+    from svbrdf.runtime import preview_check
 
-    monkeypatch.setattr(cli, "SKIP_REFINE_RMSE", 10.0)  # any preview passes the error test
-    monkeypatch.setattr(cli, "SKIP_REFINE_BURN_IN", 100.0)  # ... and the burn-in test
+    monkeypatch.setattr(preview_check, "SKIP_REFINE_RMSE", 10.0)  # any preview passes the error test
+    monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", 100.0)  # ... and the burn-in test
     code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "a", "--refine", "--quality", "auto",
                           "--threads", "1")
     assert code == 0, err
@@ -212,16 +216,17 @@ def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, ti
     assert meta["refine"]["skipped"] is True and meta["refine"]["preview_input_rmse"] <= 10.0
     assert meta["burn_in"]["burn_in"] == pytest.approx(meta["refine"]["preview_burn_in"])
 
-    monkeypatch.setattr(cli, "SKIP_REFINE_BURN_IN", -1.0)  # a burnt-in preview is refined, however low its error
+    monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", -1.0)  # a burnt-in preview is refined, however low
+    #                                                                   its error
     code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "c", "--refine", "--quality", "auto",
                           "--threads", "1")
     assert code == 0, err
     assert "refined" in out
     meta = json.loads((tmp_path / "c" / "wood.json").read_text())["meta"]
     assert meta["refine"]["preview_burn_in"] >= 0.0 and set(meta["burn_in"]) >= {"burn_in", "burn_diffuse", "centre"}
-    monkeypatch.setattr(cli, "SKIP_REFINE_BURN_IN", 100.0)
+    monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", 100.0)
 
-    monkeypatch.setattr(cli, "SKIP_REFINE_RMSE", 0.0)  # no preview passes: the fine-tune runs
+    monkeypatch.setattr(preview_check, "SKIP_REFINE_RMSE", 0.0)  # no preview passes: the fine-tune runs
     code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "b", "--refine", "--quality", "auto",
                           "--threads", "1")
     assert code == 0, err

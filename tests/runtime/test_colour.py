@@ -50,3 +50,10 @@ def test_input_not_modified_and_empty():
     srgb_to_linear(x)
     assert np.all(x == 0.5)
     assert srgb_to_linear(np.zeros((0, 3, 3), np.float32)).shape == (0, 3, 3)
+
+
+def test_linear_to_srgb_clip_clips_then_encodes():
+    out = linear_to_srgb(np.array([-1.0, 0.0, 0.0031308 / 2, 1.0, 4.0], np.float32), clip=True)
+    assert out.dtype == np.float32
+    assert out[0] == 0.0 and out[1] == 0.0 and out[3] == pytest.approx(1.0, abs=1e-5) and out[4] == out[3]
+    assert out[2] == pytest.approx(12.92 * 0.0031308 / 2, rel=1e-3)  # the linear toe

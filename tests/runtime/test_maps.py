@@ -8,6 +8,7 @@ from svbrdf.runtime.maps import (
     MAP_ALIASES, MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES, Maps, channel_slice, decode_normal, encode_normal,
     normal_dx_to_gl, normal_gl_to_dx, normalize_normals, select_maps,
 )
+from svbrdf.runtime.render import DESCHAINTRE
 
 
 def _random_maps(h=5, w=7, seed=0):
@@ -151,3 +152,14 @@ def test_unpack_a_subset_ignores_the_other_channels():
     m = Maps.unpack(packed, maps=("roughness", "normal"))
     assert m.names == ("roughness", "normal") and np.isfinite(m.normal).all()
     np.testing.assert_array_equal(m.roughness, packed[..., SLICES["roughness"]])
+
+
+def test_render_config_is_a_typed_field():
+    maps = _random_maps()
+    assert maps.render_config is None
+    with pytest.raises(TypeError, match="RenderConfig"):
+        Maps(maps.diffuse, render_config=DESCHAINTRE.to_dict())
+    typed = Maps(maps.diffuse, maps.specular, maps.roughness, maps.normal, render_config=DESCHAINTRE)
+    assert typed.clipped().render_config is DESCHAINTRE and typed.subset("normal").render_config is DESCHAINTRE
+    assert typed.crop(0, 0, 2, 2).render_config is DESCHAINTRE
+    assert Maps.unpack(typed.pack(), render_config=DESCHAINTRE).render_config is DESCHAINTRE

@@ -12,7 +12,8 @@ from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
 from svbrdf.runtime.maps import Maps, normal_gl_to_dx
-from svbrdf.runtime.render import ALPHA_MIN, DESCHAINTRE, ZHAO, RenderConfig, render, shade
+from svbrdf.runtime.render import (ALPHA_MIN, DESCHAINTRE, ZHAO, RenderConfig, novel_lights, render, rerender_rmse,
+                                   shade)
 
 
 def _constant_maps(h, w, diffuse=(0.5, 0.5, 0.5), specular=0.0, roughness=0.5, normal=(0.0, 0.0, 1.0)):
@@ -203,3 +204,21 @@ def test_render_refuses_a_subset_with_one_line():
                 roughness=None, normal=None)
     with pytest.raises(ValueError, match="rendering needs the roughness, normal"):
         render(part)
+
+
+def test_rerender_rmse_against_maps_and_photo():
+    rng = np.random.default_rng(2)
+    gt = _random_maps(rng, 16, 16)
+    lights = [tuple(p) for p in novel_lights(ZHAO)] + [None]
+    photo = np.clip(render(gt, None, ZHAO), 0, 1)
+    assert rerender_rmse(gt, photo, [None]) == pytest.approx(0.0, abs=1e-6)
+    assert rerender_rmse(gt, gt, lights) == pytest.approx(0.0, abs=1e-9)
+    darker = Maps(**{**dict(gt.items()), "diffuse": gt.diffuse * 0.5})
+    assert rerender_rmse(darker, gt, lights) > 0.02
+    assert rerender_rmse(darker, photo, [None]) == pytest.approx(rerender_rmse(darker, gt, [None]), abs=1e-6)
+    with pytest.raises(ValueError, match="no lights"):
+        rerender_rmse(gt, gt, [])
+    with pytest.raises(ValueError, match="size mismatch"):
+        rerender_rmse(gt, photo[:8], [None])
+
+

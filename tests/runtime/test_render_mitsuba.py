@@ -72,7 +72,7 @@ def _synthetic_maps(n: int = SIZE) -> Maps:
 def _des19_maps() -> Maps:
     if not DES19_FILE.is_file():
         pytest.skip(f"third-party test data not found at {DES19_FILE}")
-    from svbrdf.runtime.datasets import read_des19
+    from svbrdf.trainer.bench.datasets import read_des19
 
     m = read_des19(DES19_FILE)
     f = m.shape[0] // SIZE

@@ -1,4 +1,4 @@
-"""Model lookup and verification (svbrdf.runtime.models) and onnxruntime preview inference (svbrdf.runtime.session)."""
+"""Model lookup and verification (svbrdf.runtime.manifest) and onnxruntime preview inference (svbrdf.runtime.session)."""
 
 import json
 import shutil
@@ -10,7 +10,7 @@ import pytest
 from svbrdf.runtime.errors import ImageError, ModelError, SvbrdfError
 from svbrdf.runtime.imageio import write_image
 from svbrdf.runtime.maps import MAP_NAMES
-from svbrdf.runtime.models import MODEL_ENV, find_checkpoint, find_model, map_layout
+from svbrdf.runtime.manifest import MODEL_ENV, find_checkpoint, find_model, map_layout
 from svbrdf.runtime.tiling import tile_boxes
 
 from .conftest import TINY_FOV
@@ -131,7 +131,8 @@ def test_estimate_array_in_one_pass(session):
     assert meta["tiles"] == 1 and not meta["resized"] and meta["size"] == [37, 58]
     assert meta["model"]["sha256"] == session.info.sha256 and meta["model"]["verified"]
     assert set(meta["timings"]) == {"read", "resize", "infer", "post"}
-    assert meta["render_config"]["fov_deg"] == TINY_FOV
+    assert maps.render_config == session.render_config and maps.render_config.fov_deg == TINY_FOV
+    assert "render_config" not in meta  # a typed field, not a dict in the metadata
     raw = session.run(photo)  # the maps are the model's output, clipped/renormalised only
     np.testing.assert_allclose(maps.diffuse, np.clip(raw[..., :3], 0, 1), atol=1e-6)
     from svbrdf.runtime.burn_in import photo_burn_in

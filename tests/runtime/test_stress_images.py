@@ -14,9 +14,10 @@ import pytest
 from hypothesis import HealthCheck, example, given, settings
 from hypothesis import strategies as st
 
+from svbrdf.runtime.colour import srgb_to_linear
 from svbrdf.runtime.errors import ImageError, SvbrdfError
 from svbrdf.runtime.imageio import ImageWarning, read_image
-from svbrdf.runtime.models import MIN_SIZE
+from svbrdf.runtime.manifest import MIN_SIZE
 
 pytest.importorskip("onnxruntime")
 from svbrdf.runtime.cli import main  # noqa: E402
@@ -39,10 +40,6 @@ CHANNEL_NAMES = {1: ["Y"], 2: ["Y", "A"], 3: ["R", "G", "B"], 4: ["R", "G", "B",
 #: Contents any file can hold, and those only a float file can hold.
 CONTENTS = ("black", "white", "noise", "highlight")
 FLOAT_CONTENTS = ("hdr", "negative", "nan", "inf")
-
-
-def _srgb_to_linear_ref(s):
-    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
 
 
 def _content(kind: str, h: int, w: int, c: int, seed: int = 0) -> np.ndarray:
@@ -95,7 +92,7 @@ def _expected(stored: np.ndarray, fmt, is_float: bool) -> np.ndarray:
             colour = colour.astype(np.float16).astype(np.float64)
         return np.maximum(colour, 0.0)
     top = 255 if fmt == oiio.UINT8 else 65535
-    return _srgb_to_linear_ref(np.round(np.clip(colour, 0, 1) * top) / top)
+    return srgb_to_linear(np.round(np.clip(colour, 0, 1) * top) / top)
 
 
 def _assert_valid_maps(maps, shape):

@@ -7,6 +7,7 @@ import OpenImageIO as oiio
 import pytest
 
 from svbrdf.runtime import conversions as cv
+from svbrdf.runtime.colour import srgb_to_linear
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.imageio import image_info, read_image
 from svbrdf.runtime.maps import Maps, normalize_normals
@@ -44,10 +45,6 @@ def _read_raw(path):
         return np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float32)
     finally:
         inp.close()
-
-
-def _srgb_decode(s):
-    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
 
 
 # ---------------------------------------------------------------------------------------------- conversions
@@ -175,7 +172,7 @@ def test_specular_workflow_files(tmp_path, maps):
 
 
 def test_render_config_changes_the_base_colour(tmp_path, maps):
-    maps.meta["render_config"] = DESCHAINTRE.to_dict()  # as the sidecar stores it
+    maps.render_config = DESCHAINTRE
     p = write_target(maps, tmp_path, "m", "usd")
     np.testing.assert_allclose(read_image(p["basecolor"]), maps.diffuse, atol=5e-3)  # w_d = 1 - rho_s
 
@@ -230,7 +227,7 @@ def test_unity_smoothness_in_alpha(tmp_path, maps):
     assert ss.shape == (H, W, 4) and image_info(p["specular_smoothness"])["dtype"] == "uint16"
     np.testing.assert_allclose(ss[..., 3:], 1.0 - maps.roughness, atol=Q16)  # alpha: linear, not premultiplied
     for c in range(3):  # RGB: sRGB-encoded F0, untouched by the alpha
-        np.testing.assert_allclose(_srgb_decode(ss[..., c:c + 1]), maps.specular, atol=1e-4)
+        np.testing.assert_allclose(srgb_to_linear(ss[..., c:c + 1]), maps.specular, atol=1e-4)
     np.testing.assert_allclose(read_image(p["basecolor"]),
                                cv.to_weighted_base(maps.diffuse, maps.specular, ZHAO), atol=5e-3)
 
@@ -264,17 +261,40 @@ def test_bad_input_leaves_nothing(tmp_path, maps):
     assert list(tmp_path.iterdir()) == []  # the output folder it would have created is gone too
 
 
-def test_failed_write_midway_leaves_nothing(tmp_path, maps, monkeypatch):
-    from svbrdf.runtime import targets
+@pytest.mark.parametrize("existing", [False, True])
+def test_failed_write_midway_leaves_nothing(tmp_path, maps, monkeypatch, existing):
+    from svbrdf.runtime import imageio, texture_set
 
-    def full_disk(path, arr, **kw):
-        raise ImageError(f"{path}: write failed (disk full)")
+    written = []
 
-    monkeypatch.setattr(targets, "write_image", full_disk)  # the packed texture, after the four maps
+    def full_disk(path, arr, **kw):  # the packed texture fails, after the base colour and the normal map
+        if path.name == "m_OcclusionRoughnessMetallic.png":
+            raise ImageError(f"{path}: write failed (disk full)")
+        written.append(path.name)
+        return imageio.write_image(path, arr, **kw)
+
+    out = tmp_path / "out"
+    if existing:  # an earlier set is replaced (force) only when the whole new one was written
+        write_target(maps, out, "m", "unreal")
+        before = {p.name: p.read_bytes() for p in out.iterdir()}
+    monkeypatch.setattr(texture_set, "write_image", full_disk)
     with pytest.raises(ImageError, match="write failed") as exc:
-        write_target(maps, tmp_path, "m", "unreal")
-    assert str(exc.value).startswith(str(tmp_path / "m_OcclusionRoughnessMetallic.png"))
-    assert list(tmp_path.iterdir()) == []
+        write_target(maps.clipped(), out, "m", "unreal", force=True, extra_meta={"new": 1})
+    assert written == ["m_BaseColor.png", "m_Normal.png"]
+    assert str(exc.value).startswith(str(out / "m_OcclusionRoughnessMetallic.png"))  # the target, not the stage
+    if existing:
+        assert {p.name: p.read_bytes() for p in out.iterdir()} == before  # no staging folder, nothing replaced
+    else:
+        assert list(tmp_path.iterdir()) == []  # the output folder it created is gone too
+
+
+def test_files_are_listed_in_the_order_of_target_files(tmp_path, maps):
+    for target in TARGETS:
+        paths = write_target(maps, tmp_path / target, "m", target, relit=np.zeros((H, W * 3, 3), np.float32))
+        names = target_files("m", target, relit=True)
+        assert list(paths) == list(names) and [p.name for p in paths.values()] == list(names.values())
+        files = json.loads(paths["sidecar"].read_text())["files"]
+        assert list(files) == [r for r in names if r != "sidecar"]
 
 
 # ----------------------------------------------------------------------------------- independent renderer
@@ -301,7 +321,7 @@ def test_mitsuba_renders_the_usd_files_like_our_renderer(tmp_path):
     config = RenderConfig(falloff=True, geometry="smith", fresnel="none")
     maps = Maps(np.stack([0.2 + 0.5 * x, 0.3 + 0.3 * y, 0.15 + 0.2 * (1 - x) * y], -1),
                 (0.04 + 0.3 * x * y)[..., None], (0.35 + 0.35 * y)[..., None], normalize_normals(n),
-                meta={"render_config": config})
+                render_config=config)
     paths = write_target(maps, tmp_path, "m", "usd")
     files = json.loads(paths["sidecar"].read_text())["files"]
 

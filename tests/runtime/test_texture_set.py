@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from svbrdf.runtime.colour import linear_to_srgb
+from svbrdf.runtime.colour import linear_to_srgb, srgb_to_linear
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.imageio import image_info, read_image
 from svbrdf.runtime.maps import Maps, normalize_normals
@@ -27,10 +27,6 @@ def maps():
         normal=normalize_normals(n),
         meta={"source": "photo.jpg", "timings": {"infer_s": np.float32(1.5)}},
     )
-
-
-def _srgb_to_linear_ref(s):
-    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
 
 
 @pytest.mark.parametrize("fmt,tol", [("png", 2e-5), ("exr", 1e-6)])
@@ -60,7 +56,7 @@ def test_dx_normal_flips_green(tmp_path, maps):
 
 
 def test_sidecar(tmp_path, maps):
-    maps.meta["render_config"] = DESCHAINTRE
+    maps.render_config = DESCHAINTRE
     paths = write_texture_set(maps, tmp_path, "m", extra_meta={"model_sha256": "ab" * 32, "source": "x.png"})
     side = json.loads(paths["sidecar"].read_text())
     assert side["size"] == {"width": W, "height": H}
@@ -161,7 +157,7 @@ def test_relit_panel(maps):
     assert panel.shape == (H, 3 * W, 3) and panel.dtype == np.float32
     assert panel.min() >= 0.0 and panel.max() <= 1.0
     flash = render(maps, None, ZHAO)
-    np.testing.assert_allclose(_srgb_to_linear_ref(panel[:, :W].astype(np.float64)),
+    np.testing.assert_allclose(srgb_to_linear(panel[:, :W].astype(np.float64)),
                                np.clip(flash, 0, 1), atol=1e-4)
     # Panels 2 and 3: upper-left and lower-right lights.
     ul, lr = novel_lights(ZHAO)[0], novel_lights(ZHAO)[-1]
@@ -198,3 +194,25 @@ def test_a_subset_writes_only_its_maps(tmp_path, maps):
 def test_relit_panel_needs_every_map(maps):
     with pytest.raises(ValueError, match="relit panel needs the diffuse, specular map"):
         relit_panel(maps.subset(["roughness", "normal"]))
+
+
+def test_commit_writes_any_plan_all_or_nothing(tmp_path):
+    from svbrdf.runtime.texture_set import TextureFile, commit
+
+    image = TextureFile("a.png", {}, np.full((2, 3, 3), 0.5, np.float32), bits=8, srgb=True)
+    doc = TextureFile("a.txt", {}, text="hello")
+    unwritable = TextureFile("b.png", {}, np.full((2, 3, 1), np.nan, np.float32), bits=16)
+    out = tmp_path / "out"
+    with pytest.raises(ImageError, match="NaN") as exc:  # the last file of the plan fails
+        commit(out, {"a": image, "doc": doc, "b": unwritable})
+    assert str(exc.value).startswith(str(out / "b.png"))
+    assert list(tmp_path.iterdir()) == []  # no file, no staging folder, no output folder
+
+    paths = commit(out, {"a": image, "doc": doc})
+    assert paths == {"a": out / "a.png", "doc": out / "a.txt"} and paths["doc"].read_text() == "hello"
+    assert image_info(paths["a"])["dtype"] == "uint8"
+    np.testing.assert_allclose(read_image(paths["a"]), 0.5, atol=3e-3)  # sRGB-encoded on write
+    with pytest.raises(ImageError, match=r"a\.txt: exists \(use --force"):  # refused before anything is written
+        commit(out, {"new": TextureFile("new.txt", {}, text="x"), "doc": doc})
+    assert sorted(p.name for p in out.iterdir()) == ["a.png", "a.txt"]
+

@@ -7,10 +7,11 @@ import numpy as np
 import pytest
 
 from svbrdf.runtime.camera import REALISTIC, Camera
+from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import read_image, write_image
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
-from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, render
+from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, render, rerender_rmse
 from svbrdf.trainer.bench import cases as bc
 from svbrdf.trainer.bench import metrics as bm
 from svbrdf.trainer.bench import report
@@ -18,12 +19,6 @@ from svbrdf.trainer.bench.cli import main, run_benchmark
 from svbrdf.trainer.bench.methods import BenchOptions, torch_available
 
 S = 48
-
-
-def _srgb(x):
-    """The IEC 61966-2-1 encoding, written out independently of the project's colour module."""
-    x = np.asarray(x, dtype=np.float64)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(np.maximum(x, 0), 1 / 2.4) - 0.055)
 
 
 def _maps(n=S, seed=0, diffuse=None, roughness=0.4, specular=0.05, normal=None):
@@ -58,8 +53,8 @@ def test_known_shifts_give_known_rmse():
     assert e["diffuse_rmse"] == pytest.approx(0.1, abs=1e-6)
     assert e["roughness_rmse"] == pytest.approx(0.2, abs=1e-6)
     assert e["specular_rmse"] == pytest.approx(0.06, abs=1e-6)
-    assert e["diffuse_rmse_srgb"] == pytest.approx(float(_srgb(0.4) - _srgb(0.3)), abs=1e-4)
-    assert e["specular_rmse_srgb"] == pytest.approx(float(_srgb(0.1) - _srgb(0.04)), abs=1e-4)
+    assert e["diffuse_rmse_srgb"] == pytest.approx(float(linear_to_srgb(0.4) - linear_to_srgb(0.3)), abs=1e-4)
+    assert e["specular_rmse_srgb"] == pytest.approx(float(linear_to_srgb(0.1) - linear_to_srgb(0.04)), abs=1e-4)
     assert e["normal_rmse"] == pytest.approx(0.0, abs=1e-7)
 
 
@@ -72,17 +67,16 @@ def test_angular_error_of_a_known_tilt():
     assert e["normal_rmse"] == pytest.approx(math.sqrt((2 - 2 * math.cos(math.radians(30))) / 12), abs=1e-5)
 
 
-def test_rerender_rmse_against_maps_and_photo():
+def test_evaluation_lights_and_input_rmse():
     gt = _maps(seed=2)
     lights = bm.evaluation_lights()
     assert len(lights) == 10 and lights[-1] is None
     assert np.allclose(np.array(lights[:9]), novel_lights(ZHAO))
     photo = np.clip(render(gt, None, ZHAO), 0, 1)
-    assert bm.rerender_rmse(gt, photo, [None]) == pytest.approx(0.0, abs=1e-6)
     darker = Maps(**{**dict(gt.items()), "diffuse": gt.diffuse * 0.5})
-    assert bm.rerender_rmse(darker, gt, lights) > 0.02
     assert bm.evaluate(darker, photo=photo)["input_rmse"] == pytest.approx(
-        bm.rerender_rmse(darker, gt, [None]), abs=1e-6)
+        rerender_rmse(darker, gt, [None]), abs=1e-6)
+    assert bm.evaluate(darker, gt=gt)["rerender_rmse"] == pytest.approx(rerender_rmse(darker, gt, lights), abs=1e-9)
     # A photo with the flash's fall-off: explained exactly by maps without it only under a renderer with fall-off.
     falling = np.clip(render(gt, None, ZHAO.replace(falloff=True)), 0, 1)
     scores = bm.evaluate(gt, photo=falling)
@@ -111,14 +105,14 @@ def test_simulate_photo_camera_and_clip():
     assert not np.allclose(noisy, clean)
     assert np.array_equal(noisy, bc.simulate_photo(m, camera=Camera(read=0.05), seed=7))  # seeded
     q = bc.simulate_photo(m, camera=Camera(quantize=True))
-    codes = _srgb(q) * 255
+    codes = linear_to_srgb(q) * 255
     assert np.abs(codes - np.round(codes)).max() < 0.02
     with pytest.raises(ValueError):
         bc.simulate_photo(m, renderer="povray")
 
 
 def test_prepare_case_realistic_and_clean(tmp_path):
-    from svbrdf.runtime.datasets import find_cases
+    from svbrdf.trainer.bench.datasets import find_cases
 
     _make_data(tmp_path)
     (case,) = [c for c in find_cases(tmp_path) if c.kind == "gt"]
@@ -154,7 +148,7 @@ def test_render_mitsuba_matches_our_physical_settings():
 def _case(name):
     from pathlib import Path
 
-    from svbrdf.runtime.datasets import Case
+    from svbrdf.trainer.bench.datasets import Case
 
     return Case(name=name, path=Path(name + ".png"), kind="photo", format="photo")
 

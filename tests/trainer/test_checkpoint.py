@@ -8,7 +8,9 @@ import torch
 from svbrdf.runtime.errors import ModelError
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
-from svbrdf.trainer.train import Trainer, last_good_path, resume
+from svbrdf.trainer.stage import make_trainer
+from svbrdf.trainer.checkpoint import last_good_path
+from svbrdf.trainer.train import Trainer
 
 
 # threads=1: see tests/trainer/test_train.py.
@@ -49,7 +51,7 @@ def test_checkpoint_is_self_describing_and_weights_only(trained):
     assert isinstance(ckpt["rng"]["torch"], torch.Tensor) and isinstance(ckpt["rng"]["tiles"], torch.Tensor)
     assert {"torch", "numpy", "python", "svbrdf"} <= set(ckpt["versions"]) and ckpt["date"]
     assert ckpt["perceptual_backend"] == "pyramid"
-    assert not list(path.parent.glob(".*.tmp"))  # atomic write left no temp file
+    assert not list(path.parent.glob(".*.tmp*"))  # atomic write left no temp file
 
 
 def test_load_generator_reproduces_the_trained_generator(trained):
@@ -102,7 +104,7 @@ def test_clean_checkpoint_drops_training_state(tmp_path, trained):
     with pytest.raises(ModelError, match="exists"):
         ckpt_io.clean_checkpoint(path, dst)
     with pytest.raises(ModelError, match="cannot resume"):
-        resume(random_photo(), dst, threads=1)
+        make_trainer(random_photo(), resume=dst, threads=1)
 
 
 @pytest.mark.parametrize("extra", [{}, {"learn_vignetting": True, "learn_offsets": True, "lambda_render": 1.0,
@@ -117,7 +119,9 @@ def test_resume_is_exact(tmp_path, extra):
     path = tmp_path / "checkpoint.pt"
     first = Trainer(photo, cfg, iters=3, checkpoint_path=path, threads=1)
     first.run()
-    second = resume(photo, path, iters=6, threads=1)
+    second = make_trainer(photo, resume=path, iters=6, threads=1)
+    assert second.step == 3
+    second.run()
     assert second.step == 6
     for a, b in zip(state_tensors(straight), state_tensors(second), strict=True):
         assert torch.allclose(a, b, rtol=0, atol=1e-6)
@@ -128,7 +132,7 @@ def test_resume_is_exact(tmp_path, extra):
 def test_resume_refuses_another_photo(trained):
     _, path = trained
     with pytest.raises(ModelError, match="not on this photo"):
-        resume(random_photo(seed=1), path, threads=1)
+        make_trainer(random_photo(seed=1), resume=path, threads=1)
 
 
 def test_last_good_copy_skips_checkpoints_after_nonfinite_steps(tmp_path):

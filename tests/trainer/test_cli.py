@@ -164,3 +164,15 @@ def test_target_preset_for_the_final_texture_set(tmp_path, photo, capsys):
     assert cli.main(["fit", str(photo), *TINY, "--iters", "1", "--out", str(out), "--target", "usd"]) == 0
     assert "usd texture set" in capsys.readouterr().err
     assert list(out.glob("*.usda")), sorted(p.name for p in out.iterdir())
+
+
+def test_target_choices_are_the_runtime_targets():
+    import argparse
+
+    from svbrdf.runtime.choices import TARGETS
+
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))
+    for stage in ("pretrain", "finetune", "fit"):
+        action = next(a for a in sub.choices[stage]._actions if a.dest == "target")
+        assert tuple(action.choices) == TARGETS

@@ -5,6 +5,7 @@ import pytest
 import torch
 
 from svbrdf.runtime.maps import SLICES
+from svbrdf.trainer.colour import linear_to_srgb
 from svbrdf.trainer.losses import (
     CLIP_LEVEL,
     clipped_fraction,
@@ -270,7 +271,7 @@ def test_normalized_diffuse_loss_ignores_level_and_contrast():
 
 
 def _srgb(x):
-    return torch.where(x <= 0.0031308, 12.92 * x, 1.055 * x.clamp_min(1e-12) ** (1 / 2.4) - 0.055)
+    return linear_to_srgb(torch.full((1, 3, 1, 1), float(x)))[0, 0, 0, 0]
 
 
 def test_render_loss_is_srgb_l1_and_one_sided_on_clipped_pixels():

@@ -3,6 +3,7 @@ import torch
 import torch.nn.functional as F
 
 from svbrdf.runtime.errors import ModelError
+from svbrdf.trainer.colour import linear_to_srgb
 from svbrdf.trainer import perceptual as P
 from svbrdf.trainer.perceptual import (
     PerceptualLoss, PyramidFeatures, VGG19Features, load_vgg19_weights, perceptual_layer_losses, perceptual_loss,
@@ -36,9 +37,8 @@ def no_default_weights(monkeypatch, tmp_path):
 
 
 def _manual_features(x, sd):
-    """relu1_1 .. relu5_1 with plain torch ops and the sRGB formula written out."""
-    x = x.clamp(0, 1)
-    x = torch.where(x > 0.0031308, 1.055 * x.clamp_min(0.0031308) ** (1 / 2.4) - 0.055, 12.92 * x)
+    """relu1_1 .. relu5_1 with plain torch ops after the project's sRGB encoding."""
+    x = linear_to_srgb(x, clip=True)
     x = (x - torch.tensor([0.485, 0.456, 0.406]).view(1, 3, 1, 1)) / torch.tensor([0.229, 0.224, 0.225]).view(
         1, 3, 1, 1)
     taps, out = (1, 6, 11, 20, 29), []

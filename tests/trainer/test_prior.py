@@ -12,6 +12,7 @@ from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer import cli
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer import train as train_mod
+from svbrdf.trainer.stage import make_trainer
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.models import GeneratorConfig
 from svbrdf.trainer.prior import (
@@ -148,7 +149,8 @@ def test_finetune_starts_from_a_prior_checkpoint(tmp_path):
     rng = np.random.default_rng(0)
     photo = torch.from_numpy(rng.random((1, 3, 48, 48), dtype=np.float32) * 0.5)
     cfg = resolve("tiny", iters_finetune=2)
-    trainer = train_mod.finetune(photo, tmp_path / "p.pt", cfg, threads=1)
+    trainer = make_trainer(photo, "finetune", cfg, init=tmp_path / "p.pt", threads=1)
+    trainer.run()
     assert trainer.step == 2
     prior = ckpt_io.load_checkpoint(tmp_path / "p.pt")
     assert trainer.generator.cfg.width == prior["generator_config"]["width"]

@@ -14,7 +14,7 @@ from svbrdf.runtime.render import ZHAO
 from svbrdf.trainer import train as train_mod
 from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
 from svbrdf.trainer.render import FlashGeometry
-from svbrdf.trainer.train import Trainer, finetune, predict_full, pretrain
+from svbrdf.trainer.train import Trainer, predict_full
 
 
 # Every run uses threads=1: with toy models thread synchronisation dominates, and one thread stays fast on a
@@ -327,7 +327,7 @@ def test_nonfinite_gradient_skips_the_step(monkeypatch):
 def test_repeated_nonfinite_steps_roll_back(monkeypatch):
     trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, guard_rollback_after=3), threads=1)
     trainer.iteration()
-    trainer._take_snapshot()
+    trainer.guard.take_snapshot()
     good_g, good_d = params(trainer.generator), params(trainer.discriminator)
     trainer.iteration()  # moves away from the snapshot
     assert not torch.equal(good_g, params(trainer.generator))
@@ -366,59 +366,6 @@ def test_retired_settings_of_old_checkpoints_are_ignored():
     assert TrainConfig.from_dict({**d, "plateau_change_tol": 0.002}) == TrainConfig.from_dict(d)
     with pytest.raises(ValueError, match="unknown training settings: bogus"):
         TrainConfig.from_dict({**d, "bogus": 1})
-
-
-def test_finetune_starts_from_the_pretrained_state(tmp_path):
-    photo_a, photo_b = random_photo(seed=1), random_photo(seed=2)
-    ckpt = tmp_path / "pre.pt"
-    pre = pretrain(photo_a, resolve("tiny", iters_pretrain=3), checkpoint_path=ckpt, threads=1)
-    start = Trainer(photo_b, resolve("tiny", seed=99), stage="finetune", threads=1)
-    start.load_init(torch.load(ckpt, weights_only=True), ckpt)
-    assert torch.equal(params(start.generator), params(pre.generator))
-    assert start.optimizers["nr"].state_dict()["state"][0]["step"] == 3
-    tuned = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=2, lr=5e-4), threads=1)
-    assert tuned.step == 2 and tuned.init["step"] == 3 and tuned.init["path"] == str(ckpt)
-    assert tuned.optimizers["nr"].param_groups[0]["lr"] == 5e-4
-    assert tuned.optimizers["nr"].state_dict()["state"][0]["step"] == 5
-    reset = finetune(photo_b, ckpt, resolve("tiny", iters_finetune=1, reset_optimizers=True), threads=1)
-    assert reset.optimizers["nr"].state_dict()["state"][0]["step"] == 1
-
-
-def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_path):
-    # Tiles = the whole photo, so the anchor is exactly the generator's starting output on every tile.
-    photo_a, photo_b = random_photo(48, 48, seed=1), random_photo(48, 48, seed=2)
-    ckpt = tmp_path / "pre.pt"
-    pre = pretrain(photo_a, resolve("tiny", iters_pretrain=3, tile=48), checkpoint_path=ckpt, threads=1)
-    with torch.no_grad():
-        start = predict_full(pre.generator, photo_b)
-    drift = {}
-    for w in (0.0, 50.0):
-        cfg = resolve("tiny", iters_finetune=20, lr=2e-3, lambda_anchor=w, tile=48)
-        tuned = finetune(photo_b, ckpt, cfg, threads=1)
-        if w:
-            assert torch.allclose(tuned.anchor, start, atol=1e-5)
-            assert all(h.get("ds/anchor") is not None for h in tuned.history)
-        else:
-            assert tuned.anchor is None and "ds/anchor" not in tuned.history[0]
-        drift[w] = float((tuned.predict() - start).abs().mean())
-    assert drift[50.0] < 0.7 * drift[0.0]
-    # The anchor is stored with the checkpoint, so a resumed fine-tune pulls to the same maps.
-    cfg = resolve("tiny", iters_finetune=4, lambda_anchor=1.0, tile=48)
-    path = tmp_path / "ft.pt"
-    finetune(photo_b, ckpt, dataclasses.replace(cfg, iters_finetune=2), threads=1, checkpoint_path=path)
-    stored = torch.load(path, weights_only=True)["anchor"]
-    assert stored.dtype == torch.float16 and stored.shape == start.shape
-    resumed = train_mod.resume(photo_b, path, iters=4, threads=1)
-    assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
-
-
-def test_finetune_takes_the_architecture_of_the_checkpoint(tmp_path):
-    ckpt = tmp_path / "pre.pt"
-    pretrain(random_photo(), resolve("tiny", iters_pretrain=1), checkpoint_path=ckpt, threads=1)
-    cfg = resolve("fast", tile=32, iters_finetune=1, lambda_perceptual=0)
-    tuned = finetune(random_photo(seed=4), ckpt, cfg, threads=1)
-    assert tuned.config.generator == resolve("tiny").generator
-    assert any("architecture" in n for n in tuned.notes)
 
 
 class _Pointwise(torch.nn.Module):

@@ -1,6 +1,6 @@
 """Benchmark cases: ground-truth sets turned into synthetic flash photos, and real photos (numpy, no torch).
 
-Every image under the data folder is found by :func:`svbrdf.runtime.datasets.find_cases`:
+Every image under the data folder is found by :func:`svbrdf.trainer.bench.datasets.find_cases`:
 
 * a ground-truth panel set (Des18, Des19, Xuejiao layouts) becomes a **synthetic case**: its maps are
   area-averaged to ``size x size`` (:func:`resize_maps`, normals renormalised) and the input photo is rendered
@@ -36,7 +36,7 @@ import OpenImageIO as oiio
 
 from svbrdf.runtime.burn_in import highlight_centre
 from svbrdf.runtime.camera import Camera, expose, sample_camera
-from svbrdf.runtime.datasets import Case, find_cases, read_gt
+from svbrdf.trainer.bench.datasets import Case, find_cases, read_gt
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import read_image
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals

@@ -17,22 +17,19 @@ import dataclasses
 import json
 import datetime as _dt
 import os
-import platform
 import shlex
 import sys
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
-import numpy as np
-
+from svbrdf.runtime.burn_in import burn_in_scores
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.render import ZHAO
 
 from . import report
 from .cases import RENDERERS, BenchCase, load_cases, mitsuba_available, prepare_case
+from .common import default_data, machine_info, repo_root
 from .methods import METHODS, BenchOptions, Point, torch_available
-from svbrdf.runtime.burn_in import burn_in_scores
-
 from .metrics import evaluate
 
 DEFAULT_PRESETS = ("paper", "zhao", "fast")
@@ -40,51 +37,6 @@ DEFAULT_ITERS = (0, 100, 300, 1000, 3000)
 #: --quick: size, iteration counts, presets, cases, repeats.
 QUICK = {"size": 64, "iters": (0, 2, 4), "presets": ("tiny",), "repeats": 1, "pretrain_iters": 2}
 OUTPUT_NAMES = {"markdown": "results.md", "plot": "pareto.png", "json": "results.json", "summary": "summary.json"}
-
-
-def repo_root() -> Path:
-    """The source checkout this package runs from (editable install), else the current folder."""
-    root = Path(__file__).resolve().parents[2]
-    return root if (root / "pyproject.toml").is_file() else Path.cwd()
-
-
-def default_data() -> Path:
-    """``../shared/data`` next to the repository root."""
-    return repo_root().parent / "shared" / "data"
-
-
-def machine_info(opts: BenchOptions) -> Dict[str, Any]:
-    """CPU model, visible cores, thread counts and library versions."""
-    cpu = platform.processor() or platform.machine()
-    try:
-        with open("/proc/cpuinfo", encoding="utf-8") as f:
-            for line in f:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
-    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
-    versions: Dict[str, str] = {"python": platform.python_version(), "numpy": np.__version__}
-    import OpenImageIO as oiio
-
-    versions["OpenImageIO"] = oiio.__version__
-    torch_threads = None
-    if torch_available():
-        import torch
-
-        versions["torch"] = torch.__version__
-        if opts.threads:
-            torch.set_num_threads(opts.threads)
-        torch_threads = torch.get_num_threads()
-    try:
-        import onnxruntime
-
-        versions["onnxruntime"] = onnxruntime.__version__
-    except ImportError:
-        pass
-    return {"cpu": cpu, "cores": cores, "cpu_count": os.cpu_count(), "platform": platform.platform(),
-            "torch_threads": torch_threads, "ort_threads": opts.threads or os.cpu_count(), "versions": versions}
 
 
 def _quick_init(case: BenchCase, opts: BenchOptions) -> Optional[dict]:
@@ -128,7 +80,7 @@ def run_benchmark(
     """Run every selected method on every case and return the benchmark document (the JSON of ``--json``).
 
     Args:
-        data: folder (or file) searched by :func:`svbrdf.runtime.datasets.find_cases`.
+        data: folder (or file) searched by :func:`svbrdf.trainer.bench.datasets.find_cases`.
         methods: names in :data:`svbrdf.trainer.bench.methods.METHODS`; a training method may name its own
             presets, ``"scratch:fast+zhao"`` (default: ``presets``), and a cap on its evaluated iteration
             counts, ``"finetune@600"``.
@@ -188,7 +140,7 @@ def run_benchmark(
         raise SvbrdfError("--noise and --quantize apply to --clean inputs; realistic inputs draw their own camera")
     kw = dict(realistic=realistic, renderer=renderer, config=opts.config, noise=noise, quantize=quantize)
     if quick and cases is None:
-        from svbrdf.runtime.datasets import find_cases
+        from svbrdf.trainer.bench.datasets import find_cases
 
         found = find_cases(data)
         if not found:

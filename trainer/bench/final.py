@@ -14,9 +14,7 @@ them alike. Writes ``results.md`` and ``results.json`` to ``--out`` (default
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
 import json
-import shlex
 import statistics
 import subprocess
 import sys
@@ -28,9 +26,8 @@ from typing import Any, Dict, List, Optional, Sequence
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import write_image
 
-from . import report
 from .cases import load_cases
-from .cli import default_data, repo_root
+from .common import default_data, repo_root, results_paths, write_results
 
 MODES = {"auto": ["--refine", "--quality", "auto"], "fixed": ["--refine"]}
 
@@ -111,20 +108,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.size < 64:
             raise SvbrdfError(f"--size must be >= 64, got {args.size}")
         out = args.out or repo_root() / "docs" / "benchmarks" / f"final-{args.size}"
-        paths = [out / "results.md", out / "results.json"]
-        if not args.force and any(q.exists() for q in paths):
-            raise SvbrdfError(f"{out}: results exist (use --force to overwrite)")
+        paths = results_paths(out, args.force)
         doc = run(args.data or default_data(), args.size, args.cases, modes, args.threads,
                   say=lambda m: print(m, file=sys.stderr, flush=True))
     except SvbrdfError as e:
         print(f"final: error: {e}", file=sys.stderr)
         return 2
-    doc = {"command": shlex.join(["python", "-m", "svbrdf.trainer.bench.final"] + argv),
-           "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), **doc}
-    out.mkdir(parents=True, exist_ok=True)
-    report.write_json(paths[1], doc, force=True)
-    report.write_text(paths[0], markdown(doc), force=True)
-    print(markdown(doc))
+    write_results(paths, "svbrdf.trainer.bench.final", argv, doc, markdown)
     return 0
 
 

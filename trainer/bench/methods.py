@@ -254,6 +254,8 @@ class Training(Method):
 
         from svbrdf.trainer import train as T
         from svbrdf.trainer.config import resolve
+        from svbrdf.trainer.stage import finetune_config
+        from svbrdf.trainer.stage import make_trainer as make_stage
 
         iters = sorted(set(int(i) for i in opts.iters))
         if not iters or iters[0] < 0:
@@ -267,18 +269,14 @@ class Training(Method):
         ckpt = source = None
         if self.name == "finetune":
             ckpt, source = self._load_ckpt(self.init_for(opts, preset))
-            cfg, notes = T.finetune_config(cfg, ckpt)
-        else:
-            notes = []
+        # The architecture the run will have (a fine-tune takes the checkpoint's), for the warm-up key.
+        arch = cfg if ckpt is None else finetune_config(cfg, ckpt)[0]
 
         def make_trainer(iters: int, callback=None):
-            trainer = T.Trainer(photo, cfg, stage="finetune" if ckpt is not None else "fit", iters=iters,
-                                threads=opts.threads, photo_info=info, callback=callback)
-            if ckpt is not None:
-                trainer.load_init(ckpt, source)
-            return trainer
+            return make_stage(photo, "finetune" if ckpt is not None else "fit", cfg, init=ckpt, source=source,
+                              iters=iters, threads=opts.threads, photo_info=info, callback=callback)
 
-        warmup = self._warm_up(make_trainer, preset, cfg, case.photo.shape)
+        warmup = self._warm_up(make_trainer, preset, arch, case.photo.shape)
         budget = opts.time_budget
         state = {"paused": 0.0, "plateau": None, "evals": []}
         t0 = time.perf_counter()
@@ -321,12 +319,12 @@ class Training(Method):
             "final_step": final,
             "plateau": state["plateau"],
             "evals": state["evals"],
-            "notes": list(notes) + list(trainer.notes),
+            "notes": list(trainer.notes),
             "counters": dict(trainer.counters),
             "threads": int(torch.get_num_threads()),
             "warmup_seconds": warmup,
             "perceptual_backend": trainer.perceptual_backend,
-            "generator": cfg.generator.to_dict(),
+            "generator": trainer.config.generator.to_dict(),
         }
 
 

@@ -3,7 +3,7 @@
 Conventions shared by all metrics:
 
 * maps are :class:`svbrdf.runtime.maps.Maps` (linear, channel-last float32, OpenGL normals);
-* "sRGB" means: clip to [0, 1], then encode with the exact sRGB curve (:func:`svbrdf.runtime.colour.linear_to_srgb`);
+* "sRGB" means: clip to [0, 1], then encode with the exact sRGB curve (:func:`svbrdf.runtime.colour.linear_to_srgb` with ``clip=True``);
 * RMSE is ``sqrt(mean((a - b)^2))`` over every pixel and channel of the compared arrays (pooled, not a mean of
   per-channel RMSEs); lower is better, 0 = identical.
 
@@ -21,7 +21,8 @@ normal_rmse          RMSE of the encoded normals (n + 1) / 2 (3 channels)
 normal_angle_deg     mean over pixels of the angle between unit normals, degrees
 ===================  =====================================================================================
 
-Re-rendering errors (:func:`rerender_rmse`): both texture sets are rendered with the project renderer
+Re-rendering errors (:func:`svbrdf.runtime.render.rerender_rmse`, beside the renderer so that the runtime's
+``--quality auto`` rule computes the same number): both texture sets are rendered with the project renderer
 (:func:`svbrdf.runtime.render.render`, the benchmark's :class:`~svbrdf.runtime.render.RenderConfig`) under each
 light, every render is converted to sRGB (clipped to [0, 1] first, as a display or a camera would), and the
 RMSE is pooled over all lights, pixels and channels:
@@ -38,14 +39,14 @@ mean of their absolute values), imported from there so the runtime reports the s
 
 from __future__ import annotations
 
-from typing import Dict, Iterable, Optional, Sequence, Tuple
+from typing import Dict, Optional, Tuple
 
 import numpy as np
 
 from svbrdf.runtime.burn_in import BURN_METRICS, burn_in_scores
 from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
-from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, render
+from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, rerender_rmse
 
 #: Keys returned by :func:`map_errors`.
 MAP_METRICS = ("diffuse_rmse", "diffuse_rmse_srgb", "specular_rmse", "specular_rmse_srgb", "roughness_rmse",
@@ -59,11 +60,6 @@ def rmse(a: np.ndarray, b: np.ndarray) -> float:
     if a.shape != b.shape:
         raise ValueError(f"shape mismatch: {a.shape} vs {b.shape}")
     return float(np.sqrt(np.mean((a - b) ** 2)))
-
-
-def to_srgb(linear: np.ndarray) -> np.ndarray:
-    """Linear values -> clipped to [0, 1] -> sRGB-encoded (exact curve), float32, same shape."""
-    return linear_to_srgb(np.clip(np.asarray(linear, dtype=np.float32), 0.0, 1.0))
 
 
 def angular_error_deg(pred: np.ndarray, gt: np.ndarray) -> float:
@@ -89,47 +85,13 @@ def map_errors(pred: Maps, gt: Maps) -> Dict[str, float]:
     p, g = pred.clipped(), gt.clipped()
     return {
         "diffuse_rmse": rmse(p.diffuse, g.diffuse),
-        "diffuse_rmse_srgb": rmse(to_srgb(p.diffuse), to_srgb(g.diffuse)),
+        "diffuse_rmse_srgb": rmse(linear_to_srgb(p.diffuse, clip=True), linear_to_srgb(g.diffuse, clip=True)),
         "specular_rmse": rmse(p.specular, g.specular),
-        "specular_rmse_srgb": rmse(to_srgb(p.specular), to_srgb(g.specular)),
+        "specular_rmse_srgb": rmse(linear_to_srgb(p.specular, clip=True), linear_to_srgb(g.specular, clip=True)),
         "roughness_rmse": rmse(p.roughness, g.roughness),
         "normal_rmse": rmse(encode_normal(p.normal), encode_normal(g.normal)),
         "normal_angle_deg": angular_error_deg(p.normal, g.normal),
     }
-
-
-def rerender_rmse(
-    pred: Maps,
-    reference: Maps | np.ndarray,
-    lights: Iterable[Optional[Sequence[float]]],
-    config: RenderConfig = ZHAO,
-) -> float:
-    """sRGB RMSE between renders of ``pred`` and of ``reference``, pooled over ``lights``.
-
-    Args:
-        pred: predicted texture set (H, W).
-        reference: ground-truth texture set (rendered the same way), or a linear photo (H, W, 3) that is
-            compared with every render (only meaningful for its own light).
-        lights: light positions (3,) in scene units; ``None`` = the co-located flash.
-        config: renderer settings (the same for both sides).
-
-    Returns:
-        ``sqrt(mean over lights, pixels, channels of (srgb(render_pred) - srgb(render_ref))^2)``.
-    """
-    pred = pred.clipped()
-    ref_maps = reference.clipped() if isinstance(reference, Maps) else None
-    ref_img = None if ref_maps is not None else to_srgb(reference)
-    total, count = 0.0, 0
-    for light in lights:
-        a = to_srgb(render(pred, light, config)).astype(np.float64)
-        b = ref_img if ref_maps is None else to_srgb(render(ref_maps, light, config))
-        if a.shape != b.shape:
-            raise ValueError(f"size mismatch: prediction {a.shape} vs reference {b.shape}")
-        total += float(np.sum((a - b) ** 2))
-        count += a.size
-    if count == 0:
-        raise ValueError("no lights given")
-    return float(np.sqrt(total / count))
 
 
 def evaluation_lights(config: RenderConfig = ZHAO) -> list:
@@ -170,5 +132,4 @@ def evaluate(
     return out
 
 
-__all__ = ["rmse", "to_srgb", "angular_error_deg", "map_errors", "rerender_rmse", "evaluation_lights", "evaluate",
-           "MAP_METRICS"]
+__all__ = ["rmse", "angular_error_deg", "map_errors", "evaluation_lights", "evaluate", "MAP_METRICS"]

@@ -24,7 +24,6 @@ import argparse
 import datetime as _dt
 import json
 import os
-import secrets
 import shlex
 import statistics
 import sys
@@ -36,6 +35,7 @@ from typing import Any, Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.files import atomic_write
 from svbrdf.runtime.maps import MAP_NAMES
 
 PROG = "python -m svbrdf.trainer.bench.partial"
@@ -137,12 +137,8 @@ def markdown(doc: Dict[str, Any]) -> str:
 
 
 def _write(path: Path, text: str) -> None:
-    tmp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.tmp")
-    try:
+    with atomic_write(path, force=True) as tmp:
         tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
-    finally:
-        tmp.unlink(missing_ok=True)
 
 
 def _positive(text: str) -> int:
@@ -154,7 +150,7 @@ def _positive(text: str) -> int:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Entry point; returns the exit code (0 ok, 1 failure, 2 usage error)."""
-    from .cli import repo_root
+    from .common import repo_root
 
     p = argparse.ArgumentParser(prog=PROG, description="Time estimate() for subsets of the maps against all four.")
     p.add_argument("--size", type=_positive, default=1024, help="photo side in pixels (default: 1024)")
@@ -174,7 +170,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     if existing and not args.force:
         print(f"{PROG}: error: {existing[0]}: exists (use --force to overwrite)", file=sys.stderr)
         return 1
-    from .cli import machine_info
+    from .common import machine_info
     from .methods import BenchOptions
 
     try:

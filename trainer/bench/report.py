@@ -39,8 +39,6 @@ from __future__ import annotations
 
 import json
 import math
-import os
-import secrets
 from pathlib import Path
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
@@ -48,6 +46,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.files import atomic_write
 from svbrdf.runtime.imageio import write_image
 
 from svbrdf.runtime.burn_in import BURN_METRICS
@@ -64,19 +63,13 @@ BUDGET = "budget"
 
 # ----------------------------------------------------------------------------------------------- files
 def write_text(path: Path, text: str, force: bool = False) -> Path:
-    """Write a text file atomically (temp file in the same folder + ``os.replace``); refuse to overwrite
-    unless ``force``."""
+    """Write a text file atomically (:func:`~svbrdf.runtime.files.atomic_write`); refuse to overwrite unless
+    ``force``."""
     path = Path(path)
-    if path.exists() and not force:
-        raise SvbrdfError(f"{path}: exists (use --force to overwrite)")
-    if not path.parent.is_dir():
-        raise SvbrdfError(f"{path}: folder {path.parent} does not exist")
-    tmp = path.with_name(f".{path.name}.tmp-{secrets.token_hex(4)}")
     try:
-        tmp.write_text(text, encoding="utf-8")
-        os.replace(tmp, path)
+        with atomic_write(path, force=force) as tmp:
+            tmp.write_text(text, encoding="utf-8")
     except OSError as e:
-        tmp.unlink(missing_ok=True)
         raise SvbrdfError(f"{path}: cannot write ({e.strerror or e})") from None
     return path
 
@@ -216,7 +209,7 @@ def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[
     ``SKIP_REFINE_RMSE``, a label-free test) does on these cases: how many it skips, the fine-tune time it saves
     (fraction of the summed fine-tune seconds at each run's last point) and the error price on the skipped cases
     (mean preview error / fine-tuned error)."""
-    from svbrdf.runtime.cli import SKIP_REFINE_RMSE
+    from svbrdf.runtime.preview_check import SKIP_REFINE_RMSE
 
     prev = {r["case"]: r for r in records if r["method"] == "preview" and r["kind"] == kind}
     last: Dict[str, Mapping[str, Any]] = {}

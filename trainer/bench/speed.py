@@ -17,8 +17,6 @@ discriminator, default inductor backend), ``alternating`` / ``joint`` (the prese
 from __future__ import annotations
 
 import argparse
-import datetime as _dt
-import shlex
 import statistics
 import sys
 import time
@@ -29,8 +27,7 @@ import torch
 
 from svbrdf.runtime.errors import SvbrdfError
 
-from . import report
-from .cli import repo_root
+from .common import repo_root, results_paths, write_results
 
 VARIANTS = ("base", "fp32", "channels_last", "compile", "alternating", "joint")
 
@@ -124,20 +121,13 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.iters < 1 or args.repeats < 1 or args.size < 32:
             raise SvbrdfError("--iters and --repeats must be >= 1 and --size >= 32")
         out = args.out or repo_root() / "docs" / "benchmarks" / f"speed-{args.preset}"
-        paths = [out / "results.md", out / "results.json"]
-        if not args.force and any(q.exists() for q in paths):
-            raise SvbrdfError(f"{out}: results exist (use --force to overwrite)")
+        paths = results_paths(out, args.force)
         doc = measure(args.preset, args.size, args.iters, args.repeats, variants, args.threads,
                       say=lambda m: print(m, file=sys.stderr, flush=True))
     except (SvbrdfError, ValueError) as e:
         print(f"speed: error: {str(e).splitlines()[0]}", file=sys.stderr)
         return 2
-    doc = {"command": shlex.join(["python", "-m", "svbrdf.trainer.bench.speed"] + argv),
-           "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), **doc}
-    out.mkdir(parents=True, exist_ok=True)
-    report.write_json(paths[1], doc, force=True)
-    report.write_text(paths[0], markdown(doc), force=True)
-    print(markdown(doc))
+    write_results(paths, "svbrdf.trainer.bench.speed", argv, doc, markdown)
     return 0
 
 

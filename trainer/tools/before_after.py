@@ -25,7 +25,7 @@ import numpy as np
 
 from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.colour import linear_to_srgb
-from svbrdf.runtime.datasets import Case
+from svbrdf.trainer.bench.datasets import Case
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import write_image
 from svbrdf.runtime.maps import Maps, encode_normal
@@ -43,6 +43,7 @@ def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
     from svbrdf.trainer import train as T
+    from svbrdf.trainer.stage import make_trainer
     from svbrdf.trainer.bench.cases import prepare_case
     from svbrdf.trainer.checkpoint import default_checkpoint
     from svbrdf.trainer.checkpoint import load_checkpoint
@@ -75,11 +76,11 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             case = prepare_case(Case(name=path.stem, path=path, kind="photo", format="photo"), args.size)
             photo = T.photo_to_tensor(case.photo)
             for preset in presets:
-                cfg, _ = T.finetune_config(resolve(preset, quality="fixed", checkpoint_every=0,
-                                                   iters_finetune=args.iters), ckpt)
+                cfg = resolve(preset, quality="fixed", checkpoint_every=0, iters_finetune=args.iters)
                 t = time.perf_counter()
-                trainer = T.finetune(photo, ckpt, cfg, threads=args.threads,
-                                     photo_info=T.tensor_photo_info(photo, path.name))
+                trainer = make_trainer(photo, "finetune", cfg, init=ckpt, threads=args.threads,
+                                       photo_info=T.tensor_photo_info(photo, path.name))
+                trainer.run()
                 maps = T.to_maps(trainer.predict())
                 burn = photo_burn_in(maps, case.photo)
                 record["rows"].append({"photo": str(path), "preset": preset, "seconds": time.perf_counter() - t,

@@ -16,7 +16,7 @@ Start: camera and light above the brightest point of the (blurred) input panel, 
 e from the mean ratio, g = 1.
 
 A second table gives an independent, fit-free check of the normal convention:
-:func:`svbrdf.runtime.datasets.normal_curl_ratio` of every ground-truth set (Des18, Des19, Xuejiao).
+:func:`svbrdf.trainer.bench.datasets.normal_curl_ratio` of every ground-truth set (Des18, Des19, Xuejiao).
 
 Usage::
 
@@ -38,11 +38,11 @@ from typing import Dict, List, Sequence, Tuple
 import numpy as np
 import torch
 import torch.nn.functional as F
-from kornia.color import linear_rgb_to_rgb
 
-from svbrdf.runtime.datasets import find_cases, normal_curl_ratio, read_des18, read_gt
+from svbrdf.trainer.bench.datasets import find_cases, normal_curl_ratio, read_des18, read_gt
 from svbrdf.runtime.maps import MAP_NAMES, Maps
 from svbrdf.runtime.render import DESCHAINTRE, plane_positions
+from svbrdf.trainer.colour import linear_to_srgb
 from svbrdf.trainer.render import render_maps
 
 DEFAULT_DATA = Path(__file__).resolve().parents[2].parent / "shared" / "data"
@@ -109,12 +109,12 @@ def fit(maps: torch.Tensor, target: torch.Tensor, steps: int, start: Tuple[float
         img = render_maps(maps, v, l, DESCHAINTRE)
         return img * (d * d / d2) ** falloff.clamp(0.0, 6.0)
 
-    target_srgb = linear_rgb_to_rgb(target.clamp(0.0, 1.0))
+    target_srgb = linear_to_srgb(target, clip=True)
     with torch.no_grad():  # exposure start: match the means in linear space
         log_e.fill_(math.log(max(float(target.mean()), 1e-8) / max(float(radiance().mean()), 1e-8)))
 
     def loss_fn() -> torch.Tensor:
-        pred = linear_rgb_to_rgb((radiance() * log_e.exp()).clamp(0.0, 1.0))
+        pred = linear_to_srgb(radiance() * log_e.exp(), clip=True)
         return ((pred - target_srgb) ** 2).mean()
 
     opt = torch.optim.Adam([cam, light, log_d, falloff, log_e], lr=0.02)

@@ -3,7 +3,7 @@ percentile, max (the `--quality auto` threshold 0.25 = the 95th percentile). Run
 """
 import numpy as np
 from pathlib import Path
-from svbrdf.runtime.datasets import find_cases, read_gt
+from svbrdf.trainer.bench.datasets import find_cases, read_gt
 from svbrdf.trainer.bench.cases import resize_maps
 from svbrdf.runtime.burn_in import burn_in_scores
 v=[]

@@ -4,7 +4,7 @@ rings around the highlight (fractions of the width: 0-0.05, ..., 0.5-0.7) for th
 """
 import numpy as np
 from pathlib import Path
-from svbrdf.runtime.datasets import find_cases, read_gt
+from svbrdf.trainer.bench.datasets import find_cases, read_gt
 from svbrdf.trainer.bench.cases import resize_maps, render_mitsuba, physical_config
 from svbrdf.runtime.render import render, ZHAO
 cs={c.name:c for c in find_cases(Path('../shared/data')) if c.kind=='gt'}

@@ -9,9 +9,10 @@ weight-100 row is the flash100 setting):
 """
 import sys, json, numpy as np, torch
 from pathlib import Path
-from svbrdf.runtime.datasets import Case
+from svbrdf.trainer.bench.datasets import Case
 from svbrdf.trainer.bench.cases import prepare_case
 from svbrdf.trainer import train as T
+from svbrdf.trainer.stage import make_trainer
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.checkpoint import load_checkpoint
 from svbrdf.runtime.burn_in import photo_burn_in
@@ -19,8 +20,8 @@ ck=load_checkpoint('models/svbrdf_fast_v1.pt')
 path=Path(sys.argv[1]); iters=int(sys.argv[2]); over=json.loads(sys.argv[3]) if len(sys.argv)>3 else {}
 bc=prepare_case(Case(name=path.stem,path=path,kind='photo',format='photo'),256)
 ph=T.photo_to_tensor(bc.photo)
-cfg,_=T.finetune_config(resolve('fast',quality='fixed',checkpoint_every=0,eval_every=0,**over),ck)
-tr=T.Trainer(ph,cfg,stage='finetune',iters=iters,threads=1); tr.load_init(ck,'x'); tr.run()
+cfg=resolve('fast',quality='fixed',checkpoint_every=0,eval_every=0,**over)
+tr=make_trainer(ph,'finetune',cfg,init=ck,source='x',iters=iters,threads=1); tr.run()
 m=T.to_maps(tr.predict()); h=tr.history
 avg=lambda k: np.mean([x[k] for x in h[-50:] if k in x])
 print(over, 'photo mean', bc.photo.reshape(-1,3).mean(0).round(3), 'diffuse mean', m.diffuse.reshape(-1,3).mean(0).round(3),

@@ -10,9 +10,10 @@ outputs" finding of the accuracy README). Run from the repository root:
 import json, sys
 import numpy as np, torch
 from pathlib import Path
-from svbrdf.runtime.datasets import find_cases
+from svbrdf.trainer.bench.datasets import find_cases
 from svbrdf.trainer.bench.cases import prepare_case
 from svbrdf.trainer import train as T
+from svbrdf.trainer.stage import make_trainer
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.checkpoint import load_checkpoint
 from svbrdf.trainer.bench.metrics import map_errors
@@ -21,8 +22,8 @@ cs=[c for c in find_cases(Path('../shared/data')) if '28_metal' in c.name or '10
 for c in cs:
     bc=prepare_case(c,256)
     ph=T.photo_to_tensor(bc.photo)
-    cfg,_=T.finetune_config(resolve('fast',quality='fixed',checkpoint_every=0,**json.loads(sys.argv[1] if len(sys.argv)>1 else '{}')),ck)
-    tr=T.Trainer(ph,cfg,stage='finetune',iters=600,threads=1); tr.load_init(ck,'x')
+    cfg=resolve('fast',quality='fixed',checkpoint_every=0,**json.loads(sys.argv[1] if len(sys.argv)>1 else '{}'))
+    tr=make_trainer(ph,'finetune',cfg,init=ck,source='x',iters=600,threads=1)
     m0=T.to_maps(tr.predict()); tr.run(); m=T.to_maps(tr.predict()); g=bc.gt
     def st(a): return f'{a.mean():.3f}±{a.std():.3f} [{np.percentile(a,5):.3f},{np.percentile(a,95):.3f}]'
     print(c.name[-25:], 'offsets', tr.generator.out_offset.detach().numpy().round(2))

@@ -51,10 +51,10 @@ from typing import List, Optional, Tuple, Union
 import numpy as np
 import OpenImageIO as oiio
 
-from .colour import srgb_to_linear
-from .errors import ImageError
-from .imageio import image_info, read_image
-from .maps import Maps, decode_normal, normal_dx_to_gl
+from svbrdf.runtime.colour import srgb_to_linear
+from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.imageio import image_info, read_image
+from svbrdf.runtime.maps import Maps, decode_normal, normal_dx_to_gl
 
 PathLike = Union[str, os.PathLike]
 

@@ -21,9 +21,10 @@ session then reads the layout from the embedded metadata). The packaged model al
 
 Part graphs (maps on demand). onnxruntime runs the whole graph whatever outputs are fetched, so
 ``svbrdf-export`` also writes one graph per decoder of the generator, ``NAME.<part>.onnx`` for each part of
-:data:`PARTS`: the encoder plus that decoder only. A part has the same input and output names and shapes as the
-full graph (``image`` (1, 3, H, W) -> ``maps`` (1, 8, H, W), layout :data:`~svbrdf.runtime.maps.SLICES`):
-the channels of its own maps equal the full graph's, **the channels of the other maps are NaN**. The
+:data:`PARTS` (one per entry of :data:`DECODERS`, the table of decoder names): the encoder plus that decoder
+only. A part has the same input and output names and shapes as the full graph (``image`` (1, 3, H, W) ->
+``maps`` (1, 8, H, W), layout :data:`~svbrdf.runtime.maps.SLICES`): the channels of its own maps equal the
+full graph's, **the channels of the other maps are NaN**. The
 manifest lists them under ``"parts"``: ``{part: {"file", "sha256", "maps", "parity"}}``, file names relative to
 the manifest's folder; each part file is verified against its sha256 when it is first used
 (:meth:`ModelInfo.verify_part`). A model without ``"parts"`` (an older export) works as before with the full
@@ -51,13 +52,38 @@ MODEL_ENV = "SVBRDF_MODEL"
 INPUT_NAME = "image"
 OUTPUT_NAME = "maps"
 MIN_SIZE = 8
-#: Part graphs written beside every exported model: part name -> the maps it computes (:data:`MAP_NAMES` order).
-#: One part per decoder of the generator (``svbrdf.trainer.models.DECODER_MAPS``).
-PARTS: Mapping[str, Tuple[str, ...]] = {"normal_roughness": ("roughness", "normal"),
-                                        "diffuse_specular": ("diffuse", "specular")}
+
+
+@dataclass(frozen=True)
+class Decoder:
+    """One decoder of the generator, and every name derived from it.
+
+    Attributes:
+        key: short name in training: the optimiser, the loss log prefix (``"nr/gan"``) and checkpoint keys.
+        module: attribute of the torch generator (:class:`svbrdf.trainer.models.Generator`).
+        part: name of its part graph: the file ``NAME.<part>.onnx`` (:func:`part_file_name`), the manifest's
+            ``"parts"`` key and the ``graph`` a session reports.
+        maps: the maps it computes, in :data:`~svbrdf.runtime.maps.MAP_NAMES` order.
+    """
+
+    key: str
+    module: str
+    part: str
+    maps: Tuple[str, ...]
+
+
+#: The generator's two decoders: the one table of their names (trainer, export, runtime) and maps.
+DECODERS: Tuple[Decoder, ...] = (
+    Decoder(key="nr", module="decoder_nr", part="normal_roughness", maps=("roughness", "normal")),
+    Decoder(key="ds", module="decoder_ds", part="diffuse_specular", maps=("diffuse", "specular")),
+)
+#: Part graphs written beside every exported model, one per decoder: part name -> the maps it computes
+#: (:data:`MAP_NAMES` order).
+PARTS: Mapping[str, Tuple[str, ...]] = {d.part: d.maps for d in DECODERS}
 
 __all__ = [
-    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "PARTS", "part_file_name",
+    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "Decoder", "DECODERS", "PARTS",
+    "part_file_name",
     "ModelInfo", "find_model",
     "manifest_path_for", "read_manifest", "sha256_file", "map_layout", "input_contract", "check_layout",
     "find_checkpoint",

@@ -1,4 +1,4 @@
-"""Ground-truth readers, format detection and the case finder (svbrdf.runtime.datasets)."""
+"""Ground-truth readers, format detection and the case finder (svbrdf.trainer.bench.datasets)."""
 
 import math
 from pathlib import Path
@@ -6,19 +6,14 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from svbrdf.runtime.datasets import (
+from svbrdf.runtime.colour import srgb_to_linear
+from svbrdf.trainer.bench.datasets import (
     Case, detect_format, find_cases, normal_curl_ratio, read_des18, read_des19, read_gt, read_xuejiao,
 )
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.imageio import write_image
 
 S = 16  # panel side of the synthetic files
-
-
-def _srgb_decode(s):
-    """IEC 61966-2-1 closed form, written out here independently of the project's colour module."""
-    s = np.asarray(s, np.float64)
-    return np.where(s <= 0.04045, s / 12.92, ((s + 0.055) / 1.055) ** 2.4)
 
 
 def _panels(rng):
@@ -68,12 +63,12 @@ def test_readers_decode_every_panel(tmp_path, panels, fmt):
     assert maps.shape == (S, S)
     np.testing.assert_allclose(maps.normal, normal, atol=1e-3)
     # Default encoding "srgb-diffuse": diffuse decoded, specular and roughness as stored.
-    np.testing.assert_allclose(maps.diffuse, _srgb_decode(_quantised(stored["diffuse"])), atol=1e-4)
+    np.testing.assert_allclose(maps.diffuse, srgb_to_linear(_quantised(stored["diffuse"])), atol=1e-4)
     np.testing.assert_allclose(maps.roughness[..., 0], _quantised(stored["roughness"]).mean(-1), atol=2e-5)
     np.testing.assert_allclose(maps.specular[..., 0], _quantised(stored["specular"]).mean(-1), atol=2e-5)
     assert maps.meta["format"] == fmt and maps.meta["source"] == str(path)
     if fmt == "des18":
-        np.testing.assert_allclose(photo, _srgb_decode(_quantised(stored["input"])), atol=1e-4)
+        np.testing.assert_allclose(photo, srgb_to_linear(_quantised(stored["input"])), atol=1e-4)
     # read_gt detects the layout and gives the same maps.
     gt, gt_photo = read_gt(path)
     np.testing.assert_array_equal(gt.pack(), maps.pack())
@@ -86,7 +81,7 @@ def test_normal_y_down_and_maps_encodings(tmp_path, panels, encoding):
     path = _write(tmp_path / "set.png", stored, ORDERS["des19"])
     maps = read_des19(path, normal_y="down", maps_encoding=encoding)
     np.testing.assert_allclose(maps.normal, normal * [1, -1, 1], atol=1e-3)
-    decode = _srgb_decode if encoding == "srgb" else (lambda a: a)
+    decode = srgb_to_linear if encoding == "srgb" else (lambda a: a)
     np.testing.assert_allclose(maps.diffuse, decode(_quantised(stored["diffuse"])), atol=1e-4)
     # Specular: decoded per channel (if at all), then averaged. Roughness is data: never decoded.
     np.testing.assert_allclose(maps.specular[..., 0], decode(_quantised(stored["specular"])).mean(-1), atol=1e-4)

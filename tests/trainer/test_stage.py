@@ -1,0 +1,116 @@
+"""One way to set up a stage (svbrdf.trainer.stage.make_trainer): fresh runs, fine-tunes from a checkpoint, resumes."""
+
+import dataclasses
+
+import pytest
+import torch
+
+from svbrdf.runtime.errors import ModelError
+from svbrdf.trainer.config import resolve
+from svbrdf.trainer.stage import finetune_config, make_trainer
+from svbrdf.trainer.train import Trainer, predict_full
+
+
+def random_photo(h=48, w=64, seed=0):
+    return torch.rand(1, 3, h, w, generator=torch.Generator().manual_seed(seed)) * 0.5
+
+
+def params(module):
+    return torch.cat([p.detach().flatten().clone() for p in module.parameters()])
+
+
+def _trained(*args, **kw):
+    """Set up a stage with :func:`make_trainer` and run it."""
+    trainer = make_trainer(*args, **kw)
+    trainer.run()
+    return trainer
+
+
+def test_fresh_stages_are_plain_trainers():
+    cfg = resolve("tiny", iters_pretrain=3, iters_fit=5)
+    assert make_trainer(random_photo(), "pretrain", cfg, threads=1).iters == 3
+    fit = make_trainer(random_photo(), "fit", cfg, iters=2, threads=1)
+    assert fit.stage == "fit" and fit.iters == 2 and fit.step == 0 and fit.init is None
+
+
+def test_arguments_that_do_not_fit_the_stage_are_refused(tmp_path):
+    cfg = resolve("tiny", iters_pretrain=1)
+    path = tmp_path / "pre.pt"
+    _trained(random_photo(), "pretrain", cfg, checkpoint_path=path, threads=1)
+    with pytest.raises(ValueError, match="only a finetune"):
+        make_trainer(random_photo(), "finetune", cfg, threads=1)
+    with pytest.raises(ValueError, match="only a finetune"):
+        make_trainer(random_photo(), "fit", cfg, init=path, threads=1)
+    with pytest.raises(ValueError, match="stage and a config"):
+        make_trainer(random_photo(), "fit", threads=1)
+    with pytest.raises(ValueError, match="from its checkpoint"):
+        make_trainer(random_photo(), "pretrain", cfg, resume=path, threads=1)
+    with pytest.raises(ModelError, match="is a 'pretrain' run, not 'fit'"):
+        make_trainer(random_photo(), "fit", resume=path, threads=1)
+    ckpt = torch.load(path, weights_only=True)
+    ckpt["train_config"]["bogus"] = 1
+    with pytest.raises(ModelError, match="checkpoint: bad training settings"):
+        make_trainer(random_photo(), resume=ckpt, threads=1)
+
+
+def test_finetune_config_keeps_train_encoder():
+    ckpt = {"generator_config": resolve("tiny").generator.to_dict(), "discriminator_config": None}
+    cfg, notes = finetune_config(resolve("fast", train_encoder=True), ckpt)
+    assert cfg.generator == dataclasses.replace(resolve("tiny").generator, train_encoder=True)
+    assert notes == ["model architecture taken from the initial checkpoint"]
+    assert finetune_config(cfg, ckpt)[1] == []
+
+
+def test_finetune_starts_from_the_pretrained_state(tmp_path):
+    photo_a, photo_b = random_photo(seed=1), random_photo(seed=2)
+    ckpt = tmp_path / "pre.pt"
+    pre = _trained(photo_a, "pretrain", resolve("tiny", iters_pretrain=3), checkpoint_path=ckpt, threads=1)
+    start = Trainer(photo_b, resolve("tiny", seed=99), stage="finetune", threads=1)
+    start.load_init(torch.load(ckpt, weights_only=True), ckpt)
+    assert torch.equal(params(start.generator), params(pre.generator))
+    assert start.optimizers["nr"].state_dict()["state"][0]["step"] == 3
+    tuned = _trained(photo_b, "finetune", init=ckpt, config=resolve("tiny", iters_finetune=2, lr=5e-4), threads=1)
+    assert tuned.step == 2 and tuned.init["step"] == 3 and tuned.init["path"] == str(ckpt)
+    assert tuned.optimizers["nr"].param_groups[0]["lr"] == 5e-4
+    assert tuned.optimizers["nr"].state_dict()["state"][0]["step"] == 5
+    reset = _trained(photo_b, "finetune", init=ckpt, config=resolve("tiny", iters_finetune=1, reset_optimizers=True),
+                     threads=1)
+    assert reset.optimizers["nr"].state_dict()["state"][0]["step"] == 1
+
+
+def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_path):
+    # Tiles = the whole photo, so the anchor is exactly the generator's starting output on every tile.
+    photo_a, photo_b = random_photo(48, 48, seed=1), random_photo(48, 48, seed=2)
+    ckpt = tmp_path / "pre.pt"
+    pre = _trained(photo_a, "pretrain", resolve("tiny", iters_pretrain=3, tile=48), checkpoint_path=ckpt, threads=1)
+    with torch.no_grad():
+        start = predict_full(pre.generator, photo_b)
+    drift = {}
+    for w in (0.0, 50.0):
+        cfg = resolve("tiny", iters_finetune=20, lr=2e-3, lambda_anchor=w, tile=48)
+        tuned = _trained(photo_b, "finetune", init=ckpt, config=cfg, threads=1)
+        if w:
+            assert torch.allclose(tuned.anchor, start, atol=1e-5)
+            assert all(h.get("ds/anchor") is not None for h in tuned.history)
+        else:
+            assert tuned.anchor is None and "ds/anchor" not in tuned.history[0]
+        drift[w] = float((tuned.predict() - start).abs().mean())
+    assert drift[50.0] < 0.7 * drift[0.0]
+    # The anchor is stored with the checkpoint, so a resumed fine-tune pulls to the same maps.
+    cfg = resolve("tiny", iters_finetune=4, lambda_anchor=1.0, tile=48)
+    path = tmp_path / "ft.pt"
+    _trained(photo_b, "finetune", init=ckpt, config=dataclasses.replace(cfg, iters_finetune=2), threads=1,
+             checkpoint_path=path)
+    stored = torch.load(path, weights_only=True)["anchor"]
+    assert stored.dtype == torch.float16 and stored.shape == start.shape
+    resumed = _trained(photo_b, resume=path, iters=4, threads=1)
+    assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
+
+
+def test_finetune_takes_the_architecture_of_the_checkpoint(tmp_path):
+    ckpt = tmp_path / "pre.pt"
+    _trained(random_photo(), "pretrain", resolve("tiny", iters_pretrain=1), checkpoint_path=ckpt, threads=1)
+    cfg = resolve("fast", tile=32, iters_finetune=1, lambda_perceptual=0)
+    tuned = _trained(random_photo(seed=4), "finetune", init=ckpt, config=cfg, threads=1)
+    assert tuned.config.generator == resolve("tiny").generator
+    assert any("architecture" in n for n in tuned.notes)

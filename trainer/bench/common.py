@@ -1,0 +1,93 @@
+"""Helpers shared by the benchmark modules (``svbrdf-bench`` and the ``python -m svbrdf.trainer.bench.*`` scripts):
+where the repository and the shared data are, and what machine a result was measured on."""
+
+from __future__ import annotations
+
+import datetime as _dt
+import os
+import platform
+import shlex
+from pathlib import Path
+from typing import Any, Callable, Dict, Sequence, Tuple
+
+import numpy as np
+
+from svbrdf.runtime.errors import SvbrdfError
+
+from .methods import BenchOptions, torch_available
+
+
+def repo_root() -> Path:
+    """The source checkout this package runs from (editable install), else the current folder."""
+    root = Path(__file__).resolve().parents[2]
+    return root if (root / "pyproject.toml").is_file() else Path.cwd()
+
+
+def default_data() -> Path:
+    """``../shared/data`` next to the repository root."""
+    return repo_root().parent / "shared" / "data"
+
+
+def machine_info(opts: BenchOptions) -> Dict[str, Any]:
+    """CPU model, visible cores, thread counts and library versions."""
+    cpu = platform.processor() or platform.machine()
+    try:
+        with open("/proc/cpuinfo", encoding="utf-8") as f:
+            for line in f:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else os.cpu_count()
+    versions: Dict[str, str] = {"python": platform.python_version(), "numpy": np.__version__}
+    import OpenImageIO as oiio
+
+    versions["OpenImageIO"] = oiio.__version__
+    torch_threads = None
+    if torch_available():
+        import torch
+
+        versions["torch"] = torch.__version__
+        if opts.threads:
+            torch.set_num_threads(opts.threads)
+        torch_threads = torch.get_num_threads()
+    try:
+        import onnxruntime
+
+        versions["onnxruntime"] = onnxruntime.__version__
+    except ImportError:
+        pass
+    return {"cpu": cpu, "cores": cores, "cpu_count": os.cpu_count(), "platform": platform.platform(),
+            "torch_threads": torch_threads, "ort_threads": opts.threads or os.cpu_count(), "versions": versions}
+
+
+def results_paths(out: Path, force: bool) -> Tuple[Path, Path]:
+    """``(out/results.md, out/results.json)`` of a benchmark script; refuses existing ones unless ``force``.
+
+    Raises:
+        SvbrdfError: either file exists and not ``force``.
+    """
+    paths = (out / "results.md", out / "results.json")
+    if not force and any(p.exists() for p in paths):
+        raise SvbrdfError(f"{out}: results exist (use --force to overwrite)")
+    return paths
+
+
+def write_results(paths: Tuple[Path, Path], module: str, argv: Sequence[str], doc: Dict[str, Any],
+                  markdown: Callable[[Dict[str, Any]], str]) -> Dict[str, Any]:
+    """Stamp ``doc`` with the command (``python -m <module> <argv>``) and the UTC date, write it to
+    ``paths`` (from :func:`results_paths`) as JSON and as ``markdown(doc)``, print the markdown, and return the
+    stamped document."""
+    from . import report
+
+    doc = {"command": shlex.join(["python", "-m", module, *argv]),
+           "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), **doc}
+    paths[0].parent.mkdir(parents=True, exist_ok=True)
+    report.write_json(paths[1], doc, force=True)
+    report.write_text(paths[0], markdown(doc), force=True)
+    print(markdown(doc))
+    return doc
+
+
+__all__ = ["repo_root", "default_data", "machine_info", "results_paths", "write_results"]
