@@ -43,12 +43,13 @@ def _quick_init(case: BenchCase, opts: BenchOptions) -> Optional[dict]:
     """--quick without --init: a throwaway stage-one checkpoint (tiny preset, a few iterations on one case)."""
     if not torch_available():
         return None
-    from svbrdf.trainer import train as T
     from svbrdf.trainer.config import resolve
+    from svbrdf.trainer.stage import make_trainer
+    from svbrdf.trainer.train import photo_to_tensor
 
     cfg = resolve("tiny", render=opts.config, checkpoint_every=0, maps_every=0)
-    trainer = T.Trainer(T.photo_to_tensor(case.photo), cfg, stage="pretrain", iters=QUICK["pretrain_iters"],
-                        threads=opts.threads)
+    trainer = make_trainer(photo_to_tensor(case.photo), "pretrain", cfg, iters=QUICK["pretrain_iters"],
+                           threads=opts.threads)
     trainer.run()
     return trainer.checkpoint()
 

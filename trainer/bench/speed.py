@@ -42,7 +42,7 @@ def _known(variant: str) -> bool:
 
 def _trainer(preset: str, size: int, variant: str, threads: Optional[int]):
     from svbrdf.trainer.config import resolve
-    from svbrdf.trainer.train import Trainer
+    from svbrdf.trainer.train import Trainer  # a bare finetune-stage trainer (random weights): cost per iteration only
 
     if variant.startswith("preset:"):
         preset = variant.partition(":")[2]
