@@ -282,6 +282,51 @@ def conv_throughput(model: Path, threads: int, repeats: int, work: Path, size: i
             "fraction": net_rate / conv_rate, "threads": threads}
 
 
+#: PNG settings compared by the ``png`` part: name -> OpenImageIO attributes ({}: libpng's defaults).
+PNG_CHOICES = {
+    "default (level 6, adaptive)": {},
+    "level 1, adaptive": {"png:compressionLevel": 1},
+    "level 1, none": {"png:compressionLevel": 1, "png:filter": 0x08},
+    "level 1, sub": {"png:compressionLevel": 1, "png:filter": 0x10},
+    "level 1, up": {"png:compressionLevel": 1, "png:filter": 0x20},
+    "level 1, paeth": {"png:compressionLevel": 1, "png:filter": 0x80},
+    "level 2, up": {"png:compressionLevel": 2, "png:filter": 0x20},
+    "level 3, up": {"png:compressionLevel": 3, "png:filter": 0x20},
+    "level 6, up": {"png:compressionLevel": 6, "png:filter": 0x20},
+}
+
+
+def png_choices(photo: Path, threads: int, repeats: int, work: Path) -> Dict[str, Any]:
+    """Seconds (one thread, median) and bytes of the five PNG files of a preview of ``photo`` per
+    :data:`PNG_CHOICES` entry, the entries taking turns; pixels checked equal to the default's."""
+    from svbrdf.runtime import imageio, texture_set
+    from svbrdf.runtime.session import estimate, load_session
+
+    session = load_session(threads=threads)
+    maps = estimate(photo, session)
+    relit = texture_set.relit_panel(maps, session.render_config)
+    texture_set.WRITE_WORKERS = 1
+    runs: Dict[str, List[float]] = {k: [] for k in PNG_CHOICES}
+    files: Dict[str, Dict[str, Path]] = {}
+    for _ in range(repeats):
+        for i, (name, options) in enumerate(PNG_CHOICES.items()):
+            imageio.PNG_OPTIONS = options
+            t = time.perf_counter()
+            files[name] = texture_set.write_texture_set(maps, work / f"png-{i}", "m", relit=relit, force=True)
+            runs[name].append(time.perf_counter() - t)
+    imageio.PNG_OPTIONS, texture_set.WRITE_WORKERS = dict(AFTER_PNG_OPTIONS), AFTER_WORKERS
+    ref = files[next(iter(PNG_CHOICES))]
+    out = {}
+    for name, paths in files.items():
+        same = all(np.array_equal(imageio.read_image(paths[r], raw=True), imageio.read_image(ref[r], raw=True))
+                   for r in paths if r != "sidecar")
+        if not same:
+            raise SvbrdfError(f"PNG settings {name!r} changed pixels")
+        out[name] = {"seconds": statistics.median(runs[name]), "options": PNG_CHOICES[name],
+                     "bytes": {r: p.stat().st_size for r, p in paths.items() if r != "sidecar"}}
+    return out
+
+
 def _machine(threads: int) -> Dict[str, Any]:
     from .common import machine_info
     from .methods import BenchOptions
@@ -308,6 +353,15 @@ def markdown(doc: Dict[str, Any]) -> str:
     if imp:
         lines += ["", "Import (cumulative, `python -X importtime`): "
                   + ", ".join(f"{k} {v:.3f} s" for k, v in imp.items())]
+    png = doc.get("png")
+    if png:
+        base = png[next(iter(png))]
+        lines += ["", "PNG settings, the five PNG files of the 1024 px preview (one thread; same pixels checked):", "",
+                  "| settings | seconds | MB | vs default: time | size |", "|---|---|---|---|---|"]
+        for name, r in png.items():
+            mb, base_mb = sum(r["bytes"].values()) / 1e6, sum(base["bytes"].values()) / 1e6
+            lines.append(f"| {name} | {r['seconds']:.3f} | {mb:.2f} | {r['seconds'] / base['seconds']:.2f}x | "
+                         f"{mb / base_mb:.2f}x |")
     c = doc.get("conv")
     if c:
         lines += ["", f"Conv throughput ({c['conv']['shape']}): {c['conv']['gflops']:.0f} GFLOP/s; the model at "
@@ -322,7 +376,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("--repeats", type=int, default=3, help="alternating runs per size (default: 3)")
     p.add_argument("--process-repeats", type=int, default=5, help="whole-process and import runs (default: 5)")
     p.add_argument("--threads", type=int, default=2, help="onnxruntime intra-op threads (default: 2)")
-    p.add_argument("--parts", default="steps,process,imports,conv", help="parts to run (default: all four)")
+    p.add_argument("--parts", default="steps,process,imports,conv",
+                   help="parts to run, of steps, process, imports, conv, png (default: the first four)")
     p.add_argument("--out", type=Path, default=repo_root() / "docs" / "benchmarks" / "preview-speed")
     p.add_argument("--force", action="store_true", help="overwrite existing results")
     args = p.parse_args(argv)
@@ -346,6 +401,8 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
                 doc["steps"] = steps({s: photos[s] for s in sizes}, args.threads, args.repeats, work)
             if "process" in parts:
                 doc["process"] = process(photos[1024], args.threads, args.process_repeats, work)
+            if "png" in parts:
+                doc["png"] = png_choices(photos[1024], args.threads, args.repeats, work)
             if "imports" in parts:
                 doc["imports"] = import_times(args.process_repeats)
         write_results(paths, "svbrdf.trainer.bench.preview_speed", argv, doc, markdown)
