@@ -12,7 +12,11 @@ Reading (:func:`read_image`): any format OpenImageIO reads (PNG 8/16-bit, JPEG, 
   the third are dropped with an :class:`ImageWarning`.
 
 Writing (:func:`write_image`): PNG (8/16-bit), OpenEXR (half/float) or TIFF (8/16/32-bit), atomically
-(:func:`svbrdf.runtime.files.atomic_write`), never over an existing file unless ``force=True``.
+(:func:`svbrdf.runtime.files.atomic_write`), never over an existing file unless ``force=True``. PNG files are
+compressed with :data:`PNG_OPTIONS` (zlib level 1, the "up" filter on every row): measured on the maps of a
+1024 px photo, 5.8x faster to write than libpng's default (level 6, adaptive filters) for files 13 % larger
+(docs/benchmarks/preview-speed). OpenImageIO releases the GIL while it encodes, so files can be written from
+several threads.
 
 OpenImageIO never raises on a bad file; every call here is checked and turned into an
 :class:`~svbrdf.runtime.errors.ImageError` with a one-line message ``"<path>: <problem>"``.
@@ -43,6 +47,9 @@ _WRITE_TYPES = {
     ".tiff": {8: oiio.UINT8, 16: oiio.UINT16, 32: oiio.FLOAT},
 }
 WRITE_EXTENSIONS = tuple(_WRITE_TYPES)
+#: OpenImageIO attributes of every PNG written: zlib level 1 and libpng's PNG_FILTER_UP (0x20) on every row.
+#: ``{}`` gives libpng's defaults (level 6, adaptive filters), the 'before' of the preview-speed benchmark.
+PNG_OPTIONS = {"png:compressionLevel": 1, "png:filter": 0x20}
 
 
 class ImageWarning(UserWarning):
@@ -182,7 +189,7 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
     if a.ndim != 3 or a.shape[-1] not in (1, 3, 4) or a.shape[0] < 1 or a.shape[1] < 1:
         raise ImageError(f"{path}: cannot write an array of shape {np.shape(arr)} (expected (H, W), (H, W, 1), "
                          f"(H, W, 3) or (H, W, 4))")
-    a = a.astype(np.float32)
+    a = a.astype(np.float32, copy=False)
     if not np.all(np.isfinite(a)):
         raise ImageError(f"{path}: refusing to write NaN/Inf values")
     return a
@@ -235,11 +242,11 @@ def write_image(
         raise ImageError(f"{path}: folder {path.parent} does not exist")
 
     a = _as_hwc(path, arr)
-    if srgb_encode:
-        a = a.copy()
-        a[..., :3] = linear_to_srgb(np.clip(a[..., :3], 0.0, 1.0))  # alpha stays linear
-    if not is_float:
+    if not is_float:  # the one full-size copy: the caller's array is never modified
         a = np.clip(a, 0.0, 1.0)
+        if srgb_encode:
+            a[..., :3] = linear_to_srgb(a[..., :3])  # alpha stays linear
+            np.clip(a, 0.0, 1.0, out=a)
     h, w, c = a.shape
 
     spec = oiio.ImageSpec(w, h, c, pixel_type)
@@ -247,6 +254,9 @@ def write_image(
         spec.attribute("oiio:UnassociatedAlpha", 1)
     if not is_float:
         spec.attribute("oiio:ColorSpace", "sRGB" if srgb_encode else "Raw")
+    if ext == ".png":
+        for key, value in PNG_OPTIONS.items():
+            spec.attribute(key, value)
     with atomic_write(path, force=force, error=ImageError) as tmp:  # keeps the extension: OIIO picks the format
         out = oiio.ImageOutput.create(str(tmp))
         if out is None:
@@ -259,4 +269,4 @@ def write_image(
     return path
 
 
-__all__ = ["ImageWarning", "read_image", "write_image", "image_info", "WRITE_EXTENSIONS"]
+__all__ = ["ImageWarning", "read_image", "write_image", "image_info", "WRITE_EXTENSIONS", "PNG_OPTIONS"]

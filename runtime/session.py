@@ -19,8 +19,12 @@ Pipeline of :func:`estimate`:
    differences from a single pass that are small for stationary materials but not only at the seams;
 4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`).
 
-The session uses ``enable_cpu_mem_arena=False``: the default arena roughly doubles peak memory at large
-sizes for no speed gain (measured in the platform notes).
+The session keeps onnxruntime's CPU memory arena (:data:`CPU_MEM_ARENA`). Without it every intermediate
+tensor is fresh memory from the system and the one pass of a preview pays its page faults: on the 2-core
+machine of docs/benchmarks/preview-speed, a 1024 px pass of the v1 model takes 1.0 s with the arena and
+1.4 s without (a first pass in a fresh process), for a peak of 631 MB instead of 596 MB (2.30 GB instead of
+2.02 GB for a single 2048 px pass; the default ``tile`` keeps passes at 1024 px). The platform notes measured
+the arena doubling the peak of an earlier, larger generator; re-measure when the model changes.
 """
 
 from __future__ import annotations
@@ -48,11 +52,13 @@ RESIZE_FILTER = "blackman-harris"
 DEFAULT_MAX_SIZE = 2048
 DEFAULT_TILE = 1024
 DEFAULT_OVERLAP = 64
+#: Use onnxruntime's CPU memory arena (see the module docstring; the preview-speed benchmark's 'before' is False).
+CPU_MEM_ARENA = True
 #: Name of the complete graph (both decoders) among :attr:`PreviewSession.loaded` and ``meta["model"]["graph"]``.
 FULL = "full"
 
 __all__ = ["PreviewSession", "load_session", "estimate", "resize_long_side", "RESIZE_FILTER",
-           "DEFAULT_MAX_SIZE", "DEFAULT_TILE", "DEFAULT_OVERLAP", "FULL"]
+           "DEFAULT_MAX_SIZE", "DEFAULT_TILE", "DEFAULT_OVERLAP", "FULL", "CPU_MEM_ARENA"]
 
 
 def _first_line(exc: BaseException) -> str:
@@ -123,7 +129,7 @@ class PreviewSession:
 
         path = self.info.path if graph == FULL else self.info.verify_part(graph)
         so = ort.SessionOptions()
-        so.enable_cpu_mem_arena = False
+        so.enable_cpu_mem_arena = CPU_MEM_ARENA
         so.intra_op_num_threads = self.threads
         so.inter_op_num_threads = 1
         so.log_severity_level = 3  # errors only: ORT's warnings are not actionable for a user

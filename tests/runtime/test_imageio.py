@@ -301,3 +301,22 @@ def test_write_argument_errors(tmp_path, img):
     with pytest.raises(ValueError, match="srgb_encode"):
         write_image(tmp_path / "a.exr", img, srgb_encode=True)
     assert list(tmp_path.iterdir()) == []
+
+
+def test_png_options_change_bytes_not_pixels(tmp_path, monkeypatch):
+    rng = np.random.default_rng(3)
+    smooth = np.cumsum(rng.uniform(0, 1, (64, 80, 3)), axis=1).astype(np.float32) / 80  # compressible
+    for bits in (8, 16):
+        fast = write_image(tmp_path / f"fast{bits}.png", smooth, bits=bits, srgb_encode=bits == 8)
+        monkeypatch.setattr(imageio, "PNG_OPTIONS", {})  # libpng's defaults
+        slow = write_image(tmp_path / f"default{bits}.png", smooth, bits=bits, srgb_encode=bits == 8)
+        monkeypatch.undo()
+        assert fast.read_bytes() != slow.read_bytes()
+        np.testing.assert_array_equal(read_image(fast, raw=True), read_image(slow, raw=True))
+
+
+def test_write_leaves_the_callers_array_alone(tmp_path):
+    arr = np.linspace(-0.5, 1.5, 4 * 5 * 4, dtype=np.float32).reshape(4, 5, 4)
+    before = arr.copy()
+    write_image(tmp_path / "a.png", arr, bits=16, srgb_encode=True)
+    np.testing.assert_array_equal(arr, before)

@@ -118,21 +118,24 @@ def test_failure_midway_leaves_nothing(tmp_path, maps):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_failed_write_cleans_staging(tmp_path, maps, monkeypatch):
+@pytest.mark.parametrize("workers", [1, 2])
+def test_failed_write_cleans_staging(tmp_path, maps, monkeypatch, workers):
     from svbrdf.runtime import imageio, texture_set
 
     calls = []
 
-    def flaky(path, arr, **kw):  # the third file (roughness) fails, as on a full disk
-        calls.append(path)
-        if len(calls) == 3:
+    def flaky(path, arr, **kw):  # the roughness file fails, as on a full disk
+        calls.append(path.name)
+        if path.name == "m_roughness.png":
             raise ImageError(f"{path}: write failed (disk full)")
         return imageio.write_image(path, arr, **kw)
 
     monkeypatch.setattr(texture_set, "write_image", flaky)
+    monkeypatch.setattr(texture_set, "WRITE_WORKERS", workers)
     with pytest.raises(ImageError, match="write failed") as exc:
         write_texture_set(maps, tmp_path, "m")
-    assert len(calls) == 3
+    # One thread stops at the failure; two may have started the next file meanwhile.
+    assert calls == ["m_basecolor.png", "m_normal.png", "m_roughness.png"] if workers == 1 else len(calls) >= 3
     assert str(exc.value).startswith(str(tmp_path / "m_roughness.png"))  # names the target, not the stage
     assert list(tmp_path.iterdir()) == []
 
@@ -189,6 +192,64 @@ def test_a_subset_writes_only_its_maps(tmp_path, maps):
     assert side["maps"] == ["diffuse", "normal"] and set(side["files"]) == {"basecolor", "normal"}
     full = json.loads(write_texture_set(maps, tmp_path / "all", "m")["sidecar"].read_text())
     assert full["maps"] == ["diffuse", "specular", "roughness", "normal"]
+
+
+def test_relit_panel_is_rendered_at_its_display_size(maps):
+    # Long side W = 16 -> 8: every view is 6 x 8, rendered from the maps downsized for it.
+    panel = relit_panel(maps, exposure=1.0, size=8)
+    assert panel.shape == (H // 2, 3 * (W // 2), 3) and panel.dtype == np.float32
+    assert panel.min() >= 0.0 and panel.max() <= 1.0
+    assert relit_panel(maps, exposure=1.0, size=None).shape == (H, 3 * W, 3)
+    np.testing.assert_array_equal(relit_panel(maps, exposure=1.0, size=W), relit_panel(maps, exposure=1.0, size=None))
+    # A flat material downsized stays the same material: its small flash view agrees with the full-size one
+    # averaged over 2 x 2 pixels (the render is smooth across the image).
+    flat = Maps(np.full((H, W, 3), 0.4, np.float32), np.full((H, W, 1), 0.1, np.float32),
+                np.full((H, W, 1), 0.5, np.float32), np.tile(np.float32([0, 0, 1]), (H, W, 1)))
+    small, full = relit_panel(flat, exposure=1.0, size=8), relit_panel(flat, exposure=1.0, size=None)
+    np.testing.assert_allclose(small[:, :8], full[:, :W].reshape(H // 2, 2, W // 2, 2, 3).mean(axis=(1, 3)),
+                               atol=0.01)
+    with pytest.raises(ValueError, match="size"):
+        relit_panel(maps, size=0)
+
+
+def test_the_default_panel_is_512_px_per_view():
+    from svbrdf.runtime.texture_set import PANEL_SIZE
+
+    n = np.zeros((600, 1024, 3), np.float32)
+    n[..., 2] = 1.0
+    big = Maps(np.full((600, 1024, 3), 0.5, np.float32), np.full((600, 1024, 1), 0.04, np.float32),
+               np.full((600, 1024, 1), 0.5, np.float32), n)
+    assert PANEL_SIZE == 512 and relit_panel(big).shape == (300, 3 * 512, 3)
+
+
+@pytest.mark.parametrize("fmt", ["png", "exr"])
+def test_concurrent_writing_gives_the_same_files(tmp_path, maps, monkeypatch, fmt):
+    from svbrdf.runtime import texture_set
+
+    panel = relit_panel(maps)
+    written = {}
+    for workers in (1, 3):
+        monkeypatch.setattr(texture_set, "WRITE_WORKERS", workers)
+        paths = write_texture_set(maps, tmp_path / str(workers), "m", fmt=fmt, relit=panel)
+        written[workers] = {p.name: p.read_bytes() for p in paths.values()}
+    assert written[1] == written[3] and len(written[1]) == 6
+
+
+def test_concurrent_writing_reports_the_first_failure_and_leaves_nothing(tmp_path, maps, monkeypatch):
+    from svbrdf.runtime import texture_set
+
+    real = texture_set.write_image
+
+    def failing(path, *args, **kwargs):
+        if path.name in ("m_normal.png", "m_specular.png"):
+            raise ImageError(f"{path}: disk full")
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(texture_set, "write_image", failing)
+    with pytest.raises(ImageError, match=r"m_normal.png: disk full") as err:
+        write_texture_set(maps, tmp_path / "out", "m")
+    assert str(tmp_path / "out" / "m_normal.png") in str(err.value)
+    assert not (tmp_path / "out").exists()
 
 
 def test_relit_panel_needs_every_map(maps):
