@@ -29,7 +29,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from .colour import linear_to_srgb, srgb_to_linear
-from .errors import ImageError
+from .errors import ImageError, exists_message
 from .files import atomic_write
 
 PathLike = Union[str, os.PathLike]
@@ -219,7 +219,7 @@ def write_image(
     """
     path = Path(path)
     if path.exists() and not force:
-        raise ImageError(f"{path}: exists (use --force to overwrite)")
+        raise ImageError(exists_message(path))
     ext = path.suffix.lower()
     if ext not in _WRITE_TYPES:
         raise ImageError(f"{path}: unsupported output format {ext or '(none)'!r} (use {', '.join(WRITE_EXTENSIONS)})")
