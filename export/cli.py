@@ -88,7 +88,7 @@ def main(argv: Optional[List[str]] = None) -> int:
     except Exception as exc:
         module = missing_train_module(exc)
         if module is not None:  # the light install: say what to install
-            print(f"{PROG}: error: {train_hint(PROG, module)}", file=sys.stderr)
+            print(f"{PROG}: error: {train_hint('this command', module)}", file=sys.stderr)
             return 2
         msg = cli_message(exc) if isinstance(exc, SvbrdfError) else f"{type(exc).__name__}: {exc}"
         print(f"{PROG}: error: {msg}", file=sys.stderr)

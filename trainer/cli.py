@@ -419,7 +419,7 @@ def _missing(exc: BaseException) -> Optional[int]:
     module = missing_train_module(exc)
     if module is None:
         return None
-    print(f"{PROG}: error: {train_hint(PROG, module)}", file=sys.stderr)
+    print(f"{PROG}: error: {train_hint('this command', module)}", file=sys.stderr)
     return 2
 
 

@@ -26,13 +26,13 @@ def test_train_without_torch_is_one_line_and_exit_2(argv, tmp_path):
     res = _light("svbrdf.trainer.cli", argv)
     assert res.returncode == 2, res.stderr
     assert res.stdout == ""
-    assert res.stderr.splitlines() == [f"svbrdf-train: error: {train_hint('svbrdf-train', 'torch')}"]
+    assert res.stderr.splitlines() == [f"svbrdf-train: error: {train_hint('this command', 'torch')}"]
 
 
 def test_export_without_onnx_is_one_line_and_exit_2(tmp_path):
     res = _light("svbrdf.export.cli", [str(tmp_path / "checkpoint.pt")])
     assert res.returncode == 2, res.stderr
-    assert res.stderr.splitlines() == [f"svbrdf-export: error: {train_hint('svbrdf-export', 'onnx')}"]
+    assert res.stderr.splitlines() == [f"svbrdf-export: error: {train_hint('this command', 'onnx')}"]
     assert list(tmp_path.iterdir()) == []
 
 
