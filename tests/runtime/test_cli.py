@@ -159,6 +159,7 @@ def test_an_existing_user_file_is_left_untouched(photo, tiny_model, tmp_path, ca
     mine.write_bytes(b"my own file")
     code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir)
     assert code == 1 and "wood_basecolor.png" in err
+    assert "(use --force to overwrite)" in err and "force=True" not in err  # the API's wording, translated
     assert mine.read_bytes() == b"my own file"
     assert sorted(p.name for p in out_dir.iterdir()) == ["wood_basecolor.png"]  # nothing else written
 
