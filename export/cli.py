@@ -1,8 +1,8 @@
 """``svbrdf-export``: training checkpoint -> ONNX preview model, its part graphs and a manifest (see
 :mod:`svbrdf.export.onnx`).
 
-Exit codes: 0 success, 2 usage error, 1 failure (one line ``svbrdf-export: error: <message>`` on stderr;
-``--verbose`` adds the traceback).
+Exit codes: 0 success, 2 usage error or the training side (torch, onnx) not installed (one line naming the pip
+command), 1 failure (one line ``svbrdf-export: error: <message>`` on stderr; ``--verbose`` adds the traceback).
 """
 
 from __future__ import annotations
@@ -15,7 +15,8 @@ import warnings
 from pathlib import Path
 from typing import List, Optional
 
-from svbrdf.runtime.errors import SvbrdfError, parse_command_line
+from svbrdf.runtime.errors import SvbrdfError, cli_message, parse_command_line
+from svbrdf.runtime.install import missing_train_module, train_hint
 from svbrdf.runtime.manifest import DECODERS, part_file_name
 
 PROG = "svbrdf-export"
@@ -85,7 +86,11 @@ def main(argv: Optional[List[str]] = None) -> int:
         print(f"{PROG}: error: interrupted", file=sys.stderr)
         return 130
     except Exception as exc:
-        msg = str(exc) if isinstance(exc, SvbrdfError) else f"{type(exc).__name__}: {exc}"
+        module = missing_train_module(exc)
+        if module is not None:  # the light install: say what to install
+            print(f"{PROG}: error: {train_hint('this command', module)}", file=sys.stderr)
+            return 2
+        msg = cli_message(exc) if isinstance(exc, SvbrdfError) else f"{type(exc).__name__}: {exc}"
         print(f"{PROG}: error: {msg}", file=sys.stderr)
         if args.verbose:
             traceback.print_exc()

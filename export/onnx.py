@@ -36,7 +36,7 @@ import onnx
 import torch
 from torch import nn
 
-from svbrdf.runtime.errors import ModelError, SvbrdfError
+from svbrdf.runtime.errors import ModelError, SvbrdfError, exists_message
 from svbrdf.runtime.files import staged_write
 from svbrdf.runtime.maps import MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES
 from svbrdf.runtime.manifest import (
@@ -222,7 +222,7 @@ def export_generator(
     if not force:
         for p in [path for path, _ in graphs.values()] + [manifest_path]:
             if p.exists():
-                raise SvbrdfError(f"{p}: exists (use --force to overwrite)")
+                raise SvbrdfError(exists_message(p))
     if (check and not sizes) or any(min(s) < MIN_SIZE for s in sizes):
         raise ValueError(f"parity sizes must be given and >= {MIN_SIZE}, got {list(sizes)}")
 

@@ -1,7 +1,9 @@
 """``svbrdf-preview``: flash photo(s) -> texture set(s) with the ONNX preview model (optionally refined with torch).
 
-Exit codes: 0 success, 2 usage error, 1 if any photo failed (each failure is one line
-``svbrdf-preview: error: <message>`` on stderr; ``--verbose`` adds the traceback). Heavy modules
+Exit codes: 0 success, 2 usage error (or ``--refine`` without the training side installed), 1 if any photo
+failed (each failure is one line ``svbrdf-preview: error: <message>`` on stderr; ``--verbose`` adds the
+traceback). Progress on stderr (:mod:`svbrdf.runtime.progress`): a bar for the batch and for each ``--refine``
+on a terminal, plain lines otherwise, nothing with ``--quiet``. Heavy modules
 (onnxruntime, OpenImageIO, torch) are imported only after the arguments are parsed, so ``--version`` and
 ``--help`` stay instant.
 """
@@ -18,12 +20,12 @@ from typing import List, Optional
 
 from . import __version__
 from .choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
-from .errors import SvbrdfError, parse_command_line
+from .errors import MissingExtraError, SvbrdfError, cli_message, parse_command_line
+from .install import missing_train_module, train_hint
 from .maps import MAP_NAMES, select_maps
 from .preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
 
 PROG = "svbrdf-preview"
-TORCH_HINT = '--refine needs torch: pip install "svbrdf[train]"'
 
 EXAMPLES = f"""\
 examples:
@@ -81,7 +83,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--max-size", metavar="N", type=_positive, default=2048,
                    help="downsize photos whose long side exceeds N pixels (default: 2048)")
     p.add_argument("--tile", metavar="N", type=_positive, default=1024,
-                   help="process larger images in overlapping N x N tiles to bound memory (default: 1024)")
+                   help="process larger images in overlapping N x N tiles to bound memory (default: 1024; "
+                        f"at least {min_tile()})")
     p.add_argument("--target", choices=TARGETS, default="generic",
                    help="output preset: file names, normal convention, packing and material document "
                         "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
@@ -107,51 +110,74 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _error(msg: str) -> None:
-    print(f"{PROG}: error: {msg}", file=sys.stderr)
+    from .progress import write
+
+    write(f"{PROG}: error: {cli_message(msg)}")
+
+
+def min_tile() -> int:
+    """The smallest ``--tile``: each tile keeps the full blending overlap
+    (:data:`~svbrdf.runtime.session.DEFAULT_OVERLAP`) on both sides and as much again of its own. Smaller tiles
+    see too little of the photo (the generator normalises each tile by its own statistics) and leave a grid in
+    the maps."""
+    from .session import DEFAULT_OVERLAP
+
+    return 4 * DEFAULT_OVERLAP
 
 
 def _load_refine():
     """The runtime's one call into the trainer, :func:`svbrdf.trainer.refine.refine`, imported only for ``--refine``.
 
     Raises:
-        SvbrdfError: torch (the training side) is not installed.
+        MissingExtraError: torch or kornia (the training side) is not installed; the message names the pip command
+            for this installation (:func:`svbrdf.runtime.install.train_hint`).
     """
     try:
         from svbrdf.trainer.refine import refine
     except ImportError as exc:
-        if (exc.name or "").split(".")[0] not in ("torch", "kornia"):
+        module = missing_train_module(exc)
+        if module is None:
             raise
-        raise SvbrdfError(TORCH_HINT) from None
+        raise MissingExtraError(train_hint("--refine", module)) from None
     return refine
 
 
 def _refine(refine, image, session, config, args, name: str):
     """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear), or with ``--quality auto`` keep
     the preview when it already explains the photo; returns the Maps (``meta["refine"]`` says which)."""
+    from .imageio import ImageWarning
     from .manifest import find_checkpoint
-    from .session import DEFAULT_OVERLAP, estimate
+    from .progress import Progress, loss_postfix
+    from .session import estimate
 
     preview = None
     if args.quality == "auto":  # the skip rule compares the instant preview with the photo
-        preview = estimate(image, session, max_size=args.max_size, tile=args.tile,
-                           overlap=min(DEFAULT_OVERLAP, args.tile // 4), maps=MAP_NAMES)
+        with warnings.catch_warnings():  # the photo itself was checked (and named) by the caller
+            warnings.simplefilter("ignore", ImageWarning)
+            preview = estimate(image, session, max_size=args.max_size, tile=args.tile, maps=MAP_NAMES)
 
-    def progress(trainer, record):  # a one-line counter, only for a person watching a terminal
-        print(f"\r{name}: refining {trainer.step}/{trainer.iters}", end="", file=sys.stderr, flush=True)
+    bar = None
 
-    show = not args.quiet and sys.stderr.isatty()
-    maps = refine(image, lambda: find_checkpoint(session.info), quality=args.quality or "fixed", iters=args.iters,
-                  threads=args.threads, name=name, callback=progress if show else None, preview=preview,
-                  render_config=config)
-    if show and not maps.meta["refine"].get("skipped"):
-        print(file=sys.stderr)
-    return maps
+    def progress(trainer, record):  # the Progress is made at the first iteration, when the length is known
+        nonlocal bar
+        if bar is None:
+            bar = Progress(trainer.iters, f"refine {name}", quiet=args.quiet, initial=record["step"] - 1)
+        bar.update(record["step"], **loss_postfix(record))
+
+    try:
+        return refine(image, lambda: find_checkpoint(session.info), quality=args.quality or "fixed",
+                      iters=args.iters, threads=args.threads, name=name, callback=progress, preview=preview,
+                      render_config=config)
+    finally:
+        if bar is not None:
+            bar.close()
 
 
 def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> str:
     """Estimate (or refine with ``refine``, see :func:`_load_refine`), render and write one texture set; returns the
     report line."""
-    from .session import DEFAULT_OVERLAP, estimate
+    from .errors import exists_message
+    from .session import estimate
     from .targets import write_target
     from .texture_set import relit_panel, write_texture_set
 
@@ -159,12 +185,13 @@ def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> 
     name = photo.stem
     # Cheap early refusal before minutes of inference; write_texture_set re-checks every file it writes.
     if not args.force and (out_dir / f"{name}.json").exists():
-        raise SvbrdfError(f"{out_dir / (name + '.json')}: exists (use --force to overwrite)")
+        raise SvbrdfError(exists_message(out_dir / f"{name}.json"))
     if args.refine:
         from .imageio import read_image
-        from .session import resize_long_side
+        from .session import resize_long_side, warn_if_greyscale
 
         image = resize_long_side(read_image(photo), args.max_size)
+        warn_if_greyscale(image, str(photo))
         maps = _refine(refine, image, session, config, args, photo.name)
         record = maps.meta["refine"]
         if record.get("skipped"):
@@ -177,8 +204,7 @@ def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> 
         maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256},
                          maps=list(args.maps))
     else:
-        overlap = min(DEFAULT_OVERLAP, args.tile // 4)
-        maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, overlap=overlap, maps=args.maps)
+        maps = estimate(photo, session, max_size=args.max_size, tile=args.tile, maps=args.maps)
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config
@@ -212,8 +238,11 @@ def _run(args) -> int:
     if args.maps != MAP_NAMES and not args.quiet:
         print(f"{PROG}: note: no relit panel with --maps (it renders all four maps)", file=sys.stderr)
 
+    from .progress import Progress, write
+
     failed = 0
     seen = {}
+    batch = Progress(len(args.photos), PROG, quiet=args.quiet or len(args.photos) == 1, unit="photo")
     for text in args.photos:
         photo = Path(text)
         out_dir = args.out if args.out is not None else photo.parent / f"{photo.stem}_svbrdf"
@@ -227,13 +256,15 @@ def _run(args) -> int:
                 line = _process(photo, session, config, args, out_dir, refine)
             if not args.quiet:
                 for w in caught:
-                    print(f"{PROG}: warning: {w.message}", file=sys.stderr)
-                print(line)
+                    write(f"{PROG}: warning: {w.message}")
+                write(line, file=sys.stdout)
         except Exception as exc:  # per photo: report, go on with the batch, exit 1 at the end
             failed += 1
             _error(str(exc) if isinstance(exc, SvbrdfError) else f"{photo}: {type(exc).__name__}: {exc}")
             if args.verbose:
                 traceback.print_exc()
+        batch.update(failed=failed) if failed else batch.update()
+    batch.close()
     return 1 if failed else 0
 
 
@@ -245,8 +276,11 @@ def main(argv: Optional[List[str]] = None) -> int:
         return code
     if args.fov is not None and not 1.0 <= args.fov <= 170.0:
         return _usage(parser, f"--fov must be in [1, 170] degrees, got {args.fov}")
-    if args.max_size < 8 or args.tile < 8:
-        return _usage(parser, "--max-size and --tile must be >= 8")
+    if args.max_size < 8:
+        return _usage(parser, f"--max-size must be >= 8, got {args.max_size}")
+    if args.tile < min_tile():
+        return _usage(parser, f"--tile must be >= {min_tile()} (4 x the {min_tile() // 4} px overlap of neighbouring tiles; "
+                              f"smaller tiles leave a grid in the maps), got {args.tile}")
     if (args.iters or args.quality) and not args.refine:
         return _usage(parser, "--iters and --quality need --refine")
     if args.maps != MAP_NAMES and args.target != "generic":
@@ -256,7 +290,10 @@ def main(argv: Optional[List[str]] = None) -> int:
     except KeyboardInterrupt:
         _error("interrupted")
         return 130
-    except SvbrdfError as exc:  # model not found / not loadable, torch missing for --refine
+    except MissingExtraError as exc:  # --refine without torch: what to install, like a usage error
+        _error(str(exc))
+        return 2
+    except SvbrdfError as exc:  # model not found / not loadable
         _error(str(exc))
         if args.verbose:
             traceback.print_exc()

@@ -19,13 +19,9 @@ from contextlib import contextmanager
 from pathlib import Path
 from typing import Dict, Iterator, Sequence, Type, Union
 
-from .errors import SvbrdfError
+from .errors import SvbrdfError, exists_message as _exists
 
 PathLike = Union[str, os.PathLike]
-
-
-def _exists(path: Path, more: int = 0) -> str:
-    return f"{path}: exists{f' (and {more} more)' if more else ''} (use --force to overwrite)"
 
 
 @contextmanager

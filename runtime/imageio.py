@@ -27,13 +27,13 @@ from __future__ import annotations
 import os
 import warnings
 from pathlib import Path
-from typing import Union
+from typing import Optional, Union
 
 import numpy as np
 import OpenImageIO as oiio
 
 from .colour import linear_to_srgb, srgb_to_linear
-from .errors import ImageError
+from .errors import ImageError, exists_message
 from .files import atomic_write
 
 PathLike = Union[str, os.PathLike]
@@ -202,6 +202,7 @@ def write_image(
     bits: int = 16,
     srgb_encode: bool = False,
     force: bool = False,
+    colour_space: Optional[str] = None,
 ) -> Path:
     """Write a float image atomically as PNG, OpenEXR or TIFF (format from the extension).
 
@@ -212,8 +213,10 @@ def write_image(
             unassociated (straight) alpha: it is never sRGB-encoded and the colour is not divided by it.
         bits: 8 or 16 for PNG; 16 (half) or 32 (float) for EXR; 8, 16 or 32 (float) for TIFF.
         srgb_encode: ``arr`` is linear colour: encode it with the sRGB curve before quantising and tag the file
-            sRGB (integer formats only). Otherwise values are stored as given and integer files are written
-            untagged (no sRGB/gAMA chunk: the usual convention for data maps).
+            sRGB (integer formats only). Otherwise values are stored as given.
+        colour_space: the colour-space tag of an integer file (``oiio:ColorSpace``): ``"linear"`` for data maps
+            (in a PNG a gAMA chunk of 1.0, so that readers such as ``oiiotool`` do not take them as sRGB),
+            ``"sRGB"`` for an image already sRGB-encoded. Default: ``"sRGB"`` with ``srgb_encode``, else untagged.
         force: overwrite an existing file.
 
     Returns:
@@ -226,7 +229,7 @@ def write_image(
     """
     path = Path(path)
     if path.exists() and not force:
-        raise ImageError(f"{path}: exists (use --force to overwrite)")
+        raise ImageError(exists_message(path))
     ext = path.suffix.lower()
     if ext not in _WRITE_TYPES:
         raise ImageError(f"{path}: unsupported output format {ext or '(none)'!r} (use {', '.join(WRITE_EXTENSIONS)})")
@@ -253,7 +256,7 @@ def write_image(
     if c == 4:  # without this OpenImageIO treats alpha as associated and un-premultiplies the colour on write
         spec.attribute("oiio:UnassociatedAlpha", 1)
     if not is_float:
-        spec.attribute("oiio:ColorSpace", "sRGB" if srgb_encode else "Raw")
+        spec.attribute("oiio:ColorSpace", colour_space or ("sRGB" if srgb_encode else "Raw"))
     if ext == ".png":
         for key, value in PNG_OPTIONS.items():
             spec.attribute(key, value)

@@ -58,7 +58,7 @@ CPU_MEM_ARENA = True
 FULL = "full"
 
 __all__ = ["PreviewSession", "load_session", "estimate", "resize_long_side", "RESIZE_FILTER",
-           "DEFAULT_MAX_SIZE", "DEFAULT_TILE", "DEFAULT_OVERLAP", "FULL", "CPU_MEM_ARENA"]
+           "DEFAULT_MAX_SIZE", "DEFAULT_TILE", "DEFAULT_OVERLAP", "FULL", "CPU_MEM_ARENA", "warn_if_greyscale"]
 
 
 def _first_line(exc: BaseException) -> str:
@@ -255,6 +255,23 @@ def resize_long_side(image: np.ndarray, max_size: int) -> np.ndarray:
     return np.asarray(dst.get_pixels(oiio.FLOAT), dtype=np.float32).reshape(nh, nw, c)
 
 
+#: Largest channel spread (linear) of a photo taken as greyscale by :func:`warn_if_greyscale`.
+GREY_TOLERANCE = 1.0 / 512
+
+
+def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
+    """Warn (:class:`~svbrdf.runtime.imageio.ImageWarning`) when an (H, W, 3) photo has no colour: a one-channel
+    file (read as R = G = B) or three channels equal within :data:`GREY_TOLERANCE`. The model then invents the
+    colour of the diffuse and specular maps. Returns whether it warned."""
+    from .imageio import ImageWarning
+
+    grey = all(float(np.abs(image[..., c] - image[..., 1]).max()) <= GREY_TOLERANCE for c in (0, 2))
+    if grey:
+        warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the "
+                                   f"diffuse and specular maps"), stacklevel=2)
+    return grey
+
+
 def _as_image(photo: Union[str, os.PathLike, np.ndarray]) -> tuple:
     if isinstance(photo, np.ndarray):
         name = "<array>"
@@ -310,6 +327,9 @@ def estimate(
         SvbrdfError: unknown map names, or the model returned NaN/Inf maps (float photos with absurd values, near
             the float32 limit).
         ValueError: invalid ``max_size``, ``tile`` or ``overlap``.
+
+    Warns:
+        ImageWarning: a greyscale photo (:func:`warn_if_greyscale`).
     """
     if max_size < MIN_SIZE or tile < MIN_SIZE or not 0 <= 2 * overlap <= tile:
         raise ValueError(f"need max_size >= {MIN_SIZE}, tile >= {MIN_SIZE} and 0 <= 2 * overlap <= tile; "
@@ -329,6 +349,7 @@ def estimate(
 
     t = time.perf_counter()
     image = resize_long_side(image, max_size)
+    warn_if_greyscale(image, name)
     h, w = image.shape[:2]
     if min(h, w) < MIN_SIZE:
         raise ImageError(f"{name}: {in_w}x{in_h} downsized to {w}x{h} is below {MIN_SIZE} px; raise max_size")

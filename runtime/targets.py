@@ -17,8 +17,8 @@ every file, and the material document written next to the textures (layouts and 
   ``<n>.usda`` (unit quad, UsdPreviewSurface in the specular workflow);
 * ``mtlx``: the same files; ``<n>.mtlx`` (``standard_surface``).
 
-All files are PNG; base colours are 8-bit sRGB, data maps linear ("Non-Color") and untagged. Every preset
-also writes the ``<n>.json`` sidecar of :func:`~svbrdf.runtime.texture_set.write_texture_set` (BRDF model,
+All files are PNG; base colours are 8-bit sRGB, data maps linear ("Non-Color", tagged with a gAMA chunk of 1.0).
+Every preset also writes the ``<n>.json`` sidecar of :func:`~svbrdf.runtime.texture_set.write_texture_set` (BRDF model,
 render config, metadata) with its ``files`` entry describing the preset's files and a ``target`` entry
 (conversion, import notes), and the optional ``<n>_relit.png`` preview.
 

@@ -199,7 +199,8 @@ def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> 
         if f.text is not None:
             (stage / f.file).write_text(f.text, encoding="utf-8")
         else:
-            write_image(stage / f.file, f.pixels, bits=f.bits, srgb_encode=f.srgb)
+            write_image(stage / f.file, f.pixels, bits=f.bits, srgb_encode=f.srgb,
+                        colour_space="sRGB" if f.srgb or f.info.get("colour_space") == "sRGB" else "linear")
 
     with staged_write(out_dir, [f.file for f in plan.values()], force=force, error=ImageError) as stage:
         workers = max(1, min(WRITE_WORKERS, len(plan)))

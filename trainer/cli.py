@@ -6,14 +6,17 @@ iterations and at the end), ``checkpoint_last_good.pt`` (latest checkpoint witho
 at the end, the texture set of the whole photo (``<stem>_basecolor.png``, ... ``<stem>.json``,
 ``<stem>_relit.png``).
 
-Exit codes: 0 done, 1 failure (one line ``svbrdf-train: error: ...``), 2 usage, 130 interrupted (Ctrl-C: the
-checkpoint is saved after the current iteration; ``--resume`` continues exactly from it).
+Progress on stderr (:mod:`svbrdf.runtime.progress`): a bar with the iteration, losses and ETA on a terminal, a
+plain line every few iterations otherwise, nothing with ``--quiet``.
+
+Exit codes: 0 done, 1 failure (one line ``svbrdf-train: error: ...``), 2 usage or the training side (torch) not
+installed (one line naming the pip command), 130 interrupted (Ctrl-C: the checkpoint is saved after the current
+iteration; ``--resume`` continues exactly from it).
 """
 
 from __future__ import annotations
 
 import argparse
-import shutil
 import signal
 import sys
 import time
@@ -22,7 +25,8 @@ import warnings
 from pathlib import Path
 from typing import Any, Dict, List, Optional, Tuple
 
-from svbrdf.runtime.errors import parse_command_line
+from svbrdf.runtime.errors import cli_message, parse_command_line
+from svbrdf.runtime.install import missing_train_module, train_hint
 
 PROG = "svbrdf-train"
 CHECKPOINT = "checkpoint.pt"
@@ -152,45 +156,24 @@ def _overrides(args: argparse.Namespace, preset) -> Dict[str, Any]:
     return ov
 
 
-class _Progress:
-    """One updating line on a TTY, plain log lines otherwise; also the Ctrl-C flag and the map dumps."""
+class _Callback:
+    """The trainer's callback: the progress bar (or lines), the map dumps and the Ctrl-C flag."""
 
-    def __init__(self, args, out: Path, name: str, iters: int, log):
-        self.args, self.out, self.name, self.log = args, out, name, log
-        self.tty = sys.stderr.isatty() and not args.quiet
-        self.every = max(1, min(100, iters // 20))
+    def __init__(self, args, out: Path, name: str, trainer):
+        from svbrdf.runtime.progress import Progress
+
+        self.out, self.name = out, name
+        self.progress = Progress(trainer.iters, f"{args.stage} {name}", quiet=args.quiet, initial=trainer.step)
         self.stop = False
-        self.t_last, self.step_last = time.perf_counter(), None
-        self.rate = 0.0
 
     def __call__(self, trainer, rec) -> bool:
-        now = time.perf_counter()
-        if self.step_last is None:
-            self.rate = 1.0 / max(rec["seconds"], 1e-9)
-        elif now > self.t_last:
-            self.rate = (rec["step"] - self.step_last) / (now - self.t_last)
+        from svbrdf.runtime.progress import loss_postfix
+
         cfg = trainer.config
         if cfg.maps_every and rec["step"] % cfg.maps_every == 0 and rec["step"] < trainer.iters:
             _write_maps(trainer, self.out / "maps" / f"step_{rec['step']:06d}", self.name, relit=False)
-        if not self.args.quiet and (self.tty or rec["step"] % self.every == 0 or rec["step"] == 1):
-            losses = " ".join(f"{k}={v:.4g}" for k, v in rec.items()
-                              if "/" in k and not k.endswith("/total") and v is not None)
-            line = f"it {rec['step']}/{trainer.iters} {self.rate:.2f} it/s {losses}"
-            if rec.get("skipped"):
-                line += f" skipped={rec['skipped']}"
-            if self.tty:  # one line, cut to the terminal width so that \r can rewrite it
-                line = line[:max(20, shutil.get_terminal_size().columns - 1)]
-                sys.stderr.write("\r\033[K" + line)
-                sys.stderr.flush()
-            else:
-                self.log(line)
-        self.t_last, self.step_last = now, rec["step"]
+        self.progress.update(rec["step"], **loss_postfix(rec))
         return self.stop
-
-    def end_line(self) -> None:
-        if self.tty:
-            sys.stderr.write("\n")
-            sys.stderr.flush()
 
 
 def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[dict] = None,
@@ -216,19 +199,15 @@ def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[
         meta["burn_in"]["burn_in"]
 
 
-def _format_eta(seconds: float) -> str:
-    seconds = int(max(seconds, 0))
-    return f"{seconds // 3600}:{seconds // 60 % 60:02d}:{seconds % 60:02d}"
-
-
 def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     """``svbrdf-train prior``: train (or resume) the procedural stage one."""
+    from svbrdf.runtime.progress import Progress, loss_postfix, write
     from svbrdf.trainer import checkpoint as ckpt_io
     from svbrdf.trainer.prior import STAGE, PriorConfig, PriorTrainer
 
     def log(msg: str) -> None:
         if not args.quiet:
-            print(msg, file=sys.stderr, flush=True)
+            write(msg)
 
     out = Path(args.out)
     ckpt_path = out / CHECKPOINT
@@ -277,20 +256,15 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     c = trainer.config
     log(f"prior: {c.iters} iterations of {c.batch} procedural materials at {c.size} px, device {trainer.device}, "
         f"out {out}")
-    every = max(1, min(50, c.iters // 20))
-    state = {"stop": False, "t0": time.perf_counter(), "s0": trainer.step}
+    state = {"stop": False}
+    bar = Progress(c.iters, "prior", quiet=args.quiet, initial=trainer.step)
 
     def progress(tr, rec) -> bool:
-        done = rec["step"] - state["s0"]
-        rate = done / max(time.perf_counter() - state["t0"], 1e-9)
-        eta = (c.iters - rec["step"]) / max(rate, 1e-9)
-        if not args.quiet and (rec["step"] % every == 0 or rec["step"] == c.iters or "eval" in rec):
-            line = f"it {rec['step']}/{c.iters} {rate:.2f} it/s ETA {_format_eta(eta)} loss {rec['total']:.4f}"
-            if "eval" in rec:
-                ev = rec["eval"]
-                line += (f" | held-out RMSE diffuse {ev['diffuse']:.3f} specular {ev['specular']:.3f} roughness "
-                         f"{ev['roughness']:.3f} normal {ev['normal_deg']:.1f} deg")
-            log(line)
+        bar.update(rec["step"], **loss_postfix(rec))
+        if "eval" in rec:
+            ev = rec["eval"]
+            log(f"it {rec['step']}: held-out RMSE diffuse {ev['diffuse']:.3f} specular {ev['specular']:.3f} "
+                f"roughness {ev['roughness']:.3f} normal {ev['normal_deg']:.1f} deg")
         return state["stop"]
 
     trainer.callback = progress
@@ -304,10 +278,12 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     try:
         trainer.run()
     except KeyboardInterrupt:
+        bar.close()
         print(f"{PROG}: interrupted; the last checkpoint is {ckpt_path}; resume with: {resume_cmd}", file=sys.stderr)
         return 130
     finally:
         signal.signal(signal.SIGINT, old)
+    bar.close()
     if trainer.interrupted:
         print(f"{PROG}: interrupted at iteration {trainer.step}/{c.iters}; checkpoint saved to {ckpt_path}; "
               f"resume with: {resume_cmd}", file=sys.stderr)
@@ -326,9 +302,11 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     from svbrdf.trainer.stage import make_trainer
     from svbrdf.trainer.train import load_photo
 
+    from svbrdf.runtime.progress import write
+
     def log(msg: str) -> None:
         if not args.quiet:
-            print(msg, file=sys.stderr, flush=True)
+            write(msg)
 
     photo_path = Path(args.photo)
     out = Path(args.out) if args.out else Path.cwd() / f"{photo_path.stem}-{args.stage}"
@@ -397,7 +375,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     for note in trainer.notes:
         log(f"note: {note}")
 
-    progress = _Progress(args, out, photo_path.stem, trainer.iters, log)
+    progress = _Callback(args, out, photo_path.stem, trainer)
     trainer.callback = progress
     resume_cmd = f"{PROG} {args.stage} {photo_path} --out {out} --resume"
 
@@ -410,13 +388,13 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     try:
         trainer.run()
     except KeyboardInterrupt:
-        progress.end_line()
+        progress.progress.close()
         print(f"{PROG}: interrupted; the last checkpoint is {ckpt_path}; resume with: {resume_cmd}",
               file=sys.stderr)
         return 130
     finally:
         signal.signal(signal.SIGINT, old)
-    progress.end_line()
+    progress.progress.close()
     seconds = time.perf_counter() - t0
     if trainer.interrupted:
         print(f"{PROG}: interrupted at iteration {trainer.step}/{trainer.iters}; checkpoint saved to {ckpt_path}; "
@@ -436,8 +414,24 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     return 0
 
 
+def _missing(exc: BaseException) -> Optional[int]:
+    """Exit 2 with the pip command when ``exc`` says the training side is not installed; None otherwise."""
+    module = missing_train_module(exc)
+    if module is None:
+        return None
+    print(f"{PROG}: error: {train_hint('this command', module)}", file=sys.stderr)
+    return 2
+
+
 def main(argv: Optional[List[str]] = None) -> int:
-    parser = build_parser()
+    """Entry point of ``svbrdf-train``; returns the exit code (see the module docstring)."""
+    try:
+        parser = build_parser()  # its help lists the presets: it needs the trainer, hence torch
+    except ImportError as exc:
+        code = _missing(exc)
+        if code is None:
+            raise
+        return code
     args, code = parse_command_line(parser, argv)
     if args is None:  # --help / --version (0) or a usage error (2)
         return code
@@ -449,9 +443,12 @@ def main(argv: Optional[List[str]] = None) -> int:
         except SystemExit as e:  # parser.error inside _run
             return int(e.code or 0)
         except Exception as e:
+            code = _missing(e)
+            if code is not None:
+                return code
             if args.verbose:
                 traceback.print_exc()
-            msg = " ".join(str(e).split()) or type(e).__name__
+            msg = cli_message(" ".join(str(e).split()) or type(e).__name__)
             if not isinstance(e, (SvbrdfError, _Fail, OSError, ValueError)):  # a bug: say what kind
                 msg = f"{type(e).__name__}: {msg} (run with --verbose for a traceback)"
             print(f"{PROG}: error: {msg}", file=sys.stderr)

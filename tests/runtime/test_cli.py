@@ -8,7 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from svbrdf.runtime.cli import TORCH_HINT, build_parser, main
+from svbrdf.runtime.cli import build_parser, main, min_tile
+from svbrdf.runtime.install import install_command
 from svbrdf.runtime.imageio import read_image, write_image
 
 pytest.importorskip("onnxruntime")
@@ -49,16 +50,58 @@ def test_one_photo_writes_a_texture_set(photo, tiny_model, capsys):
     assert sidecar["brdf"]["render_config"]["fov_deg"] == 50.0  # the model's training FOV
 
 
-def test_options_reach_the_texture_set(photo, tiny_model, tmp_path, capsys):
+def test_options_reach_the_texture_set(tiny_model, tmp_path, capsys):
+    photo = tmp_path / "wood.png"
+    rng = np.random.default_rng(1)
+    write_image(photo, rng.uniform(0.1, 0.6, (300, 400, 3)).astype(np.float32), bits=8, srgb_encode=True)
     out_dir = tmp_path / "out"
     code, out, _ = _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--normal", "dx", "--format", "exr",
-                        "--fov", "40", "--quiet", "--tile", "32")
+                        "--fov", "40", "--quiet", "--tile", "256")
     assert code == 0 and out == ""
     sidecar = json.loads((out_dir / "wood.json").read_text())
     assert sidecar["normal_convention"]["name"] == "dx"
     assert sidecar["brdf"]["render_config"]["fov_deg"] == 40.0
-    assert sidecar["meta"]["tiles"] == 6  # 48 x 64 in 32 px tiles, overlap 8: 2 rows x 3 columns
+    assert sidecar["meta"]["tiles"] == 4  # 300 x 400 in 256 px tiles, overlap 64: 2 rows x 2 columns
     assert (out_dir / "wood_normal.exr").is_file() and not (out_dir / "wood_normal.png").exists()
+
+
+def test_tile_below_the_minimum_is_refused_with_the_minimum(capsys):
+    assert min_tile() == 256  # 4 x session.DEFAULT_OVERLAP
+    code, out, err = _run(capsys, "p.png", "--tile", "255")
+    assert code == 2 and out == ""
+    assert f"{ERR}--tile must be >= 256 " in err and "got 255" in err
+    assert build_parser().parse_args(["p.png", "--tile", "256"]).tile == 256
+
+
+def test_greyscale_photo_warns_once(tiny_model, tmp_path, capsys):
+    grey = tmp_path / "grey.png"
+    rng = np.random.default_rng(2)
+    write_image(grey, rng.uniform(0.1, 0.6, (48, 64, 1)).astype(np.float32), bits=8, srgb_encode=True)
+    code, _, err = _run(capsys, grey, "--model", tiny_model, "-o", tmp_path / "g")
+    assert code == 0, err
+    warnings = [line for line in err.splitlines() if "warning" in line]
+    assert warnings == [f"svbrdf-preview: warning: {grey}: greyscale photo (no colour); the model invents the "
+                        "colour of the diffuse and specular maps"]
+    code, _, err = _run(capsys, grey, "--model", tiny_model, "-o", tmp_path / "q", "--quiet")
+    assert code == 0 and err == ""
+
+
+def test_colour_photo_does_not_warn(photo, tiny_model, tmp_path, capsys):
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "c")
+    assert code == 0 and "warning" not in err
+
+
+def test_batch_progress_lines_off_a_terminal_and_nothing_when_quiet(photo, tiny_model, tmp_path, capsys):
+    second = tmp_path / "stone.png"
+    write_image(second, read_image(photo), bits=8, srgb_encode=True)
+    code, out, err = _run(capsys, photo, second, "--model", tiny_model, "-o", tmp_path / "b")
+    assert code == 0, err
+    assert len(out.splitlines()) == 2  # the two report lines on stdout
+    lines = err.strip().splitlines()  # stderr is captured, not a terminal: plain lines, no carriage returns
+    assert [line.split(" [")[0] for line in lines] == ["svbrdf-preview: 1/2", "svbrdf-preview: 2/2"]
+    assert "\r" not in err and ("photo/s" in lines[-1] or "s/photo" in lines[-1])
+    code, out, err = _run(capsys, photo, second, "--model", tiny_model, "-o", tmp_path / "b", "--force", "-q")
+    assert code == 0 and out == "" and err == ""
 
 
 def test_real_photo(shared_data, tiny_model, tmp_path, capsys):
@@ -77,8 +120,10 @@ def test_batch_with_a_bad_file(photo, tiny_model, tmp_path, capsys):
     out_dir = tmp_path / "out"
     code, out, err = _run(capsys, bad, photo, "--model", tiny_model, "-o", out_dir)
     assert code == 1
-    lines = err.strip().splitlines()
+    lines = [line for line in err.strip().splitlines() if not line.startswith("svbrdf-preview: 1/2 [")
+             and not line.startswith("svbrdf-preview: 2/2 [")]  # the batch's progress lines
     assert len(lines) == 1 and lines[0].startswith(ERR) and "broken.png" in lines[0]
+    assert "failed 1]" in err.strip().splitlines()[-1]
     assert (out_dir / "wood.json").is_file() and not (out_dir / "broken.json").exists()
     assert "wood" in out and "broken" not in out
     code, _, err = _run(capsys, bad, "--model", tiny_model, "-o", out_dir, "--verbose")
@@ -114,6 +159,7 @@ def test_an_existing_user_file_is_left_untouched(photo, tiny_model, tmp_path, ca
     mine.write_bytes(b"my own file")
     code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir)
     assert code == 1 and "wood_basecolor.png" in err
+    assert "(use --force to overwrite)" in err and "force=True" not in err  # the API's wording, translated
     assert mine.read_bytes() == b"my own file"
     assert sorted(p.name for p in out_dir.iterdir()) == ["wood_basecolor.png"]  # nothing else written
 
@@ -121,6 +167,7 @@ def test_an_existing_user_file_is_left_untouched(photo, tiny_model, tmp_path, ca
 @pytest.mark.parametrize("argv", [
     [],
     ["p.png", "--tile", "0"],
+    ["p.png", "--tile", "8"],
     ["p.png", "--iters", "5"],
     ["p.png", "--normal", "yz"],
     ["p.png", "--fov", "500"],
@@ -164,11 +211,12 @@ def test_session_and_cli_do_not_import_torch():
 
 def test_refine_without_torch(photo, tiny_model):
     res = _subprocess(
-        "import sys; sys.modules['torch'] = None; from svbrdf.runtime.cli import main; "
+        "import sys; sys.modules['torch'] = sys.modules['kornia'] = None; from svbrdf.runtime.cli import main; "
         f"sys.exit(main([{str(photo)!r}, '--model', {str(tiny_model)!r}, '--refine']))"
     )
-    assert res.returncode == 1
-    assert res.stderr.strip().splitlines() == [ERR + TORCH_HINT]
+    assert res.returncode == 2
+    hint = f'--refine needs torch (the "train" extra), not installed here: {install_command()}'
+    assert res.stderr.strip().splitlines() == [ERR + hint]
     assert not (photo.parent / "wood_svbrdf").exists()
 
 
@@ -180,6 +228,11 @@ def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
     assert "refined 1 it" in out
     meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
     assert meta["refine"]["iterations"] == 1 and meta["refine"]["checkpoint"] == str(tiny_model.with_suffix(".pt"))
+    # stderr is not a terminal here: one plain progress line with the iteration, ETA and losses
+    assert err.strip().splitlines()[-1].startswith("refine wood.png: 1/1 [") and "nr " in err and "\r" not in err
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "out", "--refine", "--iters", "1",
+                          "--threads", "1", "--quiet", "--force")
+    assert code == 0 and out == "" and err == ""
 
 
 def test_normal_accepts_the_api_names_and_the_short_alias():

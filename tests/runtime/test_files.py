@@ -15,7 +15,7 @@ def test_atomic_write_replaces_on_success(tmp_path):
         assert tmp.exists() and not target.exists()  # reserved, nothing in place yet
         tmp.write_text("one")
     assert target.read_text() == "one" and os.listdir(tmp_path) == ["a.json"]
-    with pytest.raises(SvbrdfError, match=r"a\.json: exists \(use --force to overwrite\)"):
+    with pytest.raises(SvbrdfError, match=r"a\.json: exists \(pass force=True to overwrite\)"):
         with atomic_write(target):
             pass
     with atomic_write(target, force=True) as tmp:

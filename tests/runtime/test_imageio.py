@@ -216,7 +216,7 @@ def test_negative_float_clamped_with_warning(tmp_path, img):
 def test_existing_file_untouched_without_force(tmp_path, img):
     path = write_image(tmp_path / "x.png", img, bits=8)
     before = path.read_bytes()
-    with pytest.raises(ImageError, match=r"x\.png: exists \(use --force to overwrite\)"):
+    with pytest.raises(ImageError, match=r"x\.png: exists \(pass force=True to overwrite\)"):
         write_image(path, np.zeros((2, 2, 3), np.float32), bits=8)
     # Checked before any other work: even an invalid array reports "exists".
     with pytest.raises(ImageError, match="exists"):

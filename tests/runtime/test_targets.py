@@ -237,7 +237,7 @@ def test_unity_smoothness_in_alpha(tmp_path, maps):
 
 def test_refuses_existing_file_and_writes_nothing(tmp_path, maps):
     (tmp_path / "m.usda").write_text("user file")
-    with pytest.raises(ImageError, match=r"m\.usda: exists \(use --force"):
+    with pytest.raises(ImageError, match=r"m\.usda: exists \(pass force=True"):
         write_target(maps, tmp_path, "m", "usd")
     assert [p.name for p in tmp_path.iterdir()] == ["m.usda"]
     assert (tmp_path / "m.usda").read_text() == "user file"

@@ -82,7 +82,7 @@ def test_default_render_config_in_sidecar(tmp_path, maps):
 
 def test_refusal_writes_nothing(tmp_path, maps):
     (tmp_path / "m_specular.png").write_bytes(b"user file")
-    with pytest.raises(ImageError, match=r"m_specular\.png: exists \(use --force"):
+    with pytest.raises(ImageError, match=r"m_specular\.png: exists \(pass force=True"):
         write_texture_set(maps, tmp_path, "m")
     assert [p.name for p in tmp_path.iterdir()] == ["m_specular.png"]
     assert (tmp_path / "m_specular.png").read_bytes() == b"user file"
@@ -273,7 +273,44 @@ def test_commit_writes_any_plan_all_or_nothing(tmp_path):
     assert paths == {"a": out / "a.png", "doc": out / "a.txt"} and paths["doc"].read_text() == "hello"
     assert image_info(paths["a"])["dtype"] == "uint8"
     np.testing.assert_allclose(read_image(paths["a"]), 0.5, atol=3e-3)  # sRGB-encoded on write
-    with pytest.raises(ImageError, match=r"a\.txt: exists \(use --force"):  # refused before anything is written
+    with pytest.raises(ImageError, match=r"a\.txt: exists \(pass force=True"):  # refused before anything is written
         commit(out, {"new": TextureFile("new.txt", {}, text="x"), "doc": doc})
     assert sorted(p.name for p in out.iterdir()) == ["a.png", "a.txt"]
 
+
+
+def _png_gamma(path):
+    """The gAMA chunk's value (gamma x 100000) of a PNG, or None."""
+    import struct
+
+    data, i = path.read_bytes(), 8
+    while i < len(data):
+        n, kind = struct.unpack(">I4s", data[i:i + 8])
+        if kind == b"gAMA":
+            return struct.unpack(">I", data[i + 8:i + 12])[0]
+        i += 12 + n
+    return None
+
+
+def test_files_carry_their_colour_space(tmp_path, maps):
+    import OpenImageIO as oiio
+
+    panel = relit_panel(maps)
+    paths = write_texture_set(maps, tmp_path, "m", relit=panel)
+
+    def tag(role):
+        inp = oiio.ImageInput.open(str(paths[role]))
+        try:
+            return inp.spec().get_string_attribute("oiio:ColorSpace")
+        finally:
+            inp.close()
+
+    for role in ("normal", "roughness", "specular"):  # 16-bit data maps: linear in the file itself
+        assert tag(role).startswith("lin"), (role, tag(role))
+        assert _png_gamma(paths[role]) == 100000, role  # gAMA 1.0
+    for role in ("basecolor", "relit"):  # colour: sRGB
+        assert tag(role).startswith("srgb"), (role, tag(role))
+        assert _png_gamma(paths[role]) == 45455, role
+    # The tag does not change the stored values.
+    np.testing.assert_allclose(read_image(paths["roughness"], raw=True)[..., 0], maps.roughness[..., 0],
+                               atol=0.5 / 65535 + 1e-6)

@@ -250,12 +250,18 @@ def _make_data(root):
     write_image(root / "photo (1).png", photo, bits=8, srgb_encode=True)
 
 
-def test_cli_quick_writes_every_output(tmp_path):
+def test_cli_quick_writes_every_output(tmp_path, capsys):
     data, out = tmp_path / "data", tmp_path / "out"
     _make_data(data)
     code = main(["--quick", "--data", str(data), "--out", str(out), "--size", "32", "--iters", "0,1",
-                 "--model", str(tmp_path / "missing.onnx"), "--quiet"])
+                 "--model", str(tmp_path / "missing.onnx")])
     assert code == 0
+    # stderr is not a terminal here: the runs' progress is plain lines ending with the last run, no bar
+    err = capsys.readouterr().err
+    runs = [line.split(" [")[0] for line in err.splitlines() if line.startswith("svbrdf-bench: ")]
+    total = runs[-1].split("/")[1]
+    assert runs[0] == f"svbrdf-bench: 1/{total}" and runs[-1] == f"svbrdf-bench: {total}/{total}"
+    assert "\r" not in err and "| it 1 |" in err  # and the evaluation points' lines
     for name in ("results.md", "pareto.png", "results.json", "summary.json"):
         assert (out / name).is_file(), name
     assert read_image(out / "pareto.png").shape[2] == 3

@@ -3,14 +3,33 @@
 import ast
 from pathlib import Path
 
+import pytest
+
+from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.trainer import bench
 from svbrdf.trainer.bench.common import default_data, machine_info, repo_root
 from svbrdf.trainer.bench.methods import BenchOptions
 
 
-def test_repo_root_and_default_data():
+def test_repo_root_and_default_data(monkeypatch, tmp_path):
     assert (repo_root() / "pyproject.toml").is_file()
-    assert default_data() == repo_root().parent / "shared" / "data"
+    if (repo_root().parent / "shared" / "data").is_dir():
+        assert default_data() == repo_root().parent / "shared" / "data"
+    monkeypatch.chdir(tmp_path)  # the current folder plays no part
+    from svbrdf.trainer.bench import common
+
+    checkout = tmp_path / "checkout"  # a checkout without shared/data beside it
+    (checkout / "trainer" / "bench").mkdir(parents=True)
+    (checkout / "pyproject.toml").write_text("")
+    monkeypatch.setattr(common, "__file__", str(checkout / "trainer" / "bench" / "common.py"))
+    with pytest.raises(SvbrdfError, match=r"default data folder .*shared/data beside the checkout\) does not exist; "
+                                          r"pass --data DIR"):
+        default_data()
+    (tmp_path / "shared" / "data").mkdir(parents=True)
+    assert default_data() == tmp_path / "shared" / "data"
+    monkeypatch.setattr(common, "__file__", str(tmp_path / "site-packages" / "svbrdf" / "trainer" / "bench" / "c.py"))
+    with pytest.raises(SvbrdfError, match="outside a source checkout; pass --data DIR"):
+        default_data()
 
 
 def test_machine_info_lists_the_machine():

@@ -49,6 +49,15 @@ def test_fit_writes_checkpoint_log_and_maps(tmp_path, photo, capsys):
     assert burn >= 0 and f"burn-in {burn:.2f}" in err
 
 
+def test_progress_is_plain_lines_off_a_terminal(tmp_path, photo, capsys):
+    assert cli.main(["fit", str(photo), *TINY, "--iters", "3", "--out", str(tmp_path / "o")]) == 0
+    err = capsys.readouterr().err
+    progress = [ln for ln in err.splitlines() if ln.startswith(f"fit {photo.stem}: ")]
+    # stderr is captured (not a terminal): plain lines (every iteration of so short a run) with the losses
+    assert [ln.split(" [")[0] for ln in progress] == [f"fit {photo.stem}: {i}/3" for i in (1, 2, 3)]
+    assert "nr " in progress[-1] and "ds " in progress[-1] and "\r" not in err
+
+
 def test_default_out_dir_is_derived_from_the_photo(tmp_path, photo, monkeypatch, capsys):
     monkeypatch.chdir(tmp_path)
     assert cli.main(["pretrain", str(photo), *TINY, "--iters", "1", "--quiet"]) == 0

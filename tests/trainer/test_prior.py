@@ -164,7 +164,7 @@ def test_cli_trains_refuses_a_used_folder_and_resumes(tmp_path, capsys):
             "--threads", "1", "--checkpoint-every", "1"]
     assert cli.main([*args, "--iters", "2"]) == 0
     err = capsys.readouterr().err
-    assert "done: 2 iterations" in err and "ETA" in err
+    assert "done: 2 iterations" in err and "prior: 2/2 [" in err and "loss " in err  # the plain progress line
     assert cli.main([*args, "--iters", "2"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "not empty" in err[0] and "Traceback" not in err[0]

@@ -77,6 +77,7 @@ def run_benchmark(
     quick: bool = False,
     command: str = "",
     progress: Optional[Callable[[str], None]] = None,
+    runs_progress: Optional[Callable[[int], Any]] = None,
 ) -> Dict[str, Any]:
     """Run every selected method on every case and return the benchmark document (the JSON of ``--json``).
 
@@ -96,6 +97,9 @@ def run_benchmark(
         quick: pretrain a throwaway tiny stage-one checkpoint when ``opts.init`` is None.
         command: the command line, recorded.
         progress: called with one line per evaluation point.
+        runs_progress: makes the progress of the runs (one method, preset and case each) from their number,
+            e.g. ``functools.partial(svbrdf.runtime.progress.Progress, desc="svbrdf-bench", unit="run")``; its
+            ``update(n, **postfix)`` is called after each run (or skipped run) and ``close()`` at the end.
 
     Returns:
         dict: ``schema, command, date, machine, settings, cases, skipped, errors, records, summary``
@@ -172,13 +176,19 @@ def run_benchmark(
     records: List[Dict[str, Any]] = []
     skipped: List[Dict[str, Any]] = []
     errors: List[Dict[str, Any]] = []
+    method_presets = {m: list(only.get(m, presets)) if METHODS[m].uses_presets else [None] for m in methods}
+    tracker = runs_progress(sum(map(len, method_presets.values())) * len(bench_cases)) if runs_progress else None
+    done = 0
     for name in methods:
         method = METHODS[name]
-        for preset in (only.get(name, presets) if method.uses_presets else [None]):
+        for preset in method_presets[name]:
             reason = method.unavailable(opts, preset)
             if reason:
                 skipped.append({"method": name, "preset": preset, "reason": reason})
                 say(f"skip {name}{' ' + preset if preset else ''}: {reason}")
+                done += len(bench_cases)
+                if tracker is not None:
+                    tracker.update(done)
                 continue
             run_opts = opts if name not in caps else \
                 dataclasses.replace(opts, iters=[i for i in opts.iters if i <= caps[name]] or [0])
@@ -210,6 +220,11 @@ def run_benchmark(
                 for rec in run_recs:
                     rec["run"] = run
                 records.extend(run_recs)
+                done += 1
+                if tracker is not None:
+                    tracker.update(done, failed=len(errors)) if errors else tracker.update(done)
+    if tracker is not None:
+        tracker.close()
 
     doc = {
         "schema": report.SCHEMA,
@@ -294,7 +309,8 @@ def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="svbrdf-bench", description=__doc__.split("\n\n")[0],
                                 formatter_class=argparse.RawDescriptionHelpFormatter)
     p.add_argument("--data", type=Path, default=None,
-                   help="folder of ground-truth sets and/or photos (default: ../shared/data next to the repo)")
+                   help="folder of ground-truth sets and/or photos (default: shared/data beside the source "
+                        "checkout, i.e. <checkout>/../shared/data; see the README's 'Tests and data')")
     p.add_argument("--out", type=Path, default=None, help="output folder (default: docs/benchmarks of the repo)")
     p.add_argument("--json", type=Path, default=None, help="records JSON (default: OUT/results.json)")
     p.add_argument("--methods", type=_names, default=None, help=f"comma list of {', '.join(METHODS)} (default: all); "
@@ -327,7 +343,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--quick", action="store_true",
                    help="pipeline check: 2 small cases at 64 px, tiny preset, iterations 0,2,4")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
-    p.add_argument("--quiet", action="store_true", help="no progress lines")
+    p.add_argument("--quiet", action="store_true", help="no progress (bar or lines)")
     p.add_argument("--report", metavar="RESULTS_JSON", action="append",
                    help="rewrite results.md, pareto.png and summary.json of an earlier run from its records "
                         "(after a change of the report code; nothing is re-run; output beside the JSON or --out); "
@@ -373,7 +389,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     """Command-line entry point; returns the exit code (0 ok, 1 some runs failed, 2 bad input)."""
     argv = list(sys.argv[1:] if argv is None else argv)
     args = build_parser().parse_args(argv)
-    say = (lambda _m: None) if args.quiet else (lambda m: print(m, file=sys.stderr, flush=True))
+    from svbrdf.runtime.progress import Progress, write
+
+    say = (lambda _m: None) if args.quiet else write  # write: the lines do not break the bar on a terminal
     try:
         if args.threads is not None and args.threads < 1:
             raise SvbrdfError(f"--threads must be >= 1, got {args.threads}")
@@ -393,8 +411,6 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return 0
         quick = args.quick
         data = args.data or default_data()
-        if args.data is None and not data.exists():
-            raise SvbrdfError(f"default data folder {data} does not exist (pass --data DIR)")
         out = args.out or repo_root() / "docs" / "benchmarks"
         paths = output_paths(out, args.json)
         existing = [str(p) for p in paths.values() if p.exists()]
@@ -427,6 +443,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             quick=quick,
             command=shlex.join(["svbrdf-bench"] + argv),
             progress=say,
+            runs_progress=lambda total: Progress(total, "svbrdf-bench", quiet=args.quiet, unit="run"),
         )
         written = write_outputs(doc, out, args.json, force=args.force)
     except SvbrdfError as e:

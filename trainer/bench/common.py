@@ -24,8 +24,20 @@ def repo_root() -> Path:
 
 
 def default_data() -> Path:
-    """``../shared/data`` next to the repository root."""
-    return repo_root().parent / "shared" / "data"
+    """``shared/data`` beside the source checkout (``<checkout>/../shared/data``), whatever the current folder.
+
+    Raises:
+        SvbrdfError: not running from a source checkout (an installed wheel has no default), or the folder is
+            missing; the message says to pass ``--data DIR``.
+    """
+    root = Path(__file__).resolve().parents[2]
+    if not (root / "pyproject.toml").is_file():
+        raise SvbrdfError("no default data folder outside a source checkout; pass --data DIR")
+    data = root.parent / "shared" / "data"
+    if not data.is_dir():
+        raise SvbrdfError(f"default data folder {data} (shared/data beside the checkout) does not exist; "
+                          f"pass --data DIR")
+    return data
 
 
 def machine_info(opts: BenchOptions) -> Dict[str, Any]:

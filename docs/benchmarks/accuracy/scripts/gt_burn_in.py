@@ -3,11 +3,12 @@ percentile, max (the `--quality auto` threshold 0.25 = the 95th percentile). Run
 """
 import numpy as np
 from pathlib import Path
+from svbrdf.trainer.bench.common import default_data
 from svbrdf.trainer.bench.datasets import find_cases, read_gt
 from svbrdf.trainer.bench.cases import resize_maps
 from svbrdf.runtime.burn_in import burn_in_scores
 v=[]
-for c in find_cases(Path('../shared/data')):
+for c in find_cases(default_data()):
     if c.kind!='gt': continue
     g,_=read_gt(c.path,c.format); g=resize_maps(g,256)
     v.append(burn_in_scores(g)['burn_in'])

@@ -4,10 +4,11 @@ rings around the highlight (fractions of the width: 0-0.05, ..., 0.5-0.7) for th
 """
 import numpy as np
 from pathlib import Path
+from svbrdf.trainer.bench.common import default_data
 from svbrdf.trainer.bench.datasets import find_cases, read_gt
 from svbrdf.trainer.bench.cases import resize_maps, render_mitsuba, physical_config
 from svbrdf.runtime.render import render, ZHAO
-cs={c.name:c for c in find_cases(Path('../shared/data')) if c.kind=='gt'}
+cs={c.name:c for c in find_cases(default_data()) if c.kind=='gt'}
 yy,xx=np.mgrid[0:256,0:256]; r=np.hypot(yy+.5-128,xx+.5-128)/256
 bins=[0,0.05,0.1,0.15,0.25,0.35,0.5,0.7]
 for name in [n for n in cs if '36_leather' in n or '10_brick' in n or '28_metal' in n]:

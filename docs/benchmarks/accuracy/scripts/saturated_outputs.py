@@ -10,6 +10,7 @@ outputs" finding of the accuracy README). Run from the repository root:
 import json, sys
 import numpy as np, torch
 from pathlib import Path
+from svbrdf.trainer.bench.common import default_data
 from svbrdf.trainer.bench.datasets import find_cases
 from svbrdf.trainer.bench.cases import prepare_case
 from svbrdf.trainer import train as T
@@ -18,7 +19,7 @@ from svbrdf.trainer.config import resolve
 from svbrdf.trainer.checkpoint import load_checkpoint
 from svbrdf.trainer.bench.metrics import map_errors
 ck=load_checkpoint('models/svbrdf_fast_v1.pt')
-cs=[c for c in find_cases(Path('../shared/data')) if '28_metal' in c.name or '10_brick' in c.name]
+cs=[c for c in find_cases(default_data()) if '28_metal' in c.name or '10_brick' in c.name]
 for c in cs:
     bc=prepare_case(c,256)
     ph=T.photo_to_tensor(bc.photo)
