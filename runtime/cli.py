@@ -117,10 +117,10 @@ def _error(msg: str) -> None:
 
 def min_tile() -> int:
     """The smallest ``--tile``: each tile keeps the full blending overlap
-    (:data:`~svbrdf.runtime.session.DEFAULT_OVERLAP`) on both sides and as much again of its own. Smaller tiles
+    (:data:`~svbrdf.runtime.tiling.DEFAULT_OVERLAP`) on both sides and as much again of its own. Smaller tiles
     see too little of the photo (the generator normalises each tile by its own statistics) and leave a grid in
     the maps."""
-    from .session import DEFAULT_OVERLAP
+    from .tiling import DEFAULT_OVERLAP
 
     return 4 * DEFAULT_OVERLAP
 
@@ -188,9 +188,9 @@ def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> 
         raise SvbrdfError(exists_message(out_dir / f"{name}.json"))
     if args.refine:
         from .imageio import read_image
-        from .session import resize_long_side, warn_if_greyscale
+        from .session import warn_if_greyscale
 
-        image = resize_long_side(read_image(photo), args.max_size)
+        image = read_image(photo, max_size=args.max_size)
         warn_if_greyscale(image, str(photo))
         maps = _refine(refine, image, session, config, args, photo.name)
         record = maps.meta["refine"]

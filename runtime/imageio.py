@@ -120,13 +120,101 @@ def _reorient(arr: np.ndarray, orientation: int) -> np.ndarray:
     return out.get_pixels(oiio.FLOAT)
 
 
-def read_image(path: PathLike, *, raw: bool = False) -> np.ndarray:
+#: Filter of every downsizing (:func:`resize_long_side`): non-negative, so a linear photo stays >= 0.
+RESIZE_FILTER = "blackman-harris"
+#: Bytes of float32 pixels one strip of a reduced read holds (:func:`read_image` with ``max_size``).
+STRIP_BYTES = 64 << 20
+
+
+def resize_long_side(image: np.ndarray, max_size: int) -> np.ndarray:
+    """Downsize an (H, W, C) float32 image so its long side is ``max_size`` (aspect kept, sides rounded).
+
+    Uses OpenImageIO ``ImageBufAlgo.resize`` with :data:`RESIZE_FILTER`; returns ``image`` itself when it is
+    already small enough.
+    """
+    h, w, c = image.shape
+    if max(h, w) <= max_size:
+        return image
+    nh, nw = _reduced_size(h, w, max_size)
+    src = oiio.ImageBuf(oiio.ImageSpec(w, h, c, oiio.FLOAT))
+    src.set_pixels(oiio.ROI(), np.ascontiguousarray(image, dtype=np.float32))
+    dst = oiio.ImageBufAlgo.resize(src, filtername=RESIZE_FILTER, roi=oiio.ROI(0, nw, 0, nh, 0, 1, 0, c))
+    if dst.has_error:
+        raise ImageError(f"cannot resize a {w}x{h} image to {nw}x{nh} ({_one_line(dst.geterror())})")
+    return np.asarray(dst.get_pixels(oiio.FLOAT), dtype=np.float32).reshape(nh, nw, c)
+
+
+def _reduced_size(h: int, w: int, max_size: int) -> tuple:
+    scale = max_size / max(h, w)
+    return max(1, round(h * scale)), max(1, round(w * scale))
+
+
+def _block_mean(arr: np.ndarray, k: int) -> np.ndarray:
+    """Mean of k x k blocks of an (R, W, C) array; the last block row/column may be partial (their own mean)."""
+    r, w, c = arr.shape
+    rr, cc = -(-r // k) * k, -(-w // k) * k
+    if (rr, cc) != (r, w):
+        padded = np.zeros((rr, cc, c), np.float32)
+        padded[:r, :w] = arr
+        arr = padded
+    sums = arr.reshape(rr // k, k, cc // k, k, c).sum(axis=(1, 3), dtype=np.float32)
+    rows = np.minimum(k, r - k * np.arange(rr // k)).astype(np.float32)
+    cols = np.minimum(k, w - k * np.arange(cc // k)).astype(np.float32)
+    return sums / (rows[:, None, None] * cols[None, :, None])
+
+
+class _Decoder:
+    """Turns stored pixels (any rows of the file, as float32) into the (rows, W, 3) float32 of :func:`read_image`,
+    keeping what must be said once per file (dropped channels, clamped negatives)."""
+
+    def __init__(self, path: Path, spec: "oiio.ImageSpec", raw: bool) -> None:
+        self.path, self.raw = path, raw
+        self.is_float = spec.format.basetype in _FLOAT_TYPES
+        nch = spec.nchannels
+        self.keep = 1 if nch <= 2 else 3
+        self.dropped = None
+        if nch > self.keep:
+            what = "alpha channel" if spec.alpha_channel >= self.keep else "extra channel(s)"
+            self.dropped = f"{path}: {what} dropped ({', '.join(list(spec.channelnames)[self.keep:])})"
+        self.negatives = 0
+
+    def __call__(self, arr: np.ndarray) -> np.ndarray:
+        arr = arr[..., :self.keep]
+        if self.keep == 1:
+            arr = np.repeat(arr, 3, axis=-1)
+        if self.is_float:
+            bad = int(np.count_nonzero(~np.isfinite(arr)))
+            if bad:
+                raise ImageError(f"{self.path}: {bad} NaN/Inf pixel values")
+            neg = int(np.count_nonzero(arr < 0))
+            if neg:
+                self.negatives += neg
+                arr = np.maximum(arr, 0.0)
+        else:
+            # Signed integer types map to [-1, 1] in OpenImageIO; photos are non-negative.
+            arr = np.clip(arr, 0.0, 1.0)
+            if not self.raw:
+                arr = srgb_to_linear(arr)
+        return np.asarray(arr, dtype=np.float32)
+
+    def warn(self) -> None:
+        if self.dropped:
+            warnings.warn(ImageWarning(self.dropped), stacklevel=3)
+        if self.negatives:
+            warnings.warn(ImageWarning(f"{self.path}: {self.negatives} negative values clamped to 0"), stacklevel=3)
+
+
+def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = None) -> np.ndarray:
     """Read an image file as an (H, W, 3) float32 array, as displayed (EXIF orientation applied).
 
     Args:
         path: image file (anything OpenImageIO reads: PNG, JPEG, TIFF, OpenEXR, ...).
         raw: keep the stored values of integer files (``value / max`` in [0, 1]) instead of decoding sRGB to
             linear; use it for data maps (roughness, normals). Float files are linear either way.
+        max_size: downsize so the long side is at most ``max_size`` (as :func:`resize_long_side`), and warn
+            that it did. A file at least twice that size is read in strips of scanlines, each averaged over
+            k x k pixel blocks (k = the integer part of the reduction, in linear values) before the final
+            resize, so memory stays near :data:`STRIP_BYTES` plus the reduced image whatever the file's size.
 
     Returns:
         (H, W, 3) float32: linear RGB in [0, 1] for integer files (sRGB-encoded [0, 1] if ``raw``); linear
@@ -137,48 +225,44 @@ def read_image(path: PathLike, *, raw: bool = False) -> np.ndarray:
             pixels in a float file.
 
     Warns:
-        ImageWarning: alpha or extra channels dropped; negative float values clamped to 0.
+        ImageWarning: alpha or extra channels dropped; negative float values clamped to 0; the photo downsized.
     """
     path = Path(path)
     inp = _open(path)
     try:
         spec = inp.spec()
-        if spec.width <= 0 or spec.height <= 0 or spec.nchannels <= 0:
-            raise ImageError(f"{path}: empty image ({spec.width}x{spec.height}, {spec.nchannels} channels)")
-        is_float = spec.format.basetype in _FLOAT_TYPES
+        h, w, nch = spec.height, spec.width, spec.nchannels
+        if w <= 0 or h <= 0 or nch <= 0:
+            raise ImageError(f"{path}: empty image ({w}x{h}, {nch} channels)")
         orientation = spec.get_int_attribute("Orientation", 1)
-        alpha = spec.alpha_channel
-        names = list(spec.channelnames)
-        arr = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
-        if arr is None:
-            raise ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
+        decode = _Decoder(path, spec, raw)
+        k = int(max(h, w) // max_size) if max_size and max(h, w) > max_size else 1
+        if k < 2:  # the whole file at once
+            arr = inp.read_image(0, 0, 0, nch, oiio.FLOAT)
+            if arr is None:
+                raise ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
+            arr = decode(np.asarray(arr, dtype=np.float32).reshape(h, w, nch))
+        else:  # strips of k * m rows, each reduced to m rows of k x k block means
+            m = max(1, STRIP_BYTES // (k * w * nch * 4))
+            strips = []
+            for y0 in range(0, h, k * m):
+                y1 = min(h, y0 + k * m)
+                rows = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, oiio.FLOAT)
+                if rows is None:
+                    raise ImageError(f"{path}: unreadable, corrupt or truncated image "
+                                     f"({_one_line(inp.geterror())})")
+                strips.append(_block_mean(decode(np.asarray(rows, dtype=np.float32).reshape(y1 - y0, w, nch)), k))
+            arr = np.concatenate(strips, axis=0)
     finally:
         inp.close()
-    arr = np.asarray(arr, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
-
-    nch = arr.shape[-1]
-    keep = 1 if nch <= 2 else 3
-    if nch > keep:
-        what = "alpha channel" if alpha >= keep else "extra channel(s)"
-        warnings.warn(ImageWarning(f"{path}: {what} dropped ({', '.join(names[keep:])})"), stacklevel=2)
-        arr = arr[..., :keep]
-    if keep == 1:
-        arr = np.repeat(arr, 3, axis=-1)
-
-    if is_float:
-        bad = int(np.count_nonzero(~np.isfinite(arr)))
-        if bad:
-            raise ImageError(f"{path}: {bad} NaN/Inf pixel values")
-        neg = int(np.count_nonzero(arr < 0))
-        if neg:
-            warnings.warn(ImageWarning(f"{path}: {neg} negative values clamped to 0"), stacklevel=2)
-            arr = np.maximum(arr, 0.0)
-    else:
-        # Signed integer types map to [-1, 1] in OpenImageIO; photos are non-negative.
-        arr = np.clip(arr, 0.0, 1.0)
-        if not raw:
-            arr = srgb_to_linear(arr)
+    decode.warn()
     arr = _reorient(arr, orientation)
+    if max_size and max(h, w) > max_size:
+        arr = resize_long_side(arr, max_size)
+        oh, ow = (w, h) if orientation in (5, 6, 7, 8) else (h, w)
+        warnings.warn(ImageWarning(f"{path}: downsized from {ow}x{oh} to {arr.shape[1]}x{arr.shape[0]} pixels "
+                                   f"(long side limit {max_size}: --max-size, or max_size in the API)"),
+                      stacklevel=2)
     return np.ascontiguousarray(arr, dtype=np.float32)
 
 

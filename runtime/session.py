@@ -9,9 +9,11 @@
 Pipeline of :func:`estimate`:
 
 1. read the photo with :func:`svbrdf.runtime.imageio.read_image` (linear float32) or take an array;
-2. if its long side exceeds ``max_size``, downsize it with OpenImageIO ``ImageBufAlgo.resize`` and the
-   ``"blackman-harris"`` filter (:data:`RESIZE_FILTER`): a non-negative kernel, so a linear photo stays >= 0
-   and a flash highlight does not ring into negative values as with the default lanczos3;
+2. if its long side exceeds ``max_size``, downsize it (and warn) with OpenImageIO ``ImageBufAlgo.resize`` and
+   the ``"blackman-harris"`` filter (:data:`~svbrdf.runtime.imageio.RESIZE_FILTER`): a non-negative kernel, so a
+   linear photo stays >= 0 and a flash highlight does not ring into negative values as with the default
+   lanczos3. A file at least twice ``max_size`` is read in strips averaged over pixel blocks first, so memory
+   does not grow with the file's size (:func:`~svbrdf.runtime.imageio.read_image`);
 3. run the model (the full graph, or the part graph of the one decoder the requested maps need: see
    :meth:`PreviewSession.graph_for`) in one pass when the image fits in one ``tile`` x ``tile`` window, else
    in overlapping tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's
@@ -22,9 +24,10 @@ Pipeline of :func:`estimate`:
 The session keeps onnxruntime's CPU memory arena (:data:`CPU_MEM_ARENA`). Without it every intermediate
 tensor is fresh memory from the system and the one pass of a preview pays its page faults: on the 2-core
 machine of docs/benchmarks/preview-speed, a 1024 px pass of the v1 model takes 1.0 s with the arena and
-1.4 s without (a first pass in a fresh process), for a peak of 631 MB instead of 596 MB (2.30 GB instead of
-2.02 GB for a single 2048 px pass; the default ``tile`` keeps passes at 1024 px). The platform notes measured
-the arena doubling the peak of an earlier, larger generator; re-measure when the model changes.
+1.4 s without (a first pass in a fresh process). Every pass ends by handing the arena's memory back
+(onnxruntime's arena shrinkage, :meth:`PreviewSession.run`): without that, the passes of a tiled photo (tiles
+of several shapes) piled up arena chunks, and a 2048 x 1536 photo peaked at 1.5 GiB instead of 0.84 GiB
+(docs/benchmarks/large-photos).
 """
 
 from __future__ import annotations
@@ -40,18 +43,17 @@ import numpy as np
 
 from .burn_in import photo_burn_in
 from .errors import ImageError, ModelError, SvbrdfError
+from .imageio import RESIZE_FILTER, ImageWarning, image_info, read_image, resize_long_side
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
 from .manifest import (
     INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, ModelInfo, check_layout, find_model,
 )
 from .render import ZHAO, RenderConfig
-from .tiling import tile_boxes, tiled_apply
+from .tiling import DEFAULT_OVERLAP, tile_boxes, tiled_apply
 
-#: OpenImageIO filter used to downsize photos larger than ``max_size``.
-RESIZE_FILTER = "blackman-harris"
+#: Long side (pixels) larger photos are downsized to, and the tile size of the tiled inference.
 DEFAULT_MAX_SIZE = 2048
 DEFAULT_TILE = 1024
-DEFAULT_OVERLAP = 64
 #: Use onnxruntime's CPU memory arena (see the module docstring; the preview-speed benchmark's 'before' is False).
 CPU_MEM_ARENA = True
 #: Name of the complete graph (both decoders) among :attr:`PreviewSession.loaded` and ``meta["model"]["graph"]``.
@@ -150,6 +152,18 @@ class PreviewSession:
         self._sessions[graph] = session
         return session
 
+    def _run_options(self):
+        """Every pass hands the arena's memory back when it ends (onnxruntime's arena shrinkage): the arena
+        speeds up the pass, and a tiled photo's passes of several shapes do not pile up chunks."""
+        if self.__dict__.get("_run_opts") is None:
+            import onnxruntime as ort
+
+            opts = ort.RunOptions()
+            if CPU_MEM_ARENA:
+                opts.add_run_config_entry("memory.enable_memory_arena_shrinkage", "cpu:0")
+            self._run_opts = opts
+        return self._run_opts
+
     def _embedded_metadata(self, session) -> dict:
         props = session.get_modelmeta().custom_metadata_map
         try:
@@ -211,7 +225,7 @@ class PreviewSession:
         h, w = image.shape[:2]
         x = np.ascontiguousarray(image.transpose(2, 0, 1)[None], dtype=np.float32)
         try:
-            y = session.run([OUTPUT_NAME], {INPUT_NAME: x})[0]
+            y = session.run([OUTPUT_NAME], {INPUT_NAME: x}, self._run_options())[0]
         except Exception as exc:  # onnxruntime's RuntimeException / allocation failures
             raise SvbrdfError(f"{self.info.path}: inference failed on a {w}x{h} input ({_first_line(exc)})") from None
         if y.shape != (1, N_CHANNELS, h, w):
@@ -234,27 +248,6 @@ def load_session(model: Union[str, os.PathLike, None] = None, threads: Optional[
     return PreviewSession(find_model(model), threads=threads, maps=maps)
 
 
-def resize_long_side(image: np.ndarray, max_size: int) -> np.ndarray:
-    """Downsize an (H, W, C) float32 image so its long side is ``max_size`` (aspect kept, sides rounded).
-
-    Uses OpenImageIO ``ImageBufAlgo.resize`` with :data:`RESIZE_FILTER`; returns ``image`` itself when it is
-    already small enough.
-    """
-    import OpenImageIO as oiio
-
-    h, w, c = image.shape
-    if max(h, w) <= max_size:
-        return image
-    scale = max_size / max(h, w)
-    nh, nw = max(1, round(h * scale)), max(1, round(w * scale))
-    src = oiio.ImageBuf(oiio.ImageSpec(w, h, c, oiio.FLOAT))
-    src.set_pixels(oiio.ROI(), np.ascontiguousarray(image, dtype=np.float32))
-    dst = oiio.ImageBufAlgo.resize(src, filtername=RESIZE_FILTER, roi=oiio.ROI(0, nw, 0, nh, 0, 1, 0, c))
-    if dst.has_error:
-        raise ImageError(f"cannot resize a {w}x{h} image to {nw}x{nh} ({_first_line(dst.geterror())})")
-    return np.asarray(dst.get_pixels(oiio.FLOAT), dtype=np.float32).reshape(nh, nw, c)
-
-
 #: Largest channel spread (linear) of a photo taken as greyscale by :func:`warn_if_greyscale`.
 GREY_TOLERANCE = 1.0 / 512
 
@@ -263,8 +256,6 @@ def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
     """Warn (:class:`~svbrdf.runtime.imageio.ImageWarning`) when an (H, W, 3) photo has no colour: a one-channel
     file (read as R = G = B) or three channels equal within :data:`GREY_TOLERANCE`. The model then invents the
     colour of the diffuse and specular maps. Returns whether it warned."""
-    from .imageio import ImageWarning
-
     grey = all(float(np.abs(image[..., c] - image[..., 1]).max()) <= GREY_TOLERANCE for c in (0, 2))
     if grey:
         warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the "
@@ -272,7 +263,8 @@ def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
     return grey
 
 
-def _as_image(photo: Union[str, os.PathLike, np.ndarray]) -> tuple:
+def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tuple:
+    """``(name, (H, W, 3) linear image with long side <= max_size, (height, width) before downsizing)``."""
     if isinstance(photo, np.ndarray):
         name = "<array>"
         if photo.ndim != 3 or photo.shape[-1] != 3:
@@ -280,10 +272,21 @@ def _as_image(photo: Union[str, os.PathLike, np.ndarray]) -> tuple:
         image = np.asarray(photo, dtype=np.float32)
         if not np.all(np.isfinite(image)):
             raise ImageError(f"{name}: image has NaN/Inf values")
-        return name, image
-    from .imageio import read_image
-
-    return str(photo), read_image(photo)
+        if min(image.shape[:2]) >= MIN_SIZE and max(image.shape[:2]) > max_size:
+            small = resize_long_side(image, max_size)
+            if min(small.shape[:2]) < MIN_SIZE:  # refused by the caller
+                return name, small, image.shape[:2]
+            warnings.warn(ImageWarning(f"{name}: downsized from {image.shape[1]}x{image.shape[0]} to "
+                                       f"{small.shape[1]}x{small.shape[0]} pixels (max_size={max_size})"),
+                          stacklevel=3)
+            return name, small, image.shape[:2]
+        return name, image, image.shape[:2]
+    image = read_image(photo, max_size=max_size)
+    if max(image.shape[:2]) < max_size:  # not downsized
+        return str(photo), image, image.shape[:2]
+    info = image_info(photo)
+    size = (info["width"], info["height"]) if info["orientation"] in (5, 6, 7, 8) else (info["height"], info["width"])
+    return str(photo), image, size
 
 
 def estimate(
@@ -329,7 +332,8 @@ def estimate(
         ValueError: invalid ``max_size``, ``tile`` or ``overlap``.
 
     Warns:
-        ImageWarning: a greyscale photo (:func:`warn_if_greyscale`).
+        ImageWarning: a greyscale photo (:func:`warn_if_greyscale`); a photo downsized to ``max_size`` (files of
+            any size are read in strips: :func:`~svbrdf.runtime.imageio.read_image`).
     """
     if max_size < MIN_SIZE or tile < MIN_SIZE or not 0 <= 2 * overlap <= tile:
         raise ValueError(f"need max_size >= {MIN_SIZE}, tile >= {MIN_SIZE} and 0 <= 2 * overlap <= tile; "
@@ -337,8 +341,7 @@ def estimate(
     names = None if maps is None else select_maps(maps)
     timings = {}
     t = time.perf_counter()
-    name, image = _as_image(photo)
-    in_h, in_w = image.shape[:2]
+    name, image, (in_h, in_w) = _as_image(photo, max_size)
     if min(in_h, in_w) < MIN_SIZE:
         raise ImageError(f"{name}: image is {in_w}x{in_h} pixels; the model needs at least {MIN_SIZE}x{MIN_SIZE}")
     timings["read"] = time.perf_counter() - t
@@ -348,8 +351,7 @@ def estimate(
     graph = session.graph_for(names)
 
     t = time.perf_counter()
-    image = resize_long_side(image, max_size)
-    warn_if_greyscale(image, name)
+    warn_if_greyscale(image, name)  # the photo is already downsized (by _as_image)
     h, w = image.shape[:2]
     if min(h, w) < MIN_SIZE:
         raise ImageError(f"{name}: {in_w}x{in_h} downsized to {w}x{h} is below {MIN_SIZE} px; raise max_size")

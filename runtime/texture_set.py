@@ -338,7 +338,7 @@ def relit_panel(
             panels such that the 99th percentile of the first (flash) render maps to 1, so dark materials stay
             visible and the relative brightness of the panels is kept.
         size: long side of each view in pixels: larger maps are first downsized to it (aspect kept; OpenImageIO
-            resize, :func:`svbrdf.runtime.session.resize_long_side`, normals renormalised), so the cost no longer
+            resize, :func:`svbrdf.runtime.imageio.resize_long_side`, normals renormalised), so the cost no longer
             grows with the photo. Default :data:`PANEL_SIZE`; ``None`` renders at the maps' size.
 
     Returns:
@@ -367,7 +367,7 @@ def _downsized(maps: Maps, size: int) -> Maps:
     """The maps with their long side reduced to ``size`` (the same object when it is not longer)."""
     if max(maps.shape) <= size:
         return maps
-    from .session import resize_long_side
+    from .imageio import resize_long_side
 
     return maps._with({n: resize_long_side(a, size) for n, a in maps.items()}).clipped()
 

@@ -16,7 +16,10 @@ from typing import Callable, List, Tuple
 
 import numpy as np
 
-__all__ = ["tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply"]
+#: Overlap in pixels of neighbouring tiles (each side), the default of the preview's tiled inference.
+DEFAULT_OVERLAP = 64
+
+__all__ = ["DEFAULT_OVERLAP", "tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply"]
 
 
 def _check(tile: int, overlap: int) -> None:

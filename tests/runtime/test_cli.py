@@ -66,7 +66,7 @@ def test_options_reach_the_texture_set(tiny_model, tmp_path, capsys):
 
 
 def test_tile_below_the_minimum_is_refused_with_the_minimum(capsys):
-    assert min_tile() == 256  # 4 x session.DEFAULT_OVERLAP
+    assert min_tile() == 256  # 4 x tiling.DEFAULT_OVERLAP
     code, out, err = _run(capsys, "p.png", "--tile", "255")
     assert code == 2 and out == ""
     assert f"{ERR}--tile must be >= 256 " in err and "got 255" in err

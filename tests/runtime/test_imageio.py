@@ -1,6 +1,7 @@
 """Image reading/writing: formats, colour convention, channels, orientation, errors, atomic writes."""
 
 import os
+import warnings
 
 import numpy as np
 import OpenImageIO as oiio
@@ -320,3 +321,59 @@ def test_write_leaves_the_callers_array_alone(tmp_path):
     before = arr.copy()
     write_image(tmp_path / "a.png", arr, bits=16, srgb_encode=True)
     np.testing.assert_array_equal(arr, before)
+
+
+# ---------------------------------------------------------------- reduced reads (max_size)
+def _big_photo(h, w, seed=0):
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    smooth = 0.5 + 0.4 * np.sin(xx[..., None] / 37.0 + np.array([0.0, 1.0, 2.0])) * np.cos(yy[..., None] / 53.0)
+    return np.clip(smooth + rng.normal(0, 0.02, (h, w, 3)), 0, 1).astype(np.float32)
+
+
+@pytest.mark.parametrize("shape,max_size", [((300, 500), 100), ((301, 517), 64), ((90, 700), 128)])
+def test_strip_read_matches_full_read_then_resize(tmp_path, monkeypatch, shape, max_size):
+    """Files >= 2x max_size are read in strips of block means; the result is the full read's downsizing up to a
+    little extra smoothing, at the same size, with the same warning."""
+    path = tmp_path / "big.png"
+    write_image(path, _big_photo(*shape), bits=16, srgb_encode=True)
+    monkeypatch.setattr(imageio, "STRIP_BYTES", 4096)  # many strips, a partial last one
+    with pytest.warns(ImageWarning, match=rf"downsized from {shape[1]}x{shape[0]} to"):
+        small = read_image(path, max_size=max_size)
+    full = imageio.resize_long_side(read_image(path), max_size)
+    assert small.shape == full.shape and max(small.shape[:2]) == max_size
+    assert small.min() >= 0.0
+    assert np.abs(small - full).mean() < 0.01 and np.abs(small - full).max() < 0.1
+
+
+def test_strip_read_block_means_are_exact(tmp_path, monkeypatch):
+    """An exact 4x reduction (k = 4, no final resize) is the mean of each 4 x 4 block, partial blocks included."""
+    a = _big_photo(40, 64)
+    path = tmp_path / "f.exr"
+    write_image(path, a, bits=32)
+    monkeypatch.setattr(imageio, "STRIP_BYTES", 3000)
+    with pytest.warns(ImageWarning, match="downsized"):
+        small = read_image(path, max_size=16)
+    assert small.shape == (10, 16, 3)
+    np.testing.assert_allclose(small, a.reshape(10, 4, 16, 4, 3).mean(axis=(1, 3)), atol=1e-6)
+
+
+def test_strip_read_applies_orientation_and_drops_alpha_once(tmp_path, img):
+    big = np.concatenate([_big_photo(64, 128), np.ones((64, 128, 1), np.float32)], axis=-1)
+    path = tmp_path / "o.tif"
+    _write_oiio(path, big, oiio.FLOAT, Orientation=6)
+    with pytest.warns(ImageWarning) as record:
+        small = read_image(path, max_size=32)
+    assert small.shape == (32, 16, 3)  # displayed 64 wide, 128 tall
+    assert sum("alpha" in str(w.message) for w in record) == 1
+    np.testing.assert_allclose(small, np.rot90(big[..., :3].reshape(16, 4, 32, 4, 3).mean(axis=(1, 3)), -1),
+                               atol=1e-6)
+
+
+def test_small_files_are_not_downsized_or_warned(tmp_path, img):
+    path = tmp_path / "s.png"
+    write_image(path, img, bits=16)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        out = read_image(path, max_size=max(img.shape[:2]))
+    assert out.shape == img.shape

@@ -143,7 +143,8 @@ def test_estimate_array_in_one_pass(session):
 def test_estimate_file_and_downsizing(session, tmp_path):
     path = tmp_path / "photo.png"
     write_image(path, _texture(100, 150), bits=16, srgb_encode=True)
-    maps = estimate(path, session, max_size=64)
+    with pytest.warns(UserWarning, match=r"downsized from 150x100 to 64x43 pixels \(long side limit 64"):
+        maps = estimate(path, session, max_size=64)
     _check_maps(maps, (43, 64))  # 100 x 150 scaled by 64 / 150, rounded
     assert maps.meta["resized"] and maps.meta["input_size"] == [100, 150] and maps.meta["source"] == str(path)
 

@@ -51,7 +51,7 @@ def example_photo(size: int) -> np.ndarray:
     import OpenImageIO as oiio
 
     from svbrdf.runtime.imageio import read_image
-    from svbrdf.runtime.session import RESIZE_FILTER
+    from svbrdf.runtime.imageio import RESIZE_FILTER
 
     photo = read_image(Path(str(resources.files("svbrdf.runtime") / "examples" / "carved_wood.png")))
     h, w, c = photo.shape
