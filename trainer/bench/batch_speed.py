@@ -43,13 +43,15 @@ def main(argv: Optional[List[str]] = None) -> int:
     p.add_argument("--out", type=Path, required=True)
     p.add_argument("--data", type=Path, default=SHARED)
     p.add_argument("--repeats", type=int, default=1)
+    p.add_argument("--glob", action="append", metavar="PATTERN",
+                   help="photos relative to --data (repeatable; default: the 54 of PHOTO_GLOBS)")
     p.add_argument("--force", action="store_true")
     p.add_argument("extra", nargs="*", help="more svbrdf-batch options (after --)")
     args = p.parse_args(argv)
     if not args.data.is_dir():
         print(f"batch_speed: error: no shared data at {args.data}", file=sys.stderr)
         return 1
-    photos = sorted(str(f) for g in PHOTO_GLOBS for f in args.data.glob(g) if f.is_file())
+    photos = sorted(str(f) for g in (args.glob or PHOTO_GLOBS) for f in args.data.glob(g) if f.is_file())
     args.out.mkdir(parents=True, exist_ok=True)
     runs = []
     with tempfile.TemporaryDirectory(prefix="batch-speed-") as tmp:
