@@ -71,6 +71,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("photos", nargs="+", metavar="PHOTO", help="flash photo(s): PNG, JPEG, TIFF, EXR, ...")
     p.add_argument("-o", "--out", metavar="DIR", type=Path,
                    help="output folder (default: <photo folder>/<photo name>_svbrdf/)")
+    add_texture_options(p)
+    return p
+
+
+def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
+    """The options of how one photo becomes a texture set (model, threads, target, maps, refine, ...), shared by
+    ``svbrdf-preview`` and ``svbrdf-batch``; :func:`check_options` checks what argparse cannot."""
     p.add_argument("--model", metavar="PATH", help="ONNX model (default: $SVBRDF_MODEL, else the packaged model)")
     p.add_argument("--threads", metavar="N", type=_positive, help="CPU threads (default: all cores)")
     p.add_argument("--fov", metavar="DEG", type=float,
@@ -105,8 +112,23 @@ def build_parser() -> argparse.ArgumentParser:
                           f"its maps (burn-in <= {SKIP_REFINE_BURN_IN})")
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
     p.add_argument("-v", "--verbose", action="store_true", help="print model details, and tracebacks on errors")
-    p.add_argument("--version", action="version", version=f"{PROG} {__version__}")
-    return p
+    p.add_argument("--version", action="version", version=f"{prog} {__version__}")
+
+
+def check_options(args) -> Optional[str]:
+    """The usage error of the options of :func:`add_texture_options` that argparse cannot check, or None."""
+    if args.fov is not None and not 1.0 <= args.fov <= 170.0:
+        return f"--fov must be in [1, 170] degrees, got {args.fov}"
+    if args.max_size < 8:
+        return f"--max-size must be >= 8, got {args.max_size}"
+    if args.tile < min_tile():
+        return (f"--tile must be >= {min_tile()} (4 x the {min_tile() // 4} px overlap of neighbouring tiles; "
+                f"smaller tiles leave a grid in the maps), got {args.tile}")
+    if (args.iters or args.quality) and not args.refine:
+        return "--iters and --quality need --refine"
+    if args.maps != MAP_NAMES and args.target != "generic":
+        return f"--maps needs --target generic: the {args.target} preset converts all four maps"
+    return None
 
 
 def _error(msg: str) -> None:
@@ -173,26 +195,26 @@ def _refine(refine, image, session, config, args, name: str):
             bar.close()
 
 
-def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> str:
-    """Estimate (or refine with ``refine``, see :func:`_load_refine`), render and write one texture set; returns the
-    report line."""
-    from .errors import exists_message
-    from .session import estimate
-    from .targets import write_target
-    from .texture_set import relit_panel, write_texture_set
+def photo_maps(photo: Path, session, config, args, refine=None, name: Optional[str] = None):
+    """The texture set of one photo with the options ``args`` (:func:`add_texture_options`): the preview, or the
+    refine with ``refine`` (see :func:`_load_refine`). The one per-photo path of ``svbrdf-preview`` and
+    ``svbrdf-batch``.
 
-    start = time.perf_counter()
-    name = photo.stem
-    # Cheap early refusal before minutes of inference; write_texture_set re-checks every file it writes.
-    if not args.force and (out_dir / f"{name}.json").exists():
-        raise SvbrdfError(exists_message(out_dir / f"{name}.json"))
+    Returns:
+        ``(maps, relit, detail)``: the :class:`~svbrdf.runtime.maps.Maps` (the requested maps, at the processed
+        size, ``render_config`` = ``config``), the relit panel (sRGB (h, 3 w, 3), None without all four maps) and a
+        short report (``"model 0.41 s"``, ``"refined 300 it"``, ...).
+    """
+    from .session import estimate
+    from .texture_set import relit_panel
+
     if args.refine:
         from .imageio import read_image
         from .session import warn_if_greyscale
 
         image = read_image(photo, max_size=args.max_size)
         warn_if_greyscale(image, str(photo))
-        maps = _refine(refine, image, session, config, args, photo.name)
+        maps = _refine(refine, image, session, config, args, name or photo.name)
         record = maps.meta["refine"]
         if record.get("skipped"):
             detail = f"refine skipped: the preview explains the photo (RMSE {record['preview_input_rmse']:.3f}, " \
@@ -209,12 +231,33 @@ def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> 
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
-    extra = {"tool": f"{PROG} {__version__}"}
+    return maps, relit, detail
+
+
+def write_maps(maps, relit, out_dir: Path, name: str, args, extra_meta: dict):
+    """Write ``maps`` (and ``relit``) as the texture set ``name`` in ``out_dir`` for ``args.target`` (all or
+    nothing, :mod:`svbrdf.runtime.texture_set`); returns the written paths by role."""
+    from .targets import write_target
+    from .texture_set import write_texture_set
+
     if args.target == "generic":
-        write_texture_set(maps, out_dir, name, normal=args.normal, fmt=args.format,
-                          force=args.force, extra_meta=extra, relit=relit)
-    else:
-        write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra, relit=relit)
+        return write_texture_set(maps, out_dir, name, normal=args.normal, fmt=args.format,
+                                 force=args.force, extra_meta=extra_meta, relit=relit)
+    return write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra_meta, relit=relit)
+
+
+def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> str:
+    """Estimate (or refine with ``refine``, see :func:`_load_refine`), render and write one texture set; returns the
+    report line."""
+    from .errors import exists_message
+
+    start = time.perf_counter()
+    name = photo.stem
+    # Cheap early refusal before minutes of inference; write_texture_set re-checks every file it writes.
+    if not args.force and (out_dir / f"{name}.json").exists():
+        raise SvbrdfError(exists_message(out_dir / f"{name}.json"))
+    maps, relit, detail = photo_maps(photo, session, config, args, refine)
+    write_maps(maps, relit, out_dir, name, args, {"tool": f"{PROG} {__version__}"})
     h, w = maps.shape
     burn = maps.meta["burn_in"]["burn_in"]
     return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail}; burn-in {burn:.2f})"
@@ -274,17 +317,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     args, code = parse_command_line(parser, argv)
     if args is None:  # --help / --version (0) or a usage error (2)
         return code
-    if args.fov is not None and not 1.0 <= args.fov <= 170.0:
-        return _usage(parser, f"--fov must be in [1, 170] degrees, got {args.fov}")
-    if args.max_size < 8:
-        return _usage(parser, f"--max-size must be >= 8, got {args.max_size}")
-    if args.tile < min_tile():
-        return _usage(parser, f"--tile must be >= {min_tile()} (4 x the {min_tile() // 4} px overlap of neighbouring tiles; "
-                              f"smaller tiles leave a grid in the maps), got {args.tile}")
-    if (args.iters or args.quality) and not args.refine:
-        return _usage(parser, "--iters and --quality need --refine")
-    if args.maps != MAP_NAMES and args.target != "generic":
-        return _usage(parser, f"--maps needs --target generic: the {args.target} preset converts all four maps")
+    problem = check_options(args)
+    if problem:
+        return _usage(parser, problem)
     try:
         return _run(args)
     except KeyboardInterrupt:
