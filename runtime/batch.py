@@ -219,7 +219,6 @@ def run_job(job: Job) -> Dict[str, Any]:
         from .cli import PROG as PREVIEW, _load_refine, photo_maps, write_maps
         from .imageio import read_image
         from .render import rerender_rmse
-        from .session import resize_long_side
 
         photo.write_bytes(job.data)
         session = _session(job.model, job.threads, args.maps)
@@ -232,7 +231,9 @@ def run_job(job: Job) -> Dict[str, Any]:
             warnings.simplefilter("always")
             maps, relit, detail = photo_maps(photo, session, config, args, refine, name=Path(job.source).name)
             maps.meta["source"] = job.source
-            image = resize_long_side(read_image(photo), args.max_size)
+        with warnings.catch_warnings():  # the photo again, for the scores: its warnings were said above
+            warnings.simplefilter("ignore")
+            image = read_image(photo, max_size=args.max_size)
         scores = {"burn_in": float(maps.meta["burn_in"]["burn_in"]),
                   "rerender_rmse": float(rerender_rmse(maps, image, [None], config)) if maps.complete else None}
         extra = {"tool": f"{PROG} {__version__} ({PREVIEW} per photo)",
