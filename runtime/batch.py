@@ -148,6 +148,16 @@ def library_options(args: argparse.Namespace, model_sha256: str) -> Dict[str, An
 
 # ----------------------------------------------------------------------------------------------- the worker side
 
+def _top_up(pending: Dict[Any, "Job"], jobs: Iterator["Job"], capacity: int, submit: Callable[["Job"], Any]) -> bool:
+    """Submit jobs (``pending[submit(job)] = job``) until ``capacity`` are in flight; True once ``jobs`` ran out."""
+    while len(pending) < capacity:
+        job = next(jobs, None)
+        if job is None:
+            return True
+        pending[submit(job)] = job
+    return False
+
+
 @dataclass
 class Job:
     """One photo's work, sent to a worker (picklable).
@@ -303,12 +313,7 @@ class LocalEngine:
         jobs = iter(jobs)
         exhausted = False
         while True:
-            while not exhausted and len(pending) < self.capacity:
-                job = next(jobs, None)
-                if job is None:
-                    exhausted = True
-                    break
-                pending[self._pool.submit(run_job, job)] = job
+            exhausted = exhausted or _top_up(pending, jobs, self.capacity, lambda j: self._pool.submit(run_job, j))
             if not pending:
                 return
             finished, _ = wait(pending, return_when=FIRST_COMPLETED)
@@ -381,12 +386,7 @@ class RayEngine:
         exhausted = False
         try:
             while True:
-                while not exhausted and len(pending) < self.capacity:
-                    job = next(jobs, None)
-                    if job is None:
-                        exhausted = True
-                        break
-                    pending[self.task.remote(job)] = job
+                exhausted = exhausted or _top_up(pending, jobs, self.capacity, self.task.remote)
                 if not pending:
                     return
                 ready, _ = ray.wait(list(pending), num_returns=1)
