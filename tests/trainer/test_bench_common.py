@@ -20,7 +20,7 @@ def test_repo_root_and_default_data(monkeypatch, tmp_path):
 
     checkout = tmp_path / "checkout"  # a checkout without shared/data beside it
     (checkout / "trainer" / "bench").mkdir(parents=True)
-    (checkout / "pyproject.toml").write_text("")
+    (checkout / "pyproject.toml").write_text('[project]\nname = "svbrdf"\n')
     monkeypatch.setattr(common, "__file__", str(checkout / "trainer" / "bench" / "common.py"))
     with pytest.raises(SvbrdfError, match=r"default data folder .*shared/data beside the checkout\) does not exist; "
                                           r"pass --data DIR"):
@@ -29,7 +29,9 @@ def test_repo_root_and_default_data(monkeypatch, tmp_path):
     assert default_data() == tmp_path / "shared" / "data"
     monkeypatch.setattr(common, "__file__", str(tmp_path / "site-packages" / "svbrdf" / "trainer" / "bench" / "c.py"))
     with pytest.raises(SvbrdfError, match="outside a source checkout; pass --data DIR"):
-        default_data()
+        default_data()  # an installed package, run outside any checkout
+    monkeypatch.chdir(checkout)  # an installed package run from its checkout (as CI does)
+    assert default_data() == tmp_path / "shared" / "data"
 
 
 def test_machine_info_lists_the_machine():

@@ -8,7 +8,7 @@ import os
 import platform
 import shlex
 from pathlib import Path
-from typing import Any, Callable, Dict, Sequence, Tuple
+from typing import Any, Callable, Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -17,21 +17,36 @@ from svbrdf.runtime.errors import SvbrdfError
 from .methods import BenchOptions, torch_available
 
 
+def _checkout() -> Optional[Path]:
+    """The svbrdf source checkout: the one this package runs from (editable install), else the current folder if
+    it is one (a regular install run from its checkout, as CI does), else None."""
+    for root in (Path(__file__).resolve().parents[2], Path.cwd()):
+        project = root / "pyproject.toml"
+        try:
+            if project.is_file() and 'name = "svbrdf"' in project.read_text(encoding="utf-8"):
+                return root
+        except OSError:
+            continue
+    return None
+
+
 def repo_root() -> Path:
-    """The source checkout this package runs from (editable install), else the current folder."""
-    root = Path(__file__).resolve().parents[2]
-    return root if (root / "pyproject.toml").is_file() else Path.cwd()
+    """The source checkout (:func:`_checkout`), else the current folder."""
+    return _checkout() or Path.cwd()
 
 
 def default_data() -> Path:
-    """``shared/data`` beside the source checkout (``<checkout>/../shared/data``), whatever the current folder.
+    """``shared/data`` beside the source checkout (``<checkout>/../shared/data``).
+
+    The checkout is the one the package runs from (editable install), or the current folder when it is an svbrdf
+    checkout (a regular install run from its checkout).
 
     Raises:
-        SvbrdfError: not running from a source checkout (an installed wheel has no default), or the folder is
+        SvbrdfError: no source checkout (an installed wheel run elsewhere has no default), or the folder is
             missing; the message says to pass ``--data DIR``.
     """
-    root = Path(__file__).resolve().parents[2]
-    if not (root / "pyproject.toml").is_file():
+    root = _checkout()
+    if root is None:
         raise SvbrdfError("no default data folder outside a source checkout; pass --data DIR")
     data = root.parent / "shared" / "data"
     if not data.is_dir():
