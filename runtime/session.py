@@ -19,7 +19,10 @@ Pipeline of :func:`estimate`:
    in overlapping tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's
    inference). The generator uses instance normalisation, so tiles see their own statistics: expect
    differences from a single pass that are small for stationary materials but not only at the seams;
-4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`).
+4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`);
+5. give the base colour the photo's colour balance (:func:`photo_colour`, :data:`COLOUR_FROM_PHOTO`): the
+   generator's instance normalisation hides a photo's overall colour from it, and the learned stage one predicts a
+   nearly grey base colour for every material (docs/benchmarks/prior/README.md, "Colour").
 
 The session keeps onnxruntime's CPU memory arena (:data:`CPU_MEM_ARENA`). Without it every intermediate
 tensor is fresh memory from the system and the one pass of a preview pays its page faults: on the 2-core
@@ -248,6 +251,42 @@ def load_session(model: Union[str, os.PathLike, None] = None, threads: Optional[
     return PreviewSession(find_model(model), threads=threads, maps=maps)
 
 
+#: Give the preview's base colour the photo's colour balance (:func:`photo_colour`): the generator normalises its
+#: features per image (instance normalisation), so it cannot see a photo's overall colour and predicts a nearly grey
+#: base colour for every material (docs/benchmarks/prior/README.md, "Colour").
+COLOUR_FROM_PHOTO = True
+#: Pixels whose luminance is above this quantile of the photo's are left out of :func:`photo_colour` (the flash
+#: highlight is the light's colour, not the material's).
+COLOUR_QUANTILE = 0.9
+
+
+def photo_colour(diffuse: np.ndarray, photo: np.ndarray) -> np.ndarray:
+    """The diffuse albedo with its mean colour balance set to the photo's, luminance kept.
+
+    Over the photo's pixels that are not clipped and not in its brightest ``1 - COLOUR_QUANTILE`` (the
+    highlight), the per-channel gains ``g_c = (p_c / mean(p)) / (d_c / mean(d))`` (p, d: mean photo and diffuse
+    colour there, linear) multiply the diffuse; a grey photo keeps a grey base colour, a base colour already
+    balanced like the photo is unchanged.
+
+    Args:
+        diffuse: (H, W, 3) linear diffuse albedo in [0, 1].
+        photo: (H, W, 3) linear photo the maps were estimated from, same size.
+
+    Returns:
+        (H, W, 3) float32 linear diffuse in [0, 1].
+    """
+    lum = photo.mean(axis=-1)
+    keep = (photo.max(axis=-1) < 0.98) & (lum <= np.quantile(lum, COLOUR_QUANTILE)) & (lum > 1e-4)
+    if keep.sum() < 64:
+        return diffuse
+    p = photo[keep].mean(axis=0).astype(np.float64)
+    d = diffuse[keep].mean(axis=0).astype(np.float64)
+    if p.min() <= 1e-6 or d.min() <= 1e-6:
+        return diffuse
+    gains = (p / p.mean()) / (d / d.mean())
+    return np.clip(diffuse * gains.astype(np.float32), 0.0, 1.0)
+
+
 #: Largest channel spread (linear) of a photo taken as greyscale by :func:`warn_if_greyscale`.
 GREY_TOLERANCE = 1.0 / 512
 
@@ -382,6 +421,8 @@ def estimate(
         "threads": session.threads,
     }
     out = Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped()
+    if COLOUR_FROM_PHOTO and out.diffuse is not None:
+        out = out._with({**dict(out.items()), "diffuse": photo_colour(out.diffuse, image)})
     out.meta["burn_in"] = photo_burn_in(out, image)
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings

@@ -9,7 +9,7 @@ import pytest
 
 from svbrdf.runtime.errors import ImageError, ModelError, SvbrdfError
 from svbrdf.runtime.imageio import write_image
-from svbrdf.runtime.maps import MAP_NAMES
+from svbrdf.runtime.maps import MAP_NAMES, SLICES
 from svbrdf.runtime.manifest import MODEL_ENV, find_checkpoint, find_model, map_layout
 from svbrdf.runtime.tiling import tile_boxes
 
@@ -133,8 +133,11 @@ def test_estimate_array_in_one_pass(session):
     assert set(meta["timings"]) == {"read", "resize", "infer", "post"}
     assert maps.render_config == session.render_config and maps.render_config.fov_deg == TINY_FOV
     assert "render_config" not in meta  # a typed field, not a dict in the metadata
-    raw = session.run(photo)  # the maps are the model's output, clipped/renormalised only
-    np.testing.assert_allclose(maps.diffuse, np.clip(raw[..., :3], 0, 1), atol=1e-6)
+    raw = session.run(photo)  # the maps are the model's output, clipped/renormalised, the colour from the photo
+    from svbrdf.runtime.session import photo_colour
+
+    np.testing.assert_allclose(maps.diffuse, photo_colour(np.clip(raw[..., :3], 0, 1), photo), atol=1e-6)
+    np.testing.assert_allclose(maps.roughness, np.clip(raw[..., SLICES["roughness"]], 0, 1), atol=1e-6)
     from svbrdf.runtime.burn_in import photo_burn_in
 
     assert meta["burn_in"] == photo_burn_in(maps, photo)  # the label-free burn-in is returned with the maps
@@ -304,3 +307,32 @@ def test_a_part_file_is_not_a_model_and_a_bad_parts_entry_is_refused(tiny_model,
     model.with_suffix(".json").write_text(json.dumps(manifest))
     with pytest.raises(ModelError, match="invalid 'parts' entry"):
         find_model(model)
+
+
+def test_photo_colour_gives_the_base_colour_the_photos_balance():
+    from svbrdf.runtime.session import photo_colour
+
+    rng = np.random.default_rng(3)
+    grey = np.clip(0.3 + 0.1 * rng.standard_normal((64, 64, 1)), 0.05, 1).repeat(3, -1).astype(np.float32)
+    tint = np.array([0.9, 0.4, 0.2], np.float32)
+    photo = grey * tint
+    photo[28:36, 28:36] = 1.0  # a clipped white highlight, left out
+    out = photo_colour(grey, photo)
+    mean = out.reshape(-1, 3).mean(0)
+    np.testing.assert_allclose(mean / mean.mean(), tint / tint.mean(), rtol=0.02)  # the photo's balance
+    assert abs(out.mean() - grey.mean()) < 0.02 * grey.mean()  # luminance kept (up to clipping)
+    unclipped = out.max(-1) < 1.0
+    np.testing.assert_allclose((out[..., 0] / out[..., 2])[unclipped], tint[0] / tint[2], rtol=1e-4)
+
+
+def test_photo_colour_keeps_grey_grey_and_balanced_colours_unchanged():
+    from svbrdf.runtime.session import photo_colour
+
+    rng = np.random.default_rng(4)
+    diffuse = rng.uniform(0.1, 0.6, (32, 32, 3)).astype(np.float32)
+    grey_photo = np.repeat(rng.uniform(0.05, 0.5, (32, 32, 1)), 3, -1).astype(np.float32)
+    grey_out = photo_colour(np.repeat(diffuse[..., :1], 3, -1), grey_photo)
+    assert np.abs(grey_out - grey_out[..., :1]).max() < 1e-6
+    balanced = photo_colour(diffuse, diffuse * 0.5)  # the photo already has the diffuse's balance
+    np.testing.assert_allclose(balanced, diffuse, rtol=1e-5, atol=1e-6)
+    assert photo_colour(diffuse, np.ones_like(diffuse)) is diffuse  # all clipped: nothing to learn from
