@@ -217,3 +217,21 @@ def test_a_set_renamed_in_before_the_manifest_is_adopted(tiny_model, tmp_path, c
     code, _, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1")
     assert code == 0 and "0 done, 0 failed, 2 already done" in err
     assert _manifest(lib)["p01"]["status"] == "done" and (lib / "p01" / "p01.json").stat().st_mtime_ns == stamp
+
+
+def test_refine_batch_fine_tunes_every_photo_and_resumes(tiny_model, tmp_path, capsys):
+    pytest.importorskip("torch")
+    _photos(tmp_path / "in", 2)
+    lib = tmp_path / "lib"
+    code, out, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1",
+                          "--refine", "--iters", "2", "--threads", "1")
+    assert code == 0, err
+    records = _manifest(lib)
+    assert {n: r["status"] for n, r in records.items()} == {"p00": "done", "p01": "done"}
+    for name in records:
+        meta = json.loads((lib / name / f"{name}.json").read_text())["meta"]
+        assert meta["refine"]["iterations"] == 2 and meta["refine"]["checkpoint"] == str(tiny_model.with_suffix(".pt"))
+        assert records[name]["options"]["refine"] is True
+    code, out, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1",
+                          "--refine", "--iters", "2", "--threads", "1")
+    assert code == 0 and "0 done, 0 failed, 2 already done" in err
