@@ -29,7 +29,7 @@ tensor is fresh memory from the system and the one pass of a preview pays its pa
 machine of docs/benchmarks/preview-speed, a 1024 px pass of the v1 model takes 1.0 s with the arena and
 1.4 s without (a first pass in a fresh process). Every pass ends by handing the arena's memory back
 (onnxruntime's arena shrinkage, :meth:`PreviewSession.run`): without that, the passes of a tiled photo (tiles
-of several shapes) piled up arena chunks, and a 2048 x 1536 photo peaked at 1.5 GiB instead of 0.84 GiB
+of several shapes) piled up arena chunks, and a 2048 x 1536 photo peaked at 1511 MiB instead of 837 MiB
 (docs/benchmarks/large-photos).
 """
 
