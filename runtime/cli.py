@@ -259,8 +259,10 @@ def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> 
     maps, relit, detail = photo_maps(photo, session, config, args, refine)
     write_maps(maps, relit, out_dir, name, args, {"tool": f"{PROG} {__version__}"})
     h, w = maps.shape
-    burn = maps.meta["burn_in"]["burn_in"]
-    return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail}; burn-in {burn:.2f})"
+    burn = f"burn-in {maps.meta['burn_in']['burn_in']:.2f}"
+    if "burn_in_model" in maps.meta:  # the network's maps before the flash trend was removed
+        burn += f", {maps.meta['burn_in_model']['burn_in']:.2f} before flash-trend removal"
+    return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail}; {burn})"
 
 
 def _run(args) -> int:

@@ -4,7 +4,9 @@ Two label-free tests, both on the preview's maps (numpy only):
 
 * its sRGB re-render error under the input flash (:func:`svbrdf.runtime.render.rerender_rmse` against the photo)
   is at or below :data:`SKIP_REFINE_RMSE`;
-* its highlight burn-in (:mod:`svbrdf.runtime.burn_in`) is at or below :data:`SKIP_REFINE_BURN_IN`.
+* its highlight burn-in (:mod:`svbrdf.runtime.burn_in`) is at or below :data:`SKIP_REFINE_BURN_IN`: the burn-in of
+  the network's maps (``meta["burn_in_model"]``), before the runtime removed their flash trend
+  (:mod:`svbrdf.runtime.flash_trend`), so a model that baked the highlight in still gets its fine-tune.
 
 The runtime's ``--help`` quotes the thresholds, the trainer's :func:`svbrdf.trainer.refine.refine` applies the rule
 and the benchmark report measures what it saves; all three read them here.
@@ -34,7 +36,7 @@ def check_preview(preview: Maps, photo: np.ndarray, config: RenderConfig) -> Dic
 
     Args:
         preview: the preview's maps of the whole photo, as :func:`svbrdf.runtime.session.estimate` returns them
-            (all four maps; ``meta["burn_in"]`` set).
+            (all four maps; ``meta["burn_in"]`` set, and ``meta["burn_in_model"]``, which is read first).
         photo: (H, W, 3) linear RGB float32, the photo the preview was computed from.
         config: renderer settings of the re-render (the model's, with the user's field of view).
 
@@ -43,7 +45,7 @@ def check_preview(preview: Maps, photo: np.ndarray, config: RenderConfig) -> Dic
         ``meta["refine"]`` record of a skipped fine-tune).
     """
     rmse = rerender_rmse(preview, photo, [None], config)
-    burn = preview.meta["burn_in"]["burn_in"]
+    burn = preview.meta.get("burn_in_model", preview.meta["burn_in"])["burn_in"]
     return {"skipped": bool(rmse <= SKIP_REFINE_RMSE and burn <= SKIP_REFINE_BURN_IN), "preview_input_rmse": rmse,
             "threshold": SKIP_REFINE_RMSE, "preview_burn_in": burn, "burn_in_threshold": SKIP_REFINE_BURN_IN}
 

@@ -22,7 +22,10 @@ Pipeline of :func:`estimate`:
 4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`);
 5. give the base colour the photo's colour balance (:func:`photo_colour`, :data:`COLOUR_FROM_PHOTO`): the
    generator's instance normalisation hides a photo's overall colour from it, and the learned stage one predicts a
-   nearly grey base colour for every material (docs/benchmarks/prior/README.md, "Colour").
+   nearly grey base colour for every material (docs/benchmarks/prior/README.md, "Colour");
+6. remove the smooth radial trend around the photo's flash highlight from the base colour, specular and roughness
+   (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, :data:`FLASH_TREND`): what the network left of the
+   highlight and the fall-off (docs/benchmarks/accuracy/README.md, "Flash-trend removal").
 
 The session keeps onnxruntime's CPU memory arena (:data:`CPU_MEM_ARENA`). Without it every intermediate
 tensor is fresh memory from the system and the one pass of a preview pays its page faults: on the 2-core
@@ -45,6 +48,7 @@ from typing import Iterable, Optional, Tuple, Union
 import numpy as np
 
 from .burn_in import photo_burn_in
+from .flash_trend import remove_flash_trend
 from .errors import ImageError, ModelError, SvbrdfError
 from .imageio import RESIZE_FILTER, ImageWarning, image_info, read_image, resize_long_side
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
@@ -255,6 +259,9 @@ def load_session(model: Union[str, os.PathLike, None] = None, threads: Optional[
 #: features per image (instance normalisation), so it cannot see a photo's overall colour and predicts a nearly grey
 #: base colour for every material (docs/benchmarks/prior/README.md, "Colour").
 COLOUR_FROM_PHOTO = True
+#: The preview's maps lose their smooth radial trend around the photo's flash highlight
+#: (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`): what the network left of the highlight and fall-off.
+FLASH_TREND = True
 #: Pixels whose luminance is above this quantile of the photo's are left out of :func:`photo_colour` (the flash
 #: highlight is the light's colour, not the material's).
 COLOUR_QUANTILE = 0.9
@@ -358,9 +365,11 @@ def estimate(
         ``source``, ``model`` (path, sha256, verified, ``graph``: ``"full"`` or the part that ran), ``maps``
         (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
         ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
-        ``burn_in``: the label-free highlight burn-in of the maps computed
+        ``burn_in``: the label-free highlight burn-in of the maps returned
         (:func:`svbrdf.runtime.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, about 0.1 for a
-        stationary material, higher when the flash highlight stayed in the maps). ``render_config`` is the
+        stationary material, higher when the flash highlight stayed in the maps), ``burn_in_model`` the same of
+        the network's maps before the flash trend was removed (:data:`FLASH_TREND`; what the skip rule of
+        ``--quality auto`` reads), and ``flash_trend`` what was removed. ``render_config`` is the
         session's (the model's training renderer).
 
     Raises:
@@ -423,7 +432,11 @@ def estimate(
     out = Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped()
     if COLOUR_FROM_PHOTO and out.diffuse is not None:
         out = out._with({**dict(out.items()), "diffuse": photo_colour(out.diffuse, image)})
+    model_burn_in = photo_burn_in(out, image)
+    if FLASH_TREND:
+        out = remove_flash_trend(out, photo=image)
     out.meta["burn_in"] = photo_burn_in(out, image)
+    out.meta["burn_in_model"] = model_burn_in
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings
     return out

@@ -183,10 +183,9 @@ def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[
     from svbrdf.runtime.burn_in import photo_burn_in
     from svbrdf.runtime.targets import write_target
     from svbrdf.runtime.texture_set import relit_panel
-    from svbrdf.trainer.train import to_maps
 
     cfg = trainer.config
-    maps = to_maps(trainer.predict())
+    maps = trainer.predict_maps()
     maps.render_config = cfg.render_config
     photo = trainer.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
     camera = trainer.camera_state()

@@ -88,7 +88,7 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
     meta = {"refine": {"checkpoint": str(init) if not isinstance(init, Mapping) else "checkpoint",
                        "iterations": trainer.step, "stopped_early": trainer.stopped_early,
                        "notes": list(trainer.notes)}}
-    maps = train.to_maps(trainer.predict(), meta)
+    maps = trainer.predict_maps(meta)
     maps.meta["burn_in"] = photo_burn_in(maps, photo)
     if check is not None:
         maps.meta["refine"].update(preview_input_rmse=check["preview_input_rmse"],

@@ -34,7 +34,9 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.camera import radius2
+from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.flash_trend import remove_flash_trend
 from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
@@ -574,9 +576,22 @@ class Trainer:
             f.write(json.dumps(rec, allow_nan=False) + "\n")
 
     def predict(self) -> torch.Tensor:
-        """(1, 8, H, W) maps of the whole photo (see :func:`predict_full`)."""
+        """(1, 8, H, W) maps of the whole photo as the generator predicts them (see :func:`predict_full`)."""
         return predict_full(self.generator, self.photo, max_side=self.config.predict_max_side,
                             overlap=self.config.predict_overlap)
+
+    def predict_maps(self, meta: Optional[dict] = None) -> Maps:
+        """The final texture set of the whole photo: :meth:`predict`, without its radial trend around the flash
+        highlight when ``config.flash_trend`` (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, centred on
+        the photo's highlight; ``meta["flash_trend"]`` records what was removed and ``meta["burn_in_model"]`` the
+        burn-in of the maps before, :func:`svbrdf.runtime.burn_in.photo_burn_in`)."""
+        maps = to_maps(self.predict(), meta)
+        if self.config.flash_trend:
+            photo = self.photo[0].permute(1, 2, 0).cpu().numpy()
+            model_burn_in = photo_burn_in(maps, photo)
+            maps = remove_flash_trend(maps, photo=photo)
+            maps.meta["burn_in_model"] = model_burn_in
+        return maps
 
 
 def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool:

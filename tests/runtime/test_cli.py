@@ -267,7 +267,9 @@ def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, ti
     assert "refine skipped" in out and "burn-in" in out
     meta = json.loads((tmp_path / "a" / "wood.json").read_text())["meta"]
     assert meta["refine"]["skipped"] is True and meta["refine"]["preview_input_rmse"] <= 10.0
-    assert meta["burn_in"]["burn_in"] == pytest.approx(meta["refine"]["preview_burn_in"])
+    # The rule reads the network's burn-in, before the flash trend was removed from the delivered maps.
+    assert meta["burn_in_model"]["burn_in"] == pytest.approx(meta["refine"]["preview_burn_in"])
+    assert "before flash-trend removal" in out and meta["flash_trend"]["removed"]
 
     monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", -1.0)  # a burnt-in preview is refined, however low
     #                                                                   its error

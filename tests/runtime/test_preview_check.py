@@ -31,3 +31,11 @@ def test_thresholds_are_read_at_call_time(monkeypatch):
     photo = np.clip(render(preview, None, ZHAO), 0, 1)
     monkeypatch.setattr(preview_check, "SKIP_REFINE_RMSE", -1.0)
     assert check_preview(preview, photo, ZHAO) == {**check_preview(preview, photo, ZHAO), "skipped": False}
+
+
+def test_the_rule_reads_the_burn_in_of_the_networks_maps_first():
+    preview = _preview(0.1)  # the delivered maps: flash trend removed, low burn-in
+    photo = np.clip(render(preview, None, ZHAO), 0, 1)
+    preview.meta["burn_in_model"] = {"burn_in": SKIP_REFINE_BURN_IN + 0.5}  # the network had baked the flash in
+    check = check_preview(preview, photo, ZHAO)
+    assert not check["skipped"] and check["preview_burn_in"] == SKIP_REFINE_BURN_IN + 0.5

@@ -9,7 +9,7 @@ import pytest
 
 from svbrdf.runtime.errors import ImageError, ModelError, SvbrdfError
 from svbrdf.runtime.imageio import write_image
-from svbrdf.runtime.maps import MAP_NAMES, SLICES
+from svbrdf.runtime.maps import MAP_NAMES, Maps
 from svbrdf.runtime.manifest import MODEL_ENV, find_checkpoint, find_model, map_layout
 from svbrdf.runtime.tiling import tile_boxes
 
@@ -133,14 +133,20 @@ def test_estimate_array_in_one_pass(session):
     assert set(meta["timings"]) == {"read", "resize", "infer", "post"}
     assert maps.render_config == session.render_config and maps.render_config.fov_deg == TINY_FOV
     assert "render_config" not in meta  # a typed field, not a dict in the metadata
-    raw = session.run(photo)  # the maps are the model's output, clipped/renormalised, the colour from the photo
+    # The maps are the model's output, clipped/renormalised, the colour from the photo, the flash trend removed.
+    raw = session.run(photo)
+    from svbrdf.runtime.burn_in import photo_burn_in
+    from svbrdf.runtime.flash_trend import remove_flash_trend
     from svbrdf.runtime.session import photo_colour
 
-    np.testing.assert_allclose(maps.diffuse, photo_colour(np.clip(raw[..., :3], 0, 1), photo), atol=1e-6)
-    np.testing.assert_allclose(maps.roughness, np.clip(raw[..., SLICES["roughness"]], 0, 1), atol=1e-6)
-    from svbrdf.runtime.burn_in import photo_burn_in
-
+    model = Maps.unpack(raw).clipped()
+    model = model._with({**dict(model.items()), "diffuse": photo_colour(model.diffuse, photo)})
+    want = remove_flash_trend(model, photo=photo)
+    for name in ("diffuse", "specular", "roughness", "normal"):
+        np.testing.assert_allclose(getattr(maps, name), getattr(want, name), atol=1e-6)
+    assert meta["flash_trend"] == want.meta["flash_trend"]
     assert meta["burn_in"] == photo_burn_in(maps, photo)  # the label-free burn-in is returned with the maps
+    assert meta["burn_in_model"] == photo_burn_in(model, photo)  # and that of the network's maps
 
 
 def test_estimate_file_and_downsizing(session, tmp_path):

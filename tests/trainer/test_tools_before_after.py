@@ -38,3 +38,18 @@ def test_grid_rows_and_burn_in(tmp_path, tiny_ckpt):
     assert before_after.main(args) == 2  # exists: refused without --force
     assert before_after.main([str(tmp_path / "missing.png"), "--init", str(tiny_ckpt), "--out",
                               str(tmp_path / "x.png")]) == 2
+
+
+def test_a_row_may_carry_settings(tmp_path, tiny_ckpt, capsys):
+    assert before_after._preset_spec("fast+flash_trend=false+lr=1e-4+perceptual=pyramid") == \
+        ("fast", {"flash_trend": False, "lr": 1e-4, "perceptual": "pyramid"})
+    img = np.random.default_rng(0).uniform(0.1, 0.6, (40, 40, 3))
+    write_image(tmp_path / "a.png", img, bits=8, srgb_encode=True)
+    out = tmp_path / "grid.png"
+    base = [str(tmp_path / "a.png"), "--iters", "1", "--size", "32", "--init", str(tiny_ckpt), "--out", str(out)]
+    assert before_after.main([*base, "--presets", "tiny+flash_trend=false,tiny+flash_trend=true"]) == 0
+    rec = json.loads(out.with_suffix(".json").read_text())
+    assert [r["preset"] for r in rec["rows"]] == ["tiny+flash_trend=false", "tiny+flash_trend=true"]
+    for bad in ("tiny+no_such_setting=1", "tiny+flash_trend"):
+        assert before_after.main([*base, "--presets", bad, "--force"]) == 2
+        assert "error" in capsys.readouterr().err

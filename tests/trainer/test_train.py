@@ -393,6 +393,21 @@ def test_predict_full_real_generator_tiles():
     assert maps.shape == (40, 72) and maps.diffuse.min() >= 0 and maps.diffuse.max() <= 1
 
 
+def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
+    from svbrdf.runtime.flash_trend import remove_flash_trend
+
+    assert resolve("fast").flash_trend and not resolve("paper").flash_trend and not resolve("fast-v1").flash_trend
+    photo = random_photo(40, 56)
+    for on in (False, True):
+        trainer = Trainer(photo, resolve("tiny", flash_trend=on), threads=1)
+        raw = train_mod.to_maps(trainer.predict())
+        maps = trainer.predict_maps({"x": 1})
+        assert maps.meta["x"] == 1 and ("flash_trend" in maps.meta) == on
+        want = remove_flash_trend(raw, photo=photo[0].permute(1, 2, 0).numpy()) if on else raw
+        for name in ("diffuse", "specular", "roughness", "normal"):
+            assert (abs(getattr(maps, name) - getattr(want, name)).max()) < 1e-6, name
+
+
 def test_bf16_switch_runs_or_falls_back():
     trainer = Trainer(random_photo(), resolve("tiny", iters_fit=2, bf16=True), threads=1)
     supported, _ = train_mod.bf16_support(trainer.device)

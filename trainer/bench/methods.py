@@ -287,8 +287,7 @@ class Training(Method):
         def evaluate(trainer, truncated: bool) -> None:
             spent = train_seconds()
             t_pause = time.perf_counter()
-            packed = trainer.predict()
-            maps = T.to_maps(packed)
+            maps = trainer.predict_maps()
             t_eval = time.perf_counter() - t_pause
             on_point(Point(maps, trainer.step, spent, t_eval, truncated))
             state["paused"] += time.perf_counter() - t_pause

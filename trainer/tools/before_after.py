@@ -19,7 +19,7 @@ import json
 import sys
 import time
 from pathlib import Path
-from typing import List, Optional, Sequence
+from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -41,6 +41,22 @@ def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:
     return np.concatenate([np.asarray(p, np.float32) for p in parts], axis=1)
 
 
+def _preset_spec(spec: str) -> Tuple[str, Dict[str, Any]]:
+    """``"fast+flash_trend=false+lr=1e-4"`` -> ``("fast", {"flash_trend": False, "lr": 0.0001})`` (values read as
+    JSON, else kept as strings)."""
+    name, *pairs = spec.split("+")
+    settings: Dict[str, Any] = {}
+    for pair in pairs:
+        key, sep, value = pair.partition("=")
+        if not sep or not key:
+            raise SvbrdfError(f"{spec!r}: expected PRESET+KEY=VALUE")
+        try:
+            settings[key] = json.loads(value)
+        except json.JSONDecodeError:
+            settings[key] = value
+    return name, settings
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     from svbrdf.trainer import train as T
     from svbrdf.trainer.stage import make_trainer
@@ -51,7 +67,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
 
     p = argparse.ArgumentParser(prog="python -m svbrdf.trainer.tools.before_after", description=__doc__.split("\n\n")[0])
     p.add_argument("photos", nargs="+", type=Path)
-    p.add_argument("--presets", default="fast-v1,fast", help="comma list, one row per preset (default fast-v1,fast)")
+    p.add_argument("--presets", default="fast-v1,fast",
+                   help="comma list, one row per preset (default fast-v1,fast); a preset may carry settings after "
+                        "'+', e.g. fast+flash_trend=false (JSON values)")
     p.add_argument("--iters", type=int, default=600, help="fine-tune iterations (default 600)")
     p.add_argument("--size", type=int, default=256, help="side of the centre square, px (default 256)")
     p.add_argument("--init", type=Path, default=None, help="stage-one checkpoint (default: the packaged model's)")
@@ -76,12 +94,17 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             case = prepare_case(Case(name=path.stem, path=path, kind="photo", format="photo"), args.size)
             photo = T.photo_to_tensor(case.photo)
             for preset in presets:
-                cfg = resolve(preset, quality="fixed", checkpoint_every=0, iters_finetune=args.iters)
+                name, settings = _preset_spec(preset)
+                try:
+                    cfg = resolve(name, **{"quality": "fixed", "checkpoint_every": 0, "iters_finetune": args.iters,
+                                           **settings})
+                except ValueError as e:
+                    raise SvbrdfError(f"--presets {preset}: {e}") from None
                 t = time.perf_counter()
                 trainer = make_trainer(photo, "finetune", cfg, init=ckpt, threads=args.threads,
                                        photo_info=T.tensor_photo_info(photo, path.name))
                 trainer.run()
-                maps = T.to_maps(trainer.predict())
+                maps = trainer.predict_maps()
                 burn = photo_burn_in(maps, case.photo)
                 record["rows"].append({"photo": str(path), "preset": preset, "seconds": time.perf_counter() - t,
                                        **{k: v for k, v in burn.items() if k != "centre"}})

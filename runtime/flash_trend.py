@@ -1,0 +1,145 @@
+"""Flash-trend removal: take out of the maps the smooth radial pattern centred on the flash highlight (numpy).
+
+A stationary material looks the same everywhere; a photo lit by a flash does not: it is brightest under the flash,
+with a highlight lobe there and a fall-off around it. Whatever of that pattern an estimator leaves in its maps (a
+brighter or darker base colour under the flash, a specular or roughness that dips there, the "hole" a clipped
+highlight leaves) is not the material: it is the light, baked in, and it shows when the maps are relit from
+elsewhere (the burn-in score of :mod:`svbrdf.runtime.burn_in` measures it).
+
+:func:`remove_flash_trend` projects it out. Each scalar field ``g`` of the base colour (per channel), specular and
+roughness is fitted by least squares with a constant and the radial bumps
+
+.. math::
+
+    b_k(x) = \\exp\\left(-\\frac{1}{2} \\left(\\frac{|x - c|}{\\sigma_k W}\\right)^2\\right),
+    \\quad \\sigma_k \\in \\texttt{TREND_WIDTHS}
+
+around the highlight centre ``c`` (``W`` = image width), and the fitted bumps, centred to zero mean, are
+subtracted: the map keeps its mean and everything that is not round about the flash (a stationary texture
+projects onto a few smooth radial functions with a weight near zero, so it is hardly changed). The normal map is
+left as it is (its burn-in, the tilt of a bulge, is small in every measurement: docs/benchmarks/accuracy/).
+
+This is the hard form of the trainer's flash-correlation loss (:func:`svbrdf.trainer.losses.flash_correlation_loss`,
+which only discourages the same pattern during the fine-tune): applied to the final maps of the preview and of the
+refine, it is what makes them highlight-free, and the renderer's specular lobe is left to reproduce the highlight.
+Widths chosen on held-out procedural materials, not on the benchmark's data (docs/benchmarks/accuracy/README.md,
+"Flash-trend removal").
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Dict, Optional, Sequence, Tuple
+
+import numpy as np
+
+from .burn_in import highlight_centre
+from .maps import MAP_RANGES, Maps
+
+#: Widths of the radial bumps, as fractions of the image width: the highlight lobe (and a clipped highlight's
+#: hole) to the broad fall-off.
+TREND_WIDTHS: Tuple[float, ...] = (0.05, 0.1, 0.2, 0.4)
+#: The maps whose trend is removed (every channel separately); normals are kept.
+TREND_MAPS: Tuple[str, ...] = ("diffuse", "specular", "roughness")
+#: The fit runs on a block-averaged copy no longer than this (the trend is smooth); the subtraction at full size.
+FIT_MAX_SIDE = 256
+
+
+def radial_basis(shape: Tuple[int, int], centre: Tuple[float, float], widths: Sequence[float] = TREND_WIDTHS,
+                 scale: Optional[float] = None) -> np.ndarray:
+    """The radial bumps of the fit, one per width.
+
+    Args:
+        shape: (H, W) of the grid.
+        centre: (row, column) of the flash highlight in pixels of this grid (pixel centres at integer + 0.5).
+        widths: the bumps' standard deviations as fractions of ``scale``.
+        scale: the length the widths are fractions of, in pixels of this grid (default the grid's width ``W``).
+
+    Returns:
+        (K, H, W) float64 bumps in (0, 1], 1 at the centre.
+    """
+    h, w = shape
+    scale = float(w if scale is None else scale)
+    y = (np.arange(h, dtype=np.float64) + 0.5 - centre[0]) / scale
+    x = (np.arange(w, dtype=np.float64) + 0.5 - centre[1]) / scale
+    r2 = y[:, None] ** 2 + x[None, :] ** 2
+    return np.stack([np.exp(-0.5 * r2 / s ** 2) for s in widths])
+
+
+def _block_mean(arr: np.ndarray, k: int) -> np.ndarray:
+    h, w = (arr.shape[0] // k) * k, (arr.shape[1] // k) * k
+    a = np.asarray(arr[:h, :w], dtype=np.float64)
+    return a.reshape(h // k, k, w // k, k, a.shape[-1]).mean(axis=(1, 3))
+
+
+def fit_flash_trend(fields: np.ndarray, centre: Tuple[float, float],
+                    widths: Sequence[float] = TREND_WIDTHS) -> np.ndarray:
+    """Least-squares weights of the radial bumps in each channel of ``fields``.
+
+    Args:
+        fields: (h, w, C) the channels to fit (any units).
+        centre: (row, column) of the highlight in pixels of ``fields``.
+        widths: see :func:`radial_basis`.
+
+    Returns:
+        (K, C) float64 weights of the bumps (the constant's weight is dropped).
+    """
+    h, w, c = fields.shape
+    basis = radial_basis((h, w), centre, widths).reshape(len(widths), -1)
+    design = np.concatenate([np.ones((1, basis.shape[1])), basis]).T  # (h*w, 1+K)
+    coef, *_ = np.linalg.lstsq(design, fields.reshape(-1, c).astype(np.float64), rcond=None)
+    return coef[1:]
+
+
+def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None, photo: Optional[np.ndarray] = None,
+                       widths: Sequence[float] = TREND_WIDTHS) -> Maps:
+    """The maps without their radial trend around the flash highlight (see the module docstring).
+
+    Args:
+        maps: a texture set (H, W); maps that are ``None`` stay ``None``, normals are kept.
+        centre: (row, column) of the highlight in the maps' pixels; default :func:`highlight_centre` of
+            ``photo``, or the image centre without a photo.
+        photo: (H, W, 3) linear photo the maps were estimated from (for the default centre).
+        widths: see :func:`radial_basis`.
+
+    Returns:
+        A new :class:`Maps` (same meta plus ``meta["flash_trend"]``: ``{"centre": [row, col], "widths",
+        "removed": {map: RMS of the subtracted trend}}``), values clipped to :data:`MAP_RANGES`. Diffuse, specular
+        and roughness are float32.
+    """
+    h, w = maps.shape
+    k = max(1, math.ceil(max(h, w) / FIT_MAX_SIDE))
+    if centre is None:
+        if photo is not None:
+            photo = np.asarray(photo, dtype=np.float32)
+            centre = highlight_centre(photo if k == 1 else _block_mean(photo, k).astype(np.float32))
+            centre = (centre[0] * k, centre[1] * k)
+        else:
+            centre = (h / 2.0, w / 2.0)
+    cy, cx = float(centre[0]), float(centre[1])
+    names = [n for n in TREND_MAPS if getattr(maps, n) is not None]
+    if not names or min(h, w) // k < 4:
+        return maps
+    stacked = np.concatenate([np.asarray(getattr(maps, n), dtype=np.float32) for n in names], axis=-1)
+    small = stacked if k == 1 else _block_mean(stacked, k)
+    # the block mean drops a partial last block; its grid still starts at the image's top-left corner
+    coef = fit_flash_trend(small, (cy / k, cx / k), widths)  # (K, C) in map units
+    basis = radial_basis((h, w), (cy, cx), widths, scale=w)  # (K, H, W), the same widths in full-size pixels
+    basis -= basis.mean(axis=(1, 2), keepdims=True)
+    trend = np.tensordot(basis, coef, axes=([0], [0])).astype(np.float32)  # (H, W, C)
+    out: Dict[str, np.ndarray] = dict(maps.items())
+    removed: Dict[str, float] = {}
+    start = 0
+    for n in names:
+        c = getattr(maps, n).shape[-1]
+        t = trend[..., start:start + c]
+        lo, hi = MAP_RANGES[n]
+        out[n] = np.clip(np.asarray(getattr(maps, n), dtype=np.float32) - t, lo, hi)
+        removed[n] = float(np.sqrt(np.mean(t.astype(np.float64) ** 2)))
+        start += c
+    result = maps._with(out)
+    result.meta["flash_trend"] = {"centre": [cy, cx], "widths": list(widths), "removed": removed}
+    return result
+
+
+__all__ = ["remove_flash_trend", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS", "FIT_MAX_SIDE"]

@@ -1,0 +1,96 @@
+"""Flash-trend removal (svbrdf.runtime.flash_trend): textures with a known radial trend added, and without one."""
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime import flash_trend as ft
+from svbrdf.runtime.burn_in import burn_in_scores
+from svbrdf.runtime.maps import Maps
+
+
+def _texture(n=128, seed=0):
+    """A stationary texture set: smoothed noise in every map, tilted normals."""
+    rng = np.random.default_rng(seed)
+
+    def smooth(c):
+        a = rng.uniform(0, 1, (n, n, c))
+        for _ in range(3):
+            a = (a + np.roll(a, 1, 0) + np.roll(a, 1, 1) + np.roll(a, -1, 0) + np.roll(a, -1, 1)) / 5
+        return a
+
+    normal = np.concatenate([0.2 * (smooth(2) - 0.5), np.ones((n, n, 1))], axis=-1)
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    return Maps(diffuse=(0.2 + 0.5 * smooth(3)).astype(np.float32), specular=(0.03 + 0.1 * smooth(1)).astype(np.float32),
+                roughness=(0.3 + 0.4 * smooth(1)).astype(np.float32), normal=normal.astype(np.float32))
+
+
+def _with_trend(maps, centre, amp=0.15, width=0.12):
+    h, w = maps.shape
+    bump = ft.radial_basis((h, w), centre, (width,))[0][..., None].astype(np.float32)
+    return maps._with({"diffuse": maps.diffuse + amp * bump, "specular": maps.specular - 0.3 * amp * bump,
+                       "roughness": maps.roughness - amp * bump, "normal": maps.normal})
+
+
+def test_a_radial_trend_is_removed_and_the_texture_kept():
+    clean = _texture()
+    centre = (50.0, 70.0)
+    burnt = _with_trend(clean, centre)
+    assert burn_in_scores(burnt, centre)["burn_in"] > 0.5
+    fixed = ft.remove_flash_trend(burnt, centre=centre)
+    for name in ft.TREND_MAPS:  # up to a constant (the trend's mean stays: a level the fit cannot tell apart)
+        def err(a):
+            d = a - getattr(clean, name)
+            return np.sqrt(np.mean((d - d.mean()) ** 2))
+        assert err(getattr(fixed, name)) < 0.25 * err(getattr(burnt, name)), name
+    assert burn_in_scores(fixed, centre)["burn_in"] < 0.2
+    assert np.array_equal(fixed.normal, burnt.normal)  # normals are not touched
+    meta = fixed.meta["flash_trend"]
+    assert meta["centre"] == [50.0, 70.0] and meta["widths"] == list(ft.TREND_WIDTHS)
+    assert meta["removed"]["diffuse"] > 0.01
+
+
+def test_a_stationary_texture_is_hardly_changed_and_keeps_its_mean():
+    clean = _texture(seed=3)
+    out = ft.remove_flash_trend(clean)  # default centre: the image centre
+    for name in ft.TREND_MAPS:
+        a, b = getattr(clean, name), getattr(out, name)
+        assert np.sqrt(np.mean((a - b) ** 2)) < 0.1 * a.std(), name
+        assert abs(float(a.mean() - b.mean())) < 1e-3, name
+        assert b.dtype == np.float32
+
+
+def test_the_default_centre_is_the_photos_highlight():
+    clean = _texture(n=96, seed=5)
+    centre = (30.0, 60.0)
+    burnt = _with_trend(clean, centre)
+    photo = np.full((96, 96, 3), 0.1, np.float32) + 0.8 * ft.radial_basis((96, 96), centre, (0.1,))[0][..., None]
+    out = ft.remove_flash_trend(burnt, photo=np.clip(photo, 0, 1).astype(np.float32))
+    assert out.meta["flash_trend"]["centre"] == pytest.approx([30.0, 60.0], abs=4)
+    assert burn_in_scores(out, centre)["burn_in"] < 0.5 * burn_in_scores(burnt, centre)["burn_in"]
+
+
+def test_large_maps_fit_on_a_reduced_copy_and_match_the_full_fit():
+    n = 3 * ft.FIT_MAX_SIDE // 2  # block size 2
+    clean = _texture(n=n, seed=7)
+    centre = (n / 2 + 10, n / 2 - 20)
+    burnt = _with_trend(clean, centre)
+    out = ft.remove_flash_trend(burnt, centre=centre)
+    full = ft.fit_flash_trend(np.concatenate([burnt.diffuse, burnt.specular, burnt.roughness], -1), centre)
+    basis = ft.radial_basis(burnt.shape, centre)
+    basis -= basis.mean(axis=(1, 2), keepdims=True)
+    ref = np.clip(burnt.diffuse - np.tensordot(basis, full[:, :3], axes=([0], [0])), 0, 1)
+    assert np.abs(out.diffuse - ref).max() < 0.01
+
+
+def test_values_stay_in_range_and_missing_maps_stay_missing():
+    clean = _texture(n=64, seed=2)
+    burnt = _with_trend(clean, (32.0, 32.0), amp=2.0)  # pushes values far out of [0, 1]
+    out = ft.remove_flash_trend(burnt.clipped(), centre=(32.0, 32.0))
+    for name in ft.TREND_MAPS:
+        a = getattr(out, name)
+        assert a.min() >= 0.0 and a.max() <= 1.0
+    part = Maps(roughness=clean.roughness, normal=clean.normal)
+    out = ft.remove_flash_trend(part)
+    assert out.diffuse is None and out.specular is None and out.roughness is not None
+    nothing = ft.remove_flash_trend(Maps(normal=clean.normal))
+    assert nothing.normal is clean.normal and "flash_trend" not in nothing.meta
