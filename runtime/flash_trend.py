@@ -67,9 +67,11 @@ def radial_basis(shape: Tuple[int, int], centre: Tuple[float, float], widths: Se
 
 
 def _block_mean(arr: np.ndarray, k: int) -> np.ndarray:
+    if k == 1:
+        return np.asarray(arr, dtype=np.float32)
     h, w = (arr.shape[0] // k) * k, (arr.shape[1] // k) * k
-    a = np.asarray(arr[:h, :w], dtype=np.float64)
-    return a.reshape(h // k, k, w // k, k, a.shape[-1]).mean(axis=(1, 3))
+    a = np.asarray(arr[:h, :w], dtype=np.float32)
+    return a.reshape(h // k, k, w // k, k, a.shape[-1]).mean(axis=(1, 3), dtype=np.float32)
 
 
 def fit_flash_trend(fields: np.ndarray, centre: Tuple[float, float],
@@ -112,7 +114,7 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     if centre is None:
         if photo is not None:
             photo = np.asarray(photo, dtype=np.float32)
-            centre = highlight_centre(photo if k == 1 else _block_mean(photo, k).astype(np.float32))
+            centre = highlight_centre(_block_mean(photo, k))
             centre = (centre[0] * k, centre[1] * k)
         else:
             centre = (h / 2.0, w / 2.0)
@@ -120,22 +122,25 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     names = [n for n in TREND_MAPS if getattr(maps, n) is not None]
     if not names or min(h, w) // k < 4:
         return maps
-    stacked = np.concatenate([np.asarray(getattr(maps, n), dtype=np.float32) for n in names], axis=-1)
-    small = stacked if k == 1 else _block_mean(stacked, k)
-    # the block mean drops a partial last block; its grid still starts at the image's top-left corner
+    # The block mean drops a partial last block; its grid still starts at the image's top-left corner.
+    small = np.concatenate([_block_mean(getattr(maps, n), k) for n in names], axis=-1)
     coef = fit_flash_trend(small, (cy / k, cx / k), widths)  # (K, C) in map units
-    basis = radial_basis((h, w), (cy, cx), widths, scale=w)  # (K, H, W), the same widths in full-size pixels
-    basis -= basis.mean(axis=(1, 2), keepdims=True)
-    trend = np.tensordot(basis, coef, axes=([0], [0])).astype(np.float32)  # (H, W, C)
+    # Each bump is separable, exp(-y^2/2s^2) exp(-x^2/2s^2): the trend of channel c is gy diag(coef_c) gx, a small
+    # matrix product at full size, minus its mean (the bumps' means: mean(gy) mean(gx)).
+    widths_px = np.asarray(widths, np.float64) * w
+    gy = np.exp(-0.5 * ((np.arange(h) + 0.5 - cy)[:, None] / widths_px[None]) ** 2)  # (H, K)
+    gx = np.exp(-0.5 * ((np.arange(w) + 0.5 - cx)[:, None] / widths_px[None]) ** 2)  # (W, K)
+    means = gy.mean(axis=0) * gx.mean(axis=0)  # (K,)
     out: Dict[str, np.ndarray] = dict(maps.items())
     removed: Dict[str, float] = {}
     start = 0
     for n in names:
         c = getattr(maps, n).shape[-1]
-        t = trend[..., start:start + c]
+        t = np.stack([(gy * coef[:, j]) @ gx.T - float(means @ coef[:, j]) for j in range(start, start + c)],
+                     axis=-1).astype(np.float32)  # (H, W, c)
         lo, hi = MAP_RANGES[n]
         out[n] = np.clip(np.asarray(getattr(maps, n), dtype=np.float32) - t, lo, hi)
-        removed[n] = float(np.sqrt(np.mean(t.astype(np.float64) ** 2)))
+        removed[n] = float(np.sqrt(np.mean(np.square(t[::k, ::k], dtype=np.float64))))
         start += c
     result = maps._with(out)
     result.meta["flash_trend"] = {"centre": [cy, cx], "widths": list(widths), "removed": removed}
