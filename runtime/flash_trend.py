@@ -33,7 +33,7 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .burn_in import highlight_centre
+from .burn_in import block_mean, highlight_centre
 from .maps import MAP_RANGES, Maps
 
 #: Widths of the radial bumps, as fractions of the image width: the highlight lobe (and a clipped highlight's
@@ -64,14 +64,6 @@ def radial_basis(shape: Tuple[int, int], centre: Tuple[float, float], widths: Se
     x = (np.arange(w, dtype=np.float64) + 0.5 - centre[1]) / scale
     r2 = y[:, None] ** 2 + x[None, :] ** 2
     return np.stack([np.exp(-0.5 * r2 / s ** 2) for s in widths])
-
-
-def _block_mean(arr: np.ndarray, k: int) -> np.ndarray:
-    if k == 1:
-        return np.asarray(arr, dtype=np.float32)
-    h, w = (arr.shape[0] // k) * k, (arr.shape[1] // k) * k
-    a = np.asarray(arr[:h, :w], dtype=np.float32)
-    return a.reshape(h // k, k, w // k, k, a.shape[-1]).mean(axis=(1, 3), dtype=np.float32)
 
 
 def fit_flash_trend(fields: np.ndarray, centre: Tuple[float, float],
@@ -114,7 +106,7 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     if centre is None:
         if photo is not None:
             photo = np.asarray(photo, dtype=np.float32)
-            centre = highlight_centre(_block_mean(photo, k))
+            centre = highlight_centre(block_mean(photo, k))
             centre = (centre[0] * k, centre[1] * k)
         else:
             centre = (h / 2.0, w / 2.0)
@@ -123,7 +115,7 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     if not names or min(h, w) // k < 4:
         return maps
     # The block mean drops a partial last block; its grid still starts at the image's top-left corner.
-    small = np.concatenate([_block_mean(getattr(maps, n), k) for n in names], axis=-1)
+    small = np.concatenate([block_mean(getattr(maps, n), k) for n in names], axis=-1)
     coef = fit_flash_trend(small, (cy / k, cx / k), widths)  # (K, C) in map units
     # Each bump is separable, exp(-y^2/2s^2) exp(-x^2/2s^2): the trend of channel c is gy diag(coef_c) gx, a small
     # matrix product at full size, minus its mean (the bumps' means: mean(gy) mean(gx)).

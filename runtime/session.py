@@ -434,8 +434,10 @@ def estimate(
         out = out._with({**dict(out.items()), "diffuse": photo_colour(out.diffuse, image)})
     model_burn_in = photo_burn_in(out, image)
     if FLASH_TREND:
-        out = remove_flash_trend(out, photo=image)
-    out.meta["burn_in"] = photo_burn_in(out, image)
+        out = remove_flash_trend(out, centre=model_burn_in["centre"])
+        out.meta["burn_in"] = photo_burn_in(out, image)
+    else:
+        out.meta["burn_in"] = model_burn_in
     out.meta["burn_in_model"] = model_burn_in
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings

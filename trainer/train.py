@@ -589,7 +589,7 @@ class Trainer:
         if self.config.flash_trend:
             photo = self.photo[0].permute(1, 2, 0).cpu().numpy()
             model_burn_in = photo_burn_in(maps, photo)
-            maps = remove_flash_trend(maps, photo=photo)
+            maps = remove_flash_trend(maps, centre=model_burn_in["centre"])
             maps.meta["burn_in_model"] = model_burn_in
         return maps
 
