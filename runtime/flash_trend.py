@@ -139,4 +139,29 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     return result
 
 
-__all__ = ["remove_flash_trend", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS", "FIT_MAX_SIDE"]
+def uniform_specular(maps: Maps) -> Maps:
+    """The maps with the specular albedo replaced by its mean: one level per photo.
+
+    Measured on held-out procedural materials (whose specular does vary with the material classes inside the
+    pattern) and on the shared ground-truth sets, the spatial variation of the predicted specular is noise: a
+    Gaussian blur of any width lowers its error, and the constant (its mean) lowers it most, for the preview and the
+    refine alike (docs/benchmarks/accuracy/README.md, "Specular as one level"). The level itself (dielectric or
+    metal) is what the photo tells.
+
+    Args:
+        maps: a texture set; without a specular map it is returned as it is.
+
+    Returns:
+        A new :class:`Maps` whose specular (H, W, 1) float32 is constant, its mean, with
+        ``meta["uniform_specular"] = {"level", "std_removed"}``.
+    """
+    if maps.specular is None:
+        return maps
+    spec = np.asarray(maps.specular, dtype=np.float32)
+    level = float(spec.mean(dtype=np.float64))
+    out = maps._with({**dict(maps.items()), "specular": np.full_like(spec, level)})
+    out.meta["uniform_specular"] = {"level": level, "std_removed": float(spec.std(dtype=np.float64))}
+    return out
+
+
+__all__ = ["remove_flash_trend", "uniform_specular", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS", "FIT_MAX_SIDE"]

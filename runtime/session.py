@@ -25,7 +25,9 @@ Pipeline of :func:`estimate`:
    nearly grey base colour for every material (docs/benchmarks/prior/README.md, "Colour");
 6. remove the smooth radial trend around the photo's flash highlight from the base colour, specular and roughness
    (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, :data:`FLASH_TREND`): what the network left of the
-   highlight and the fall-off (docs/benchmarks/accuracy/README.md, "Flash-trend removal").
+   highlight and the fall-off (docs/benchmarks/accuracy/README.md, "Now");
+7. make the specular one level, its mean (:func:`svbrdf.runtime.flash_trend.uniform_specular`,
+   :data:`UNIFORM_SPECULAR`): its spatial variation is noise by measurement.
 
 The session keeps onnxruntime's CPU memory arena (:data:`CPU_MEM_ARENA`). Without it every intermediate
 tensor is fresh memory from the system and the one pass of a preview pays its page faults: on the 2-core
@@ -48,7 +50,7 @@ from typing import Iterable, Optional, Tuple, Union
 import numpy as np
 
 from .burn_in import photo_burn_in
-from .flash_trend import remove_flash_trend
+from .flash_trend import remove_flash_trend, uniform_specular
 from .errors import ImageError, ModelError, SvbrdfError
 from .imageio import RESIZE_FILTER, ImageWarning, image_info, read_image, resize_long_side
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
@@ -262,6 +264,9 @@ COLOUR_FROM_PHOTO = True
 #: The preview's maps lose their smooth radial trend around the photo's flash highlight
 #: (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`): what the network left of the highlight and fall-off.
 FLASH_TREND = True
+#: The preview's specular map is one level per photo, its mean (:func:`svbrdf.runtime.flash_trend.uniform_specular`):
+#: its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Specular as one level").
+UNIFORM_SPECULAR = True
 #: Pixels whose luminance is above this quantile of the photo's are left out of :func:`photo_colour` (the flash
 #: highlight is the light's colour, not the material's).
 COLOUR_QUANTILE = 0.9
@@ -369,7 +374,8 @@ def estimate(
         (:func:`svbrdf.runtime.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, about 0.1 for a
         stationary material, higher when the flash highlight stayed in the maps), ``burn_in_model`` the same of
         the network's maps before the flash trend was removed (:data:`FLASH_TREND`; what the skip rule of
-        ``--quality auto`` reads), and ``flash_trend`` what was removed. ``render_config`` is the
+        ``--quality auto`` reads), ``flash_trend`` what was removed and ``uniform_specular`` the specular level
+        (:data:`UNIFORM_SPECULAR`). ``render_config`` is the
         session's (the model's training renderer).
 
     Raises:
@@ -435,9 +441,9 @@ def estimate(
     model_burn_in = photo_burn_in(out, image)
     if FLASH_TREND:
         out = remove_flash_trend(out, centre=model_burn_in["centre"])
-        out.meta["burn_in"] = photo_burn_in(out, image)
-    else:
-        out.meta["burn_in"] = model_burn_in
+    if UNIFORM_SPECULAR:
+        out = uniform_specular(out)
+    out.meta["burn_in"] = photo_burn_in(out, image) if FLASH_TREND or UNIFORM_SPECULAR else model_burn_in
     out.meta["burn_in_model"] = model_burn_in
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings

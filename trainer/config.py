@@ -68,6 +68,8 @@ class TrainConfig:
         flash_trend: remove the smooth radial trend around the flash highlight from the final maps
             (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, as the preview does; False: the maps as the
             generator predicts them, as in the paper).
+        uniform_specular: make the final specular map one level, its mean
+            (:func:`svbrdf.runtime.flash_trend.uniform_specular`, as the preview does; False: as predicted).
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
             (False: the paper's unclipped renderings).
@@ -121,6 +123,7 @@ class TrainConfig:
     learn_offsets: bool = False
     camera_lr: float = 5e-3
     flash_trend: bool = False
+    uniform_specular: bool = False
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
@@ -252,11 +255,12 @@ _FAST_V1 = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, schedule="joi
 #: term, a scale-free L_d, learned output offsets, the dielectric specular prior, and no Fourier term. The flash
 #: term's weight is 1: at 100 (best on the synthetic cases) real photos, whose field of view differs from the
 #: model's, collapsed to near-black or off-colour maps (docs/benchmarks/accuracy/README.md). The final maps lose their
-#: radial trend around the highlight (``flash_trend``), the hard form of that term (docs/benchmarks/accuracy/README.md,
-#: "Flash-trend removal").
+#: radial trend around the highlight (``flash_trend``), the hard form of that term, and their specular is one level
+#: (``uniform_specular``): its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Now").
 _HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=True, learn_vignetting=True,
                        learn_offsets=True, lambda_render=1.0, lambda_flash=1.0, lambda_specular_prior=1.0,
-                       lambda_fourier=0.0, diffuse_target="normalized", flash_trend=True)
+                       lambda_fourier=0.0, diffuse_target="normalized", flash_trend=True,
+                       uniform_specular=True)
 #: 150 fine-tune iterations: from the procedural stage one (models/svbrdf_prior_v1) the re-render error of the 38
 #: realistic synthetic cases is lowest at 150 iterations and rises after (0.086, 0.088, 0.095 at 150, 300, 600),
 #: as do the roughness and normal errors (docs/benchmarks/prior/README.md).

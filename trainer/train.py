@@ -36,7 +36,7 @@ import torch
 from svbrdf.runtime.camera import radius2
 from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.flash_trend import remove_flash_trend
+from svbrdf.runtime.flash_trend import remove_flash_trend, uniform_specular
 from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
@@ -584,12 +584,17 @@ class Trainer:
         """The final texture set of the whole photo: :meth:`predict`, without its radial trend around the flash
         highlight when ``config.flash_trend`` (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, centred on
         the photo's highlight; ``meta["flash_trend"]`` records what was removed and ``meta["burn_in_model"]`` the
-        burn-in of the maps before, :func:`svbrdf.runtime.burn_in.photo_burn_in`)."""
+        burn-in of the maps before, :func:`svbrdf.runtime.burn_in.photo_burn_in`), with one specular level when
+        ``config.uniform_specular`` (:func:`svbrdf.runtime.flash_trend.uniform_specular`)."""
         maps = to_maps(self.predict(), meta)
-        if self.config.flash_trend:
+        cfg = self.config
+        if cfg.flash_trend or cfg.uniform_specular:
             photo = self.photo[0].permute(1, 2, 0).cpu().numpy()
             model_burn_in = photo_burn_in(maps, photo)
-            maps = remove_flash_trend(maps, centre=model_burn_in["centre"])
+            if cfg.flash_trend:
+                maps = remove_flash_trend(maps, centre=model_burn_in["centre"])
+            if cfg.uniform_specular:
+                maps = uniform_specular(maps)
             maps.meta["burn_in_model"] = model_burn_in
         return maps
 

@@ -94,3 +94,15 @@ def test_values_stay_in_range_and_missing_maps_stay_missing():
     assert out.diffuse is None and out.specular is None and out.roughness is not None
     nothing = ft.remove_flash_trend(Maps(normal=clean.normal))
     assert nothing.normal is clean.normal and "flash_trend" not in nothing.meta
+
+
+def test_uniform_specular_is_the_mean_level():
+    clean = _texture(n=48, seed=4)
+    out = ft.uniform_specular(clean)
+    assert np.ptp(out.specular) == 0 and out.specular.shape == clean.specular.shape
+    assert out.specular[0, 0, 0] == pytest.approx(float(clean.specular.mean()), abs=1e-6)
+    assert out.meta["uniform_specular"]["std_removed"] == pytest.approx(float(clean.specular.std()), abs=1e-6)
+    for name in ("diffuse", "roughness", "normal"):
+        assert np.array_equal(getattr(out, name), getattr(clean, name))
+    no_spec = Maps(roughness=clean.roughness)
+    assert ft.uniform_specular(no_spec) is no_spec

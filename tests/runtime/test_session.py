@@ -136,15 +136,16 @@ def test_estimate_array_in_one_pass(session):
     # The maps are the model's output, clipped/renormalised, the colour from the photo, the flash trend removed.
     raw = session.run(photo)
     from svbrdf.runtime.burn_in import photo_burn_in
-    from svbrdf.runtime.flash_trend import remove_flash_trend
+    from svbrdf.runtime.flash_trend import remove_flash_trend, uniform_specular
     from svbrdf.runtime.session import photo_colour
 
     model = Maps.unpack(raw).clipped()
     model = model._with({**dict(model.items()), "diffuse": photo_colour(model.diffuse, photo)})
-    want = remove_flash_trend(model, photo=photo)
+    want = uniform_specular(remove_flash_trend(model, photo=photo))
     for name in ("diffuse", "specular", "roughness", "normal"):
         np.testing.assert_allclose(getattr(maps, name), getattr(want, name), atol=1e-6)
     assert meta["flash_trend"] == want.meta["flash_trend"]
+    assert meta["uniform_specular"] == want.meta["uniform_specular"] and np.ptp(maps.specular) == 0
     assert meta["burn_in"] == photo_burn_in(maps, photo)  # the label-free burn-in is returned with the maps
     assert meta["burn_in_model"] == photo_burn_in(model, photo)  # and that of the network's maps
 

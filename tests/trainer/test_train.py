@@ -78,7 +78,8 @@ def test_paper_and_zhao_presets_are_the_published_schedule():
     assert f.learn_vignetting and f.learn_offsets and f.diffuse_target == "normalized" and f.render_config.falloff
     assert f.lambda_fourier == 0  # no longer needed once the flash term is in (docs/benchmarks/accuracy/)
     new = ("render", "saturate", "learn_vignetting", "learn_offsets", "lambda_render", "lambda_flash",
-           "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "flash_trend")
+           "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "flash_trend",
+           "uniform_specular")
     assert f.iters_finetune == 150 and resolve("fast-v1").iters_finetune == 600  # docs/benchmarks/prior/
     assert dataclasses.replace(resolve("fast-v1"), preset="fast", **{k: getattr(f, k) for k in new}) == f
     assert resolve("fast-zhao").lambda_perceptual == 0 and resolve("fast-zhao").lambda_flash == 0
@@ -396,14 +397,20 @@ def test_predict_full_real_generator_tiles():
 def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
     from svbrdf.runtime.flash_trend import remove_flash_trend
 
-    assert resolve("fast").flash_trend and not resolve("paper").flash_trend and not resolve("fast-v1").flash_trend
+    from svbrdf.runtime.flash_trend import uniform_specular
+
+    for key in ("flash_trend", "uniform_specular"):
+        assert getattr(resolve("fast"), key) and not getattr(resolve("paper"), key)
+        assert not getattr(resolve("fast-v1"), key)
     photo = random_photo(40, 56)
-    for on in (False, True):
-        trainer = Trainer(photo, resolve("tiny", flash_trend=on), threads=1)
+    for trend, uniform in ((False, False), (True, False), (False, True), (True, True)):
+        trainer = Trainer(photo, resolve("tiny", flash_trend=trend, uniform_specular=uniform), threads=1)
         raw = train_mod.to_maps(trainer.predict())
         maps = trainer.predict_maps({"x": 1})
-        assert maps.meta["x"] == 1 and ("flash_trend" in maps.meta) == on
-        want = remove_flash_trend(raw, photo=photo[0].permute(1, 2, 0).numpy()) if on else raw
+        assert maps.meta["x"] == 1 and ("flash_trend" in maps.meta) == trend
+        assert ("uniform_specular" in maps.meta) == uniform and ("burn_in_model" in maps.meta) == (trend or uniform)
+        want = remove_flash_trend(raw, photo=photo[0].permute(1, 2, 0).numpy()) if trend else raw
+        want = uniform_specular(want) if uniform else want
         for name in ("diffuse", "specular", "roughness", "normal"):
             assert (abs(getattr(maps, name) - getattr(want, name)).max()) < 1e-6, name
 
