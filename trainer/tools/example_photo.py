@@ -13,8 +13,8 @@ material of :mod:`svbrdf.trainer.procedural` (family ``--family``, seed ``--seed
 with inverse-square fall-off at a 60 deg field of view, the flash on the lens axis, then recorded by the camera
 model of :mod:`svbrdf.runtime.camera` (exposure ``--ev`` stops, so the highlight clips; vignetting 0.1; shot and
 read noise; 8-bit sRGB): :func:`svbrdf.trainer.prior.simulate_photos` with its ranges fixed. With ``--grid``, a
-picture of what the runtime makes of it (rows: the preview without and with the flash-trend removal, then the
-default refine; columns as :mod:`svbrdf.trainer.tools.before_after`), and a JSON beside it with each row's
+picture of what the runtime makes of it (rows: the preview without and with the post-processing of
+:mod:`svbrdf.runtime.flash_trend`, then the default refine; columns as :mod:`svbrdf.trainer.tools.before_after`), and a JSON beside it with each row's
 label-free burn-in.
 """
 
@@ -48,7 +48,7 @@ def make_photo(family: str, seed: int, size: int, ev: float) -> np.ndarray:
 
 
 def grid(photo: np.ndarray, threads: int = 1):
-    """The rows (preview without and with the flash-trend removal, default refine) and their burn-in scores."""
+    """The rows (preview without and with the post-processing, default refine) and their burn-in scores."""
     import svbrdf.runtime.session as S
     from svbrdf.runtime.manifest import find_checkpoint
     from svbrdf.trainer.refine import refine
@@ -56,12 +56,13 @@ def grid(photo: np.ndarray, threads: int = 1):
 
     session = S.load_session(threads=threads)
     rows, scores = [], {}
-    for label, flag in (("preview without flash-trend removal", False), ("preview", True)):
-        old, S.FLASH_TREND = S.FLASH_TREND, flag
+    for label, flag in (("preview without post-processing", False), ("preview", True)):
+        old = S.FLASH_TREND, S.UNIFORM_SPECULAR
+        S.FLASH_TREND = S.UNIFORM_SPECULAR = flag
         try:
             maps = S.estimate(photo, session)
         finally:
-            S.FLASH_TREND = old
+            S.FLASH_TREND, S.UNIFORM_SPECULAR = old
         rows.append(row_image(photo, maps))
         scores[label] = maps.meta["burn_in"]["burn_in"]
     maps = refine(photo, find_checkpoint(session.info), threads=threads, name="example")
