@@ -8,8 +8,9 @@ is said once, in :data:`PRESET_DESCRIPTIONS` (printed by ``svbrdf-train --help``
 from __future__ import annotations
 
 import dataclasses
+import json
 from dataclasses import dataclass, field, fields
-from typing import Any, Dict, Optional, Tuple
+from typing import Any, Dict, Iterable, Optional, Tuple
 
 from svbrdf.runtime.render import ZHAO, RenderConfig
 from svbrdf.trainer.losses import DIFFUSE_TARGETS
@@ -352,5 +353,25 @@ def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
     return TrainConfig.from_dict(d)
 
 
-__all__ = ["TrainConfig", "TRAIN_PRESETS", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
+def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
+    """Training settings as command lines give them: ``["lr=1e-4", "flash_trend=false", "perceptual=pyramid"]`` ->
+    ``{"lr": 0.0001, "flash_trend": False, "perceptual": "pyramid"}`` (values read as JSON, else kept as strings;
+    the names are checked by :func:`resolve`, not here).
+
+    Raises:
+        ValueError: an item without ``=`` or without a name (``"'x': expected KEY=VALUE"``).
+    """
+    out: Dict[str, Any] = {}
+    for item in items:
+        key, sep, text = item.partition("=")
+        if not sep or not key:
+            raise ValueError(f"{item!r}: expected KEY=VALUE")
+        try:
+            out[key] = json.loads(text)
+        except ValueError:
+            out[key] = text
+    return out
+
+
+__all__ = ["TrainConfig", "parse_settings", "TRAIN_PRESETS", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
            "QUALITY_MODES", "SCHEDULES"]

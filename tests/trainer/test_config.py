@@ -39,3 +39,16 @@ def test_readme_names_every_preset():
     for name in TRAIN_PRESETS:
         if name != "tiny":  # for tests only
             assert f"`{name}`" in text, name
+
+
+def test_parse_settings_reads_json_values_and_keeps_strings():
+    import pytest
+
+    from svbrdf.trainer.config import parse_settings
+
+    assert parse_settings(["lr=1e-4", "flash_trend=false", "perceptual=pyramid", "betas=[0.5, 0.9]"]) == \
+        {"lr": 1e-4, "flash_trend": False, "perceptual": "pyramid", "betas": [0.5, 0.9]}
+    assert parse_settings([]) == {}
+    for bad in ("lr", "=1"):
+        with pytest.raises(ValueError, match="expected KEY=VALUE"):
+            parse_settings([bad])

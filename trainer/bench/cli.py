@@ -352,15 +352,12 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _settings(values: List[str]) -> Dict[str, Any]:
-    out: Dict[str, Any] = {}
-    for v in values:
-        key, sep, text = v.partition("=")
-        if not sep or not key:
-            raise SvbrdfError(f"--set {v!r}: expected KEY=VALUE")
-        try:
-            out[key] = json.loads(text)
-        except ValueError:
-            out[key] = text
+    from svbrdf.trainer.config import parse_settings
+
+    try:
+        out = parse_settings(values)
+    except ValueError as e:
+        raise SvbrdfError(f"--set {e}") from None
     if out and torch_available():
         from svbrdf.trainer.config import resolve
 

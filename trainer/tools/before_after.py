@@ -42,19 +42,15 @@ def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:
 
 
 def _preset_spec(spec: str) -> Tuple[str, Dict[str, Any]]:
-    """``"fast+flash_trend=false+lr=1e-4"`` -> ``("fast", {"flash_trend": False, "lr": 0.0001})`` (values read as
-    JSON, else kept as strings)."""
+    """``"fast+flash_trend=false+lr=1e-4"`` -> ``("fast", {"flash_trend": False, "lr": 0.0001})``
+    (:func:`svbrdf.trainer.config.parse_settings`)."""
+    from svbrdf.trainer.config import parse_settings
+
     name, *pairs = spec.split("+")
-    settings: Dict[str, Any] = {}
-    for pair in pairs:
-        key, sep, value = pair.partition("=")
-        if not sep or not key:
-            raise SvbrdfError(f"{spec!r}: expected PRESET+KEY=VALUE")
-        try:
-            settings[key] = json.loads(value)
-        except json.JSONDecodeError:
-            settings[key] = value
-    return name, settings
+    try:
+        return name, parse_settings(pairs)
+    except ValueError as e:
+        raise SvbrdfError(f"--presets {spec}: {e}") from None
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
