@@ -33,6 +33,7 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from .maps import MAP_NAMES, Maps, normalize_normals
+from .tiling import block_mean
 
 #: Burn-in geometry, as fractions of the image width.
 DISC_RADIUS = 0.15
@@ -110,18 +111,6 @@ def burn_in_scores(maps: Maps, centre: Optional[Tuple[float, float]] = None) -> 
     return out
 
 
-def block_mean(arr: np.ndarray, k: int) -> np.ndarray:
-    """Mean over k x k blocks of an (H, W, C) array, float32 (the last incomplete row/column of blocks dropped;
-    the block grid starts at the top-left corner). Rows are summed first, over contiguous memory: 4x faster than
-    one reduction over both block axes at 1024 px."""
-    if k == 1:
-        return np.asarray(arr, dtype=np.float32)
-    h, w, c = (arr.shape[0] // k) * k, (arr.shape[1] // k) * k, arr.shape[-1]
-    a = np.ascontiguousarray(arr[:h, :w], dtype=np.float32)
-    rows = a.reshape(h // k, k, w * c).sum(axis=1, dtype=np.float32)
-    return rows.reshape(h // k, w // k, k, c).sum(axis=2) / np.float32(k * k)
-
-
 def photo_burn_in(maps: Maps, photo: np.ndarray) -> Dict[str, float]:
     """Label-free burn-in scores of the maps estimated from ``photo``, centred on the photo's highlight.
 
@@ -146,5 +135,5 @@ def photo_burn_in(maps: Maps, photo: np.ndarray) -> Dict[str, float]:
     return out
 
 
-__all__ = ["highlight_centre", "block_mean", "burn_in", "burn_in_scores", "photo_burn_in", "BURN_METRICS", "DISC_RADIUS",
+__all__ = ["highlight_centre", "burn_in", "burn_in_scores", "photo_burn_in", "BURN_METRICS", "DISC_RADIUS",
            "RING_RADII", "BURN_EPS", "SCORE_MAX_SIDE"]

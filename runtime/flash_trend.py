@@ -33,7 +33,8 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .burn_in import block_mean, highlight_centre
+from .burn_in import highlight_centre
+from .tiling import block_mean
 from .maps import MAP_RANGES, Maps
 
 #: Widths of the radial bumps, as fractions of the image width: the highlight lobe (and a clipped highlight's

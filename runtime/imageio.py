@@ -35,6 +35,7 @@ import OpenImageIO as oiio
 from .colour import linear_to_srgb, srgb_to_linear
 from .errors import ImageError, exists_message
 from .files import atomic_write
+from .tiling import block_mean
 
 PathLike = Union[str, os.PathLike]
 
@@ -149,20 +150,6 @@ def _reduced_size(h: int, w: int, max_size: int) -> tuple:
     return max(1, round(h * scale)), max(1, round(w * scale))
 
 
-def _block_mean(arr: np.ndarray, k: int) -> np.ndarray:
-    """Mean of k x k blocks of an (R, W, C) array; the last block row/column may be partial (their own mean)."""
-    r, w, c = arr.shape
-    rr, cc = -(-r // k) * k, -(-w // k) * k
-    if (rr, cc) != (r, w):
-        padded = np.zeros((rr, cc, c), np.float32)
-        padded[:r, :w] = arr
-        arr = padded
-    sums = arr.reshape(rr // k, k, cc // k, k, c).sum(axis=(1, 3), dtype=np.float32)
-    rows = np.minimum(k, r - k * np.arange(rr // k)).astype(np.float32)
-    cols = np.minimum(k, w - k * np.arange(cc // k)).astype(np.float32)
-    return sums / (rows[:, None, None] * cols[None, :, None])
-
-
 class _Decoder:
     """Turns stored pixels (any rows of the file, as float32) into the (rows, W, 3) float32 of :func:`read_image`,
     keeping what must be said once per file (dropped channels, clamped negatives)."""
@@ -251,7 +238,8 @@ def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = N
                 if rows is None:
                     raise ImageError(f"{path}: unreadable, corrupt or truncated image "
                                      f"({_one_line(inp.geterror())})")
-                strips.append(_block_mean(decode(np.asarray(rows, dtype=np.float32).reshape(y1 - y0, w, nch)), k))
+                strips.append(block_mean(decode(np.asarray(rows, dtype=np.float32).reshape(y1 - y0, w, nch)), k,
+                                             partial=True))
             arr = np.concatenate(strips, axis=0)
     finally:
         inp.close()

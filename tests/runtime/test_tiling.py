@@ -114,3 +114,22 @@ def test_invalid_arguments():
         tiled_apply(lambda t: t, np.zeros((20, 20), np.float32), 8, 2)
     with pytest.raises(ValueError, match="fn must return"):
         tiled_apply(lambda t: t[:-1], image, 8, 2)
+
+
+@pytest.mark.parametrize("shape", [(12, 20, 3), (13, 22, 1), (7, 5, 2)])
+def test_block_mean_full_and_partial_blocks(shape):
+    from svbrdf.runtime.tiling import block_mean
+
+    a = np.random.default_rng(0).uniform(0, 1, shape).astype(np.float64)
+    h, w, c = shape
+    k = 4
+    full = block_mean(a, k)
+    assert full.dtype == np.float32 and full.shape == (h // k, w // k, c)
+    np.testing.assert_allclose(full, a[:h // k * k, :w // k * k].reshape(h // k, k, w // k, k, c).mean(axis=(1, 3)),
+                               atol=1e-6)
+    part = block_mean(a, k, partial=True)
+    assert part.shape == (-(-h // k), -(-w // k), c)
+    for i in range(part.shape[0]):
+        for j in range(part.shape[1]):
+            np.testing.assert_allclose(part[i, j], a[i * k:(i + 1) * k, j * k:(j + 1) * k].mean(axis=(0, 1)), atol=1e-6)
+    assert block_mean(a, 1).dtype == np.float32 and block_mean(a, 1).shape == shape
