@@ -378,6 +378,15 @@ def test_skip_refine_summary_uses_the_cli_threshold():
     assert (sk["cases"], sk["skipped"]) == (2, 1)
     assert sk["saving"] == pytest.approx((21.0 - 1.0) / 40.0)
     assert sk["error_ratio_on_skipped"] == pytest.approx(2.0)
+    # ... and the burn-in test: a preview whose network baked the flash in (burn_in_model above the threshold) is
+    # refined, whatever its error and its post-processed burn-in.
+    from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN
+
+    recs[0] = {**recs[0], "burn_in": 0.01, "burn_in_model": SKIP_REFINE_BURN_IN + 0.1}
+    sk = report.summarize(recs, ["fast"])["details"]["skip_refine"]
+    assert (sk["skipped"], sk["threshold_burn_in"]) == (0, SKIP_REFINE_BURN_IN)
+    recs[0] = {**recs[0], "burn_in_model": SKIP_REFINE_BURN_IN - 0.1}
+    assert report.summarize(recs, ["fast"])["details"]["skip_refine"]["skipped"] == 1
 
 
 def test_markdown_early_stop_table_with_and_without():

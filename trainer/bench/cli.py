@@ -202,6 +202,8 @@ def run_benchmark(
                            "preset": preset, "iterations": p.iterations, "seconds": p.train_seconds + p.eval_seconds,
                            "train_seconds": p.train_seconds, "eval_seconds": p.eval_seconds,
                            "truncated": p.truncated, **metrics}
+                    if "burn_in_model" in p.maps.meta:  # the network's maps, before the runtime's post-processing
+                        rec["burn_in_model"] = p.maps.meta["burn_in_model"]["burn_in"]
                     run_recs.append(rec)
                     err = metrics.get("rerender_rmse", metrics.get("input_rmse"))
                     say(f"{case.name} | {name}{' ' + preset if preset else ''} | it {p.iterations} | "

@@ -206,10 +206,16 @@ def _ratio(a: Optional[float], b: Optional[float]) -> Optional[float]:
 
 def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[str, Any]]:
     """What ``svbrdf-preview --refine --quality auto``'s skip rule (preview input-flash RMSE <= the CLI's
-    ``SKIP_REFINE_RMSE``, a label-free test) does on these cases: how many it skips, the fine-tune time it saves
-    (fraction of the summed fine-tune seconds at each run's last point) and the error price on the skipped cases
-    (mean preview error / fine-tuned error)."""
-    from svbrdf.runtime.preview_check import SKIP_REFINE_RMSE
+    ``SKIP_REFINE_RMSE`` and the burn-in of the network's maps, ``burn_in_model`` where the record has it, else
+    ``burn_in``, <= ``SKIP_REFINE_BURN_IN``; label-free tests) does on these cases: how many it skips, the fine-tune
+    time it saves (fraction of the summed fine-tune seconds at each run's last point) and the error price on the
+    skipped cases (mean preview error / fine-tuned error)."""
+    from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
+
+    def passes(r: Mapping[str, Any]) -> bool:
+        burn = r.get("burn_in_model", r.get("burn_in"))
+        return r.get("input_rmse") is not None and r["input_rmse"] <= SKIP_REFINE_RMSE and \
+            (burn is None or burn <= SKIP_REFINE_BURN_IN)
 
     prev = {r["case"]: r for r in records if r["method"] == "preview" and r["kind"] == kind}
     last: Dict[str, Mapping[str, Any]] = {}
@@ -219,11 +225,12 @@ def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[
                 last[r["case"]] = r
     if not last:
         return None
-    skipped = [c for c in last if prev[c].get("input_rmse") is not None and prev[c]["input_rmse"] <= SKIP_REFINE_RMSE]
+    skipped = [c for c in last if passes(prev[c])]
     total = sum(r["seconds"] for r in last.values())
     saved = sum(last[c]["seconds"] - prev[c]["seconds"] for c in skipped)
     prices = [prev[c][metric] / last[c][metric] for c in skipped if prev[c].get(metric) and last[c].get(metric)]
-    return {"threshold_input_rmse": SKIP_REFINE_RMSE, "cases": len(last), "skipped": len(skipped),
+    return {"threshold_input_rmse": SKIP_REFINE_RMSE, "threshold_burn_in": SKIP_REFINE_BURN_IN,
+            "cases": len(last), "skipped": len(skipped),
             "saving": saved / total if total > 0 else None,
             "error_ratio_on_skipped": float(np.mean(prices)) if prices else None}
 
@@ -460,7 +467,8 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
                    f"{_fmt(es['early_stop_error_ratio'])} |")
     sk = det.get("skip_refine")
     if sk:
-        out.append(f"| skip refine (preview input RMSE <= {sk['threshold_input_rmse']}): cases skipped / time "
+        out.append(f"| skip refine (preview input RMSE <= {sk['threshold_input_rmse']}, burn-in <= "
+                   f"{sk.get('threshold_burn_in', '-')}): cases skipped / time "
                    f"saved / error ratio on them | {sk['skipped']} of {sk['cases']} / {_fmt(sk['saving'])} / "
                    f"{_fmt(sk['error_ratio_on_skipped'])} |")
     for p, two in det.get("two_stage_speedup", {}).items():
