@@ -146,7 +146,7 @@ def uniform_specular(maps: Maps) -> Maps:
     Measured on held-out procedural materials (whose specular does vary with the material classes inside the
     pattern) and on the shared ground-truth sets, the spatial variation of the predicted specular is noise: a
     Gaussian blur of any width lowers its error, and the constant (its mean) lowers it most, for the preview and the
-    refine alike (docs/benchmarks/accuracy/README.md, "Specular as one level"). The level itself (dielectric or
+    refine alike (docs/benchmarks/accuracy/README.md, "Now"). The level itself (dielectric or
     metal) is what the photo tells.
 
     Args:
@@ -165,4 +165,5 @@ def uniform_specular(maps: Maps) -> Maps:
     return out
 
 
-__all__ = ["remove_flash_trend", "uniform_specular", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS", "FIT_MAX_SIDE"]
+__all__ = ["remove_flash_trend", "uniform_specular", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS",
+           "FIT_MAX_SIDE"]

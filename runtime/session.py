@@ -266,7 +266,7 @@ COLOUR_FROM_PHOTO = True
 #: (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`): what the network left of the highlight and fall-off.
 FLASH_TREND = True
 #: The preview's specular map is one level per photo, its mean (:func:`svbrdf.runtime.flash_trend.uniform_specular`):
-#: its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Specular as one level").
+#: its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Now").
 UNIFORM_SPECULAR = True
 #: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;
 #: at 1024 px the full-size quantile alone cost 0.1 s).
@@ -280,9 +280,9 @@ def photo_colour(diffuse: np.ndarray, photo: np.ndarray) -> np.ndarray:
     """The diffuse albedo with its mean colour balance set to the photo's, luminance kept.
 
     Over the photo's pixels that are not clipped and not in its brightest ``1 - COLOUR_QUANTILE`` (the
-    highlight; pixels of a block-mean copy no longer than :data:`COLOUR_MAX_SIDE`), the per-channel gains ``g_c = (p_c / mean(p)) / (d_c / mean(d))`` (p, d: mean photo and diffuse
-    colour there, linear) multiply the diffuse; a grey photo keeps a grey base colour, a base colour already
-    balanced like the photo is unchanged.
+    highlight; pixels of a block-mean copy no longer than :data:`COLOUR_MAX_SIDE`), the per-channel gains
+    ``g_c = (p_c / mean(p)) / (d_c / mean(d))`` (p, d: mean photo and diffuse colour there, linear) multiply the
+    diffuse; a grey photo keeps a grey base colour, a base colour already balanced like the photo is unchanged.
 
     Args:
         diffuse: (H, W, 3) linear diffuse albedo in [0, 1].

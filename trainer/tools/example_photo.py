@@ -14,8 +14,8 @@ with inverse-square fall-off at a 60 deg field of view, the flash on the lens ax
 model of :mod:`svbrdf.runtime.camera` (exposure ``--ev`` stops, so the highlight clips; vignetting 0.1; shot and
 read noise; 8-bit sRGB): :func:`svbrdf.trainer.prior.simulate_photos` with its ranges fixed. With ``--grid``, a
 picture of what the runtime makes of it (rows: the preview without and with the post-processing of
-:mod:`svbrdf.runtime.flash_trend`, then the default refine; columns as :mod:`svbrdf.trainer.tools.before_after`), and a JSON beside it with each row's
-label-free burn-in.
+:mod:`svbrdf.runtime.flash_trend`, then the default refine; columns as :mod:`svbrdf.trainer.tools.before_after`),
+and a JSON beside it with each row's label-free burn-in.
 """
 
 from __future__ import annotations
