@@ -33,7 +33,7 @@ from typing import Dict, Optional, Sequence, Tuple
 
 import numpy as np
 
-from .burn_in import highlight_centre
+from .burn_in import highlight_centre, photo_burn_in
 from .tiling import block_mean
 from .maps import MAP_RANGES, Maps
 
@@ -60,11 +60,13 @@ def radial_basis(shape: Tuple[int, int], centre: Tuple[float, float], widths: Se
         (K, H, W) float64 bumps in (0, 1], 1 at the centre.
     """
     h, w = shape
-    scale = float(w if scale is None else scale)
-    y = (np.arange(h, dtype=np.float64) + 0.5 - centre[0]) / scale
-    x = (np.arange(w, dtype=np.float64) + 0.5 - centre[1]) / scale
-    r2 = y[:, None] ** 2 + x[None, :] ** 2
-    return np.stack([np.exp(-0.5 * r2 / s ** 2) for s in widths])
+    widths_px = np.asarray(widths, np.float64) * float(w if scale is None else scale)
+    return np.einsum("hk,wk->khw", _axis_bumps(h, centre[0], widths_px), _axis_bumps(w, centre[1], widths_px))
+
+
+def _axis_bumps(n: int, c: float, widths_px: np.ndarray) -> np.ndarray:
+    """(n, K) one axis of the separable bumps, ``exp(-(x - c)^2 / 2 s^2)`` at pixel centres ``x = i + 0.5``."""
+    return np.exp(-0.5 * ((np.arange(n, dtype=np.float64) + 0.5 - c)[:, None] / widths_px[None]) ** 2)
 
 
 def fit_flash_trend(fields: np.ndarray, centre: Tuple[float, float],
@@ -121,8 +123,7 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     # Each bump is separable, exp(-y^2/2s^2) exp(-x^2/2s^2): the trend of channel c is gy diag(coef_c) gx, a small
     # matrix product at full size, minus its mean (the bumps' means: mean(gy) mean(gx)).
     widths_px = np.asarray(widths, np.float64) * w
-    gy = np.exp(-0.5 * ((np.arange(h) + 0.5 - cy)[:, None] / widths_px[None]) ** 2)  # (H, K)
-    gx = np.exp(-0.5 * ((np.arange(w) + 0.5 - cx)[:, None] / widths_px[None]) ** 2)  # (W, K)
+    gy, gx = _axis_bumps(h, cy, widths_px), _axis_bumps(w, cx, widths_px)  # (H, K), (W, K)
     means = gy.mean(axis=0) * gx.mean(axis=0)  # (K,)
     out: Dict[str, np.ndarray] = dict(maps.items())
     removed: Dict[str, float] = {}
@@ -165,5 +166,30 @@ def uniform_specular(maps: Maps) -> Maps:
     return out
 
 
-__all__ = ["remove_flash_trend", "uniform_specular", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS",
+def postprocess(maps: Maps, photo: np.ndarray, *, flash_trend: bool = True, specular_level: bool = True) -> Maps:
+    """What the runtime does to a network's maps before returning them (the preview's
+    :func:`svbrdf.runtime.session.estimate` and the refine's :meth:`svbrdf.trainer.train.Trainer.predict_maps`):
+    :func:`remove_flash_trend` around the photo's highlight and :func:`uniform_specular`, each when asked.
+
+    Args:
+        maps: the network's texture set (H, W).
+        photo: (H, W, 3) linear photo the maps were estimated from.
+        flash_trend, specular_level: run :func:`remove_flash_trend`, :func:`uniform_specular`.
+
+    Returns:
+        The maps with ``meta["burn_in_model"]``: the label-free burn-in of the network's maps
+        (:func:`svbrdf.runtime.burn_in.photo_burn_in`), and ``meta["burn_in"]``: that of the maps returned.
+    """
+    model_burn_in = photo_burn_in(maps, photo)
+    out = maps._with(dict(maps.items()))  # a new meta dict, the arrays shared
+    if flash_trend:
+        out = remove_flash_trend(out, centre=model_burn_in["centre"])
+    if specular_level:
+        out = uniform_specular(out)
+    out.meta["burn_in"] = photo_burn_in(out, photo) if (flash_trend or specular_level) else model_burn_in
+    out.meta["burn_in_model"] = model_burn_in
+    return out
+
+
+__all__ = ["postprocess", "remove_flash_trend", "uniform_specular", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS",
            "FIT_MAX_SIDE"]

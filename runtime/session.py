@@ -50,8 +50,7 @@ from typing import Iterable, Optional, Tuple, Union
 
 import numpy as np
 
-from .burn_in import photo_burn_in
-from .flash_trend import remove_flash_trend, uniform_specular
+from .flash_trend import postprocess
 from .errors import ImageError, ModelError, SvbrdfError
 from .imageio import RESIZE_FILTER, ImageWarning, image_info, read_image, resize_long_side
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
@@ -444,13 +443,7 @@ def estimate(
     out = Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped()
     if COLOUR_FROM_PHOTO and out.diffuse is not None:
         out = out._with({**dict(out.items()), "diffuse": photo_colour(out.diffuse, image)})
-    model_burn_in = photo_burn_in(out, image)
-    if FLASH_TREND:
-        out = remove_flash_trend(out, centre=model_burn_in["centre"])
-    if UNIFORM_SPECULAR:
-        out = uniform_specular(out)
-    out.meta["burn_in"] = photo_burn_in(out, image) if FLASH_TREND or UNIFORM_SPECULAR else model_burn_in
-    out.meta["burn_in_model"] = model_burn_in
+    out = postprocess(out, image, flash_trend=FLASH_TREND, specular_level=UNIFORM_SPECULAR)
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings
     return out

@@ -34,9 +34,8 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.camera import radius2
-from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.flash_trend import remove_flash_trend, uniform_specular
+from svbrdf.runtime.flash_trend import postprocess
 from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
@@ -589,13 +588,8 @@ class Trainer:
         maps = to_maps(self.predict(), meta)
         cfg = self.config
         if cfg.flash_trend or cfg.uniform_specular:
-            photo = self.photo[0].permute(1, 2, 0).cpu().numpy()
-            model_burn_in = photo_burn_in(maps, photo)
-            if cfg.flash_trend:
-                maps = remove_flash_trend(maps, centre=model_burn_in["centre"])
-            if cfg.uniform_specular:
-                maps = uniform_specular(maps)
-            maps.meta["burn_in_model"] = model_burn_in
+            maps = postprocess(maps, self.photo[0].permute(1, 2, 0).cpu().numpy(), flash_trend=cfg.flash_trend,
+                               specular_level=cfg.uniform_specular)
         return maps
 
 

@@ -106,3 +106,21 @@ def test_uniform_specular_is_the_mean_level():
         assert np.array_equal(getattr(out, name), getattr(clean, name))
     no_spec = Maps(roughness=clean.roughness)
     assert ft.uniform_specular(no_spec) is no_spec
+
+
+def test_postprocess_runs_the_asked_steps_and_scores_before_and_after():
+    from svbrdf.runtime.burn_in import photo_burn_in
+
+    clean = _texture(n=64, seed=6)
+    burnt = _with_trend(clean, (32.0, 32.0))
+    photo = np.clip(0.1 + 0.8 * ft.radial_basis((64, 64), (32.0, 32.0), (0.1,))[0][..., None], 0, 1)
+    photo = np.repeat(photo, 3, axis=-1).astype(np.float32)
+    off = ft.postprocess(burnt, photo, flash_trend=False, specular_level=False)
+    assert all(np.array_equal(getattr(off, n), getattr(burnt, n)) for n in ("diffuse", "specular", "roughness"))
+    assert off.meta["burn_in"] == off.meta["burn_in_model"] == photo_burn_in(burnt, photo)
+    assert "burn_in" not in burnt.meta  # the caller's maps are left alone
+    on = ft.postprocess(burnt, photo)
+    want = ft.uniform_specular(ft.remove_flash_trend(burnt, photo=photo))
+    assert all(np.array_equal(getattr(on, n), getattr(want, n)) for n in ("diffuse", "specular", "roughness", "normal"))
+    assert on.meta["burn_in_model"] == photo_burn_in(burnt, photo)
+    assert on.meta["burn_in"]["burn_in"] < 0.5 * on.meta["burn_in_model"]["burn_in"]
