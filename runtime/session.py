@@ -26,7 +26,7 @@ Pipeline of :func:`estimate`:
 6. remove the smooth radial trend around the photo's flash highlight from the base colour, specular and roughness
    (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, :data:`FLASH_TREND`): what the network left of the
    highlight and the fall-off (docs/benchmarks/accuracy/README.md, "Now");
-7. make the specular one level, its mean (:func:`svbrdf.runtime.flash_trend.uniform_specular`,
+7. make the specular one level, its median (:func:`svbrdf.runtime.flash_trend.uniform_specular`,
    :data:`UNIFORM_SPECULAR`): its spatial variation is noise by measurement.
 
 The session keeps onnxruntime's CPU memory arena (:data:`CPU_MEM_ARENA`). Without it every intermediate
@@ -264,7 +264,7 @@ COLOUR_FROM_PHOTO = True
 #: The preview's maps lose their smooth radial trend around the photo's flash highlight
 #: (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`): what the network left of the highlight and fall-off.
 FLASH_TREND = True
-#: The preview's specular map is one level per photo, its mean (:func:`svbrdf.runtime.flash_trend.uniform_specular`):
+#: The preview's specular map is one level per photo, its median (:func:`svbrdf.runtime.flash_trend.uniform_specular`):
 #: its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Now").
 UNIFORM_SPECULAR = True
 #: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;

@@ -12,6 +12,7 @@ import json
 from dataclasses import dataclass, field, fields
 from typing import Any, Dict, Iterable, Optional, Tuple
 
+from svbrdf.runtime.maps import MAP_NAMES
 from svbrdf.runtime.render import ZHAO, RenderConfig
 from svbrdf.trainer.losses import DIFFUSE_TARGETS
 from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, DiscriminatorConfig, GeneratorConfig
@@ -57,6 +58,8 @@ class TrainConfig:
             prediction of the whole photo (the preview), compared per map as the prior is trained
             (:func:`svbrdf.trainer.losses.supervised_maps_loss`); keeps what the photo does not constrain where a
             learned stage one put it (0 = off, as in the paper; only a fine-tune has a starting point).
+        anchor_maps: the maps that pull (names of :data:`svbrdf.runtime.maps.MAP_NAMES`, each with its
+            :data:`~svbrdf.trainer.losses.SUPERVISED_WEIGHTS` weight); the others are left to the photo.
         lambda_flash: weight of the flash-correlation stationarity loss on both decoders
             (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
         learn_vignetting: fit the photo's vignetting (a darkening ``1 - v r^2`` towards the corners, one scalar
@@ -69,7 +72,7 @@ class TrainConfig:
         flash_trend: remove the smooth radial trend around the flash highlight from the final maps
             (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, as the preview does; False: the maps as the
             generator predicts them, as in the paper).
-        uniform_specular: make the final specular map one level, its mean
+        uniform_specular: make the final specular map one level, its median
             (:func:`svbrdf.runtime.flash_trend.uniform_specular`, as the preview does; False: as predicted).
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
@@ -119,6 +122,7 @@ class TrainConfig:
     lambda_flash: float = 0.0
     lambda_specular_prior: float = 0.0
     lambda_anchor: float = 0.0
+    anchor_maps: Tuple[str, ...] = MAP_NAMES
     saturate: bool = False
     learn_vignetting: bool = False
     learn_offsets: bool = False
@@ -146,6 +150,7 @@ class TrainConfig:
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
+        self.anchor_maps = tuple(self.anchor_maps)
         self.validate()
 
     @property
@@ -184,6 +189,8 @@ class TrainConfig:
         for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash",
                      "lambda_specular_prior", "lambda_anchor"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
+        need(len(self.anchor_maps) > 0 and set(self.anchor_maps) <= set(MAP_NAMES),
+             f"anchor_maps must be some of {', '.join(MAP_NAMES)}, got {list(self.anchor_maps)}")
         need(0 <= self.perceptual_min_clipped <= 1,
              f"perceptual_min_clipped must be in [0, 1], got {self.perceptual_min_clipped}")
         need(self.fourier_mode in FOURIER_MODES, f"fourier_mode must be one of {FOURIER_MODES}, "
@@ -264,8 +271,11 @@ _HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=Tru
                        uniform_specular=True)
 #: 150 fine-tune iterations: from the procedural stage one (models/svbrdf_prior_v1) the re-render error of the 38
 #: realistic synthetic cases is lowest at 150 iterations and rises after (0.086, 0.088, 0.095 at 150, 300, 600),
-#: as do the roughness and normal errors (docs/benchmarks/prior/README.md).
-_FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "iters_finetune": 150}
+#: as do the roughness and normal errors (docs/benchmarks/prior/README.md). The normal map is pulled towards the
+#: stage one's (``lambda_anchor`` 3 on ``normal`` only): one photo does not tell the fine-tune the normals (its own
+#: correlate 0.015 with the truth), so it keeps the learned prior's unless the photo's losses outweigh the pull
+#: (4 tuning cases at weights 0 / 1 / 3 / 10, docs/benchmarks/accuracy/README.md, "Normals from the stage one").
+_FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "iters_finetune": 150, "lambda_anchor": 3.0, "anchor_maps": ("normal",)}
 
 
 def _presets() -> Dict[str, TrainConfig]:

@@ -44,7 +44,8 @@ from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.guard import NumericalGuard
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
-                                   guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss)
+                                   guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss,
+                                   SUPERVISED_WEIGHTS)
 from svbrdf.trainer.models import Discriminator, Generator, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
 from svbrdf.trainer.render import FlashGeometry
@@ -446,7 +447,8 @@ class Trainer:
             logged["flash"] = lfl = flash_correlation_loss(maps, self._crop(self.flash_basis, y0, x0))
             weighted.append(cfg.lambda_flash * lfl)
         if self.anchor is not None and cfg.lambda_anchor > 0:
-            logged["anchor"] = la = supervised_maps_loss(maps, self._crop(self.anchor, y0, x0))["total"]
+            weights = {k: (w if k in cfg.anchor_maps else 0.0) for k, w in SUPERVISED_WEIGHTS.items()}
+            logged["anchor"] = la = supervised_maps_loss(maps, self._crop(self.anchor, y0, x0), weights)["total"]
             weighted.append(cfg.lambda_anchor * la)
         for term in weighted:
             shared = shared + term

@@ -96,11 +96,17 @@ def test_values_stay_in_range_and_missing_maps_stay_missing():
     assert nothing.normal is clean.normal and "flash_trend" not in nothing.meta
 
 
-def test_uniform_specular_is_the_mean_level():
+def test_uniform_specular_is_the_median_level():
     clean = _texture(n=48, seed=4)
     out = ft.uniform_specular(clean)
     assert np.ptp(out.specular) == 0 and out.specular.shape == clean.specular.shape
-    assert out.specular[0, 0, 0] == pytest.approx(float(clean.specular.mean()), abs=1e-6)
+    assert out.specular[0, 0, 0] == pytest.approx(float(np.median(clean.specular)), abs=1e-6)
+    # A few metal-like pixels do not move the level of a dielectric.
+    spec = np.full_like(clean.specular, 0.04)
+    spec[:5] = 0.9
+    outlier = ft.uniform_specular(clean._with({**dict(clean.items()), "specular": spec}))
+    assert outlier.specular[0, 0, 0] == pytest.approx(0.04) and outlier.meta["uniform_specular"]["level"] == \
+        pytest.approx(0.04)
     assert out.meta["uniform_specular"]["std_removed"] == pytest.approx(float(clean.specular.std()), abs=1e-6)
     for name in ("diffuse", "roughness", "normal"):
         assert np.array_equal(getattr(out, name), getattr(clean, name))

@@ -307,6 +307,16 @@ def test_cli_quick_writes_every_output(tmp_path, capsys):
     merged = json.loads((merged_out / "results.json").read_text())
     assert len(merged["records"]) == 2 * len(doc["records"]) and merged["settings"]["presets"] == ["tiny", "fast"]
     assert len(merged["cases"]) == len(doc["cases"]) and len(merged["merged_from"]) == 2
+    # A run's folder stands for its results.json; a missing or broken one is a one-line error, not a traceback.
+    assert main(["--report", str(out), "--report", str(tmp_path / "other.json"), "--out", str(merged_out),
+                 "--force", "--quiet"]) == 0
+    assert json.loads((merged_out / "results.json").read_text())["records"] == merged["records"]
+    (tmp_path / "broken.json").write_text("{")
+    capsys.readouterr()
+    for bad in (tmp_path / "missing", tmp_path / "broken.json"):
+        assert main(["--report", str(bad), "--out", str(merged_out), "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert err.count("\n") == 1 and str(bad) in err and "Traceback" not in err
 
 
 def test_time_budget_truncates_without_extrapolating(tmp_path):

@@ -6,6 +6,7 @@ import pytest
 import torch
 
 from svbrdf.runtime.errors import ModelError
+from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.stage import finetune_config, make_trainer
 from svbrdf.trainer.train import Trainer, predict_full
@@ -105,6 +106,25 @@ def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_
     assert stored.dtype == torch.float16 and stored.shape == start.shape
     resumed = _trained(photo_b, resume=path, iters=4, threads=1)
     assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
+
+
+def test_anchor_maps_pull_only_the_named_maps(tmp_path):
+    photo_a, photo_b = random_photo(48, 48, seed=1), random_photo(48, 48, seed=2)
+    ckpt = tmp_path / "pre.pt"
+    pre = _trained(photo_a, "pretrain", resolve("tiny", iters_pretrain=3, tile=48), checkpoint_path=ckpt, threads=1)
+    with torch.no_grad():
+        start = predict_full(pre.generator, photo_b)
+    drift = {}
+    for maps in (("normal",), ("diffuse",)):
+        cfg = resolve("tiny", iters_finetune=20, lr=2e-3, lambda_anchor=50.0, anchor_maps=maps, tile=48)
+        moved = (_trained(photo_b, "finetune", init=ckpt, config=cfg, threads=1).predict() - start).abs()
+        drift[maps[0]] = {name: float(moved[:, sl].mean()) for name, sl in SLICES.items()}
+    # Each run holds its own map closer to the start than the run that leaves that map free.
+    assert drift["normal"]["normal"] < 0.7 * drift["diffuse"]["normal"]
+    assert drift["diffuse"]["diffuse"] < 0.7 * drift["normal"]["diffuse"]
+    with pytest.raises(ValueError, match="anchor_maps"):
+        resolve("tiny", anchor_maps=("height",))
+    assert resolve("tiny", anchor_maps=["normal"]).to_dict()["anchor_maps"] == ["normal"]
 
 
 def test_finetune_takes_the_architecture_of_the_checkpoint(tmp_path):

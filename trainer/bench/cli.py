@@ -346,7 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
                    help="pipeline check: 2 small cases at 64 px, tiny preset, iterations 0,2,4")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--quiet", action="store_true", help="no progress (bar or lines)")
-    p.add_argument("--report", metavar="RESULTS_JSON", action="append",
+    p.add_argument("--report", metavar="RESULTS_JSON", action="append",  # or the run's folder
                    help="rewrite results.md, pareto.png and summary.json of an earlier run from its records "
                         "(after a change of the report code; nothing is re-run; output beside the JSON or --out); "
                         "repeated: merge the records of several runs (e.g. one per core) into one report in --out")
@@ -384,6 +384,24 @@ def _parse_init(values: Optional[List[str]]):
     return out
 
 
+def _report_folder(path: str) -> Path:
+    p = Path(path)
+    return p if p.is_dir() else p.parent
+
+
+def _read_report(path: str) -> dict:
+    """An earlier run's results.json (or the folder that holds it), or a one-line :class:`SvbrdfError`."""
+    p = Path(path)
+    if p.is_dir():
+        p = p / "results.json"
+    try:
+        return json.loads(p.read_text(encoding="utf-8"))
+    except OSError as e:
+        raise SvbrdfError(f"{p}: cannot read the run's results ({e.strerror or e})") from None
+    except ValueError as e:
+        raise SvbrdfError(f"{p}: not a results.json of svbrdf-bench ({str(e).splitlines()[0][:80]})") from None
+
+
 def main(argv: Optional[Sequence[str]] = None) -> int:
     """Command-line entry point; returns the exit code (0 ok, 1 some runs failed, 2 bad input)."""
     argv = list(sys.argv[1:] if argv is None else argv)
@@ -401,10 +419,10 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if args.report is not None:  # re-derive the report of earlier runs from their records, no re-run
             if len(args.report) > 1 and args.out is None:
                 raise SvbrdfError("merging several --report runs needs --out")
-            doc = merge_runs([json.loads(Path(p).read_text()) for p in args.report])
+            doc = merge_runs([_read_report(p) for p in args.report])
             doc["summary"] = report.summarize(doc["records"], doc["settings"]["presets"])
             doc["report_command"] = shlex.join(["svbrdf-bench"] + argv)
-            written = write_outputs(doc, args.out or Path(args.report[0]).parent, None, force=True)
+            written = write_outputs(doc, args.out or _report_folder(args.report[0]), None, force=True)
             for p in written.values():
                 say(f"wrote {p}")
             return 0
