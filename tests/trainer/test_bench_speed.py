@@ -35,3 +35,13 @@ def test_another_preset_as_a_variant(tmp_path, one_torch_thread, monkeypatch):
     assert built == {"base": "tiny", "preset:fast-v1": "fast-v1"}
     rows = json.loads((out / "results.json").read_text())["rows"]
     assert [r["variant"] for r in rows] == ["base", "preset:fast-v1"]
+
+
+def test_settings_as_a_variant_and_the_anchor_is_timed(one_torch_thread):
+    anchored = speed._trainer("tiny", 64, "set:lambda_anchor=3+anchor_maps=[\"normal\"]", 1)
+    assert anchored.config.lambda_anchor == 3.0 and anchored.config.anchor_maps == ("normal",)
+    assert anchored.anchor is not None and anchored.anchor.shape == (1, 8, 64, 64)
+    assert anchored.iteration()["nr/anchor"] is not None  # the pull is part of the timed iteration
+    assert speed._trainer("tiny", 64, "base", 1).anchor is None  # tiny pulls nothing
+    assert not speed._known("set:lambda_anchor=-1") and not speed._known("set:warp=1")
+    assert speed._known("set:lambda_anchor=0")

@@ -11,7 +11,10 @@ Variants: ``base`` (the preset as shipped), ``fp32`` (bf16 autocast off), ``chan
 in channels-last memory format), ``compile`` (``torch.compile`` of the encoder, both decoders and the
 discriminator, default inductor backend), ``alternating`` / ``joint`` (the preset with that
 ``schedule``, see :class:`~svbrdf.trainer.config.TrainConfig`), ``preset:NAME`` (another preset, e.g.
-``preset:fast-v1`` to time a change of the losses against the version before it).
+``preset:fast-v1`` to time a change of the losses against the version before it), ``set:KEY=VALUE[+KEY=VALUE]``
+(the preset with those training settings, :func:`~svbrdf.trainer.config.parse_settings`, e.g.
+``set:lambda_anchor=0``). Where the preset pulls the fine-tune to its starting maps (``lambda_anchor``), the bare
+trainer takes its own first prediction as the anchor, as a fine-tune from a checkpoint does, so the pull is timed.
 """
 
 from __future__ import annotations
@@ -32,7 +35,22 @@ from .common import repo_root, results_paths, write_results
 VARIANTS = ("base", "fp32", "channels_last", "compile", "alternating", "joint")
 
 
+def _settings(variant: str) -> Dict[str, Any]:
+    """The training settings of a ``set:`` variant (empty for the others)."""
+    from svbrdf.trainer.config import parse_settings
+
+    return parse_settings(variant.partition(":")[2].split("+")) if variant.startswith("set:") else {}
+
+
 def _known(variant: str) -> bool:
+    if variant.startswith("set:"):
+        from svbrdf.trainer.config import resolve
+
+        try:
+            resolve("fast", **_settings(variant))
+        except (TypeError, ValueError):
+            return False
+        return True
     if variant.startswith("preset:"):
         from svbrdf.trainer.config import TRAIN_PRESETS
 
@@ -48,10 +66,13 @@ def _trainer(preset: str, size: int, variant: str, threads: Optional[int]):
         preset = variant.partition(":")[2]
 
     cfg = resolve(preset, checkpoint_every=0, maps_every=0, eval_every=0, bf16=False if variant == "fp32" else None,
-                  schedule=variant if variant in ("alternating", "joint") else None)
+                  schedule=variant if variant in ("alternating", "joint") else None, **_settings(variant))
     photo = torch.rand(1, 3, size, size, generator=torch.Generator().manual_seed(0)) * 0.8
     photo[..., size // 2 - 4:size // 2 + 4, size // 2 - 4:size // 2 + 4] = 1.0  # a clipped highlight
     trainer = Trainer(photo, cfg, stage="finetune", iters=10 ** 9, threads=threads)
+    if cfg.lambda_anchor > 0:  # as svbrdf.trainer.checkpoint.load_init does for a fine-tune
+        with torch.no_grad():
+            trainer.anchor = trainer.predict().float()
     if variant == "channels_last":
         for m in (trainer.generator, trainer.discriminator):
             m.to(memory_format=torch.channels_last)
@@ -116,7 +137,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         variants = [v.strip() for v in args.variants.split(",") if v.strip()]
         if not variants or not all(_known(v) for v in variants):
-            raise SvbrdfError(f"--variants: expected some of {', '.join(VARIANTS)} or preset:NAME, "
+            raise SvbrdfError(f"--variants: expected some of {', '.join(VARIANTS)}, preset:NAME or set:KEY=VALUE, "
                               f"got {args.variants!r}")
         if args.iters < 1 or args.repeats < 1 or args.size < 32:
             raise SvbrdfError("--iters and --repeats must be >= 1 and --size >= 32")
