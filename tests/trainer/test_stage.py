@@ -79,13 +79,19 @@ def test_finetune_starts_from_the_pretrained_state(tmp_path):
     assert reset.optimizers["nr"].state_dict()["state"][0]["step"] == 1
 
 
-def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_path):
-    # Tiles = the whole photo, so the anchor is exactly the generator's starting output on every tile.
+@pytest.fixture
+def anchored_start(tmp_path):
+    """``(stage-one checkpoint, a second photo, the checkpoint's maps of it)``: 48 px, tiles = the whole photo, so
+    an anchor is exactly the generator's starting output on every tile."""
     photo_a, photo_b = random_photo(48, 48, seed=1), random_photo(48, 48, seed=2)
     ckpt = tmp_path / "pre.pt"
     pre = _trained(photo_a, "pretrain", resolve("tiny", iters_pretrain=3, tile=48), checkpoint_path=ckpt, threads=1)
     with torch.no_grad():
-        start = predict_full(pre.generator, photo_b)
+        return ckpt, photo_b, predict_full(pre.generator, photo_b)
+
+
+def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_path, anchored_start):
+    ckpt, photo_b, start = anchored_start
     drift = {}
     for w in (0.0, 50.0):
         cfg = resolve("tiny", iters_finetune=20, lr=2e-3, lambda_anchor=w, tile=48)
@@ -108,12 +114,8 @@ def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_
     assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
 
 
-def test_anchor_maps_pull_only_the_named_maps(tmp_path):
-    photo_a, photo_b = random_photo(48, 48, seed=1), random_photo(48, 48, seed=2)
-    ckpt = tmp_path / "pre.pt"
-    pre = _trained(photo_a, "pretrain", resolve("tiny", iters_pretrain=3, tile=48), checkpoint_path=ckpt, threads=1)
-    with torch.no_grad():
-        start = predict_full(pre.generator, photo_b)
+def test_anchor_maps_pull_only_the_named_maps(anchored_start):
+    ckpt, photo_b, start = anchored_start
     drift = {}
     for maps in (("normal",), ("diffuse",)):
         cfg = resolve("tiny", iters_finetune=20, lr=2e-3, lambda_anchor=50.0, anchor_maps=maps, tile=48)
