@@ -45,3 +45,5 @@ def test_settings_as_a_variant_and_the_anchor_is_timed(one_torch_thread):
     assert speed._trainer("tiny", 64, "base", 1).anchor is None  # tiny pulls nothing
     assert not speed._known("set:lambda_anchor=-1") and not speed._known("set:warp=1")
     assert speed._known("set:lambda_anchor=0")
+    # Checked against the preset it will change: the joint schedule needs 1:1:1 updates, which paper has not.
+    assert speed._known("set:schedule=joint", "fast") and not speed._known("set:schedule=joint", "paper")

@@ -42,12 +42,12 @@ def _settings(variant: str) -> Dict[str, Any]:
     return parse_settings(variant.partition(":")[2].split("+")) if variant.startswith("set:") else {}
 
 
-def _known(variant: str) -> bool:
+def _known(variant: str, preset: str = "fast") -> bool:
     if variant.startswith("set:"):
         from svbrdf.trainer.config import resolve
 
         try:
-            resolve("fast", **_settings(variant))
+            resolve(preset, **_settings(variant))
         except (TypeError, ValueError):
             return False
         return True
@@ -136,7 +136,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     args = p.parse_args(argv)
     try:
         variants = [v.strip() for v in args.variants.split(",") if v.strip()]
-        if not variants or not all(_known(v) for v in variants):
+        if not variants or not all(_known(v, args.preset) for v in variants):
             raise SvbrdfError(f"--variants: expected some of {', '.join(VARIANTS)}, preset:NAME or set:KEY=VALUE, "
                               f"got {args.variants!r}")
         if args.iters < 1 or args.repeats < 1 or args.size < 32:
