@@ -178,20 +178,16 @@ class _Callback:
 
 def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[dict] = None,
                 target: str = "generic") -> Tuple[Dict[str, Path], float]:
-    import torch
-
-    from svbrdf.runtime.burn_in import photo_burn_in
     from svbrdf.runtime.targets import write_target
     from svbrdf.runtime.texture_set import relit_panel
 
     cfg = trainer.config
     maps = trainer.predict_maps()
     maps.render_config = cfg.render_config
-    photo = trainer.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
     camera = trainer.camera_state()
     meta = {"source_photo": trainer.photo_info.get("name"), "photo_sha256": trainer.photo_info.get("sha256"),
             "stage": trainer.stage, "step": trainer.step, "preset": cfg.preset,
-            "perceptual_backend": trainer.perceptual_backend, "burn_in": photo_burn_in(maps, photo),
+            "perceptual_backend": trainer.perceptual_backend, "burn_in": maps.meta["burn_in"],
             "camera": None if camera is None else {k: float(v) for k, v in camera.items()}, **(extra or {})}
     panel = relit_panel(maps, cfg.render_config) if relit else None
     return write_target(maps, out_dir, name, target, force=True, extra_meta=meta, relit=panel), \

@@ -12,7 +12,6 @@ from typing import Any, Callable, Mapping, Optional, Union
 
 import numpy as np
 
-from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.maps import Maps
 from svbrdf.runtime.preview_check import check_preview
 from svbrdf.runtime.render import RenderConfig
@@ -88,8 +87,7 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
     meta = {"refine": {"checkpoint": str(init) if not isinstance(init, Mapping) else "checkpoint",
                        "iterations": trainer.step, "stopped_early": trainer.stopped_early,
                        "notes": list(trainer.notes)}}
-    maps = trainer.predict_maps(meta)
-    maps.meta["burn_in"] = photo_burn_in(maps, photo)
+    maps = trainer.predict_maps(meta)  # meta["burn_in"] set
     if check is not None:
         maps.meta["refine"].update(preview_input_rmse=check["preview_input_rmse"],
                                    preview_burn_in=check["preview_burn_in"])

@@ -35,6 +35,7 @@ import torch
 
 from svbrdf.runtime.camera import radius2
 from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.flash_trend import postprocess
 from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
@@ -586,12 +587,14 @@ class Trainer:
         highlight when ``config.flash_trend`` (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, centred on
         the photo's highlight; ``meta["flash_trend"]`` records what was removed and ``meta["burn_in_model"]`` the
         burn-in of the maps before, :func:`svbrdf.runtime.burn_in.photo_burn_in`), with one specular level when
-        ``config.uniform_specular`` (:func:`svbrdf.runtime.flash_trend.uniform_specular`)."""
+        ``config.uniform_specular`` (:func:`svbrdf.runtime.flash_trend.uniform_specular`). ``meta["burn_in"]`` is
+        the burn-in of the maps returned, always."""
         maps = to_maps(self.predict(), meta)
         cfg = self.config
+        photo = self.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
         if cfg.flash_trend or cfg.uniform_specular:
-            maps = postprocess(maps, self.photo[0].permute(1, 2, 0).cpu().numpy(), flash_trend=cfg.flash_trend,
-                               specular_level=cfg.uniform_specular)
+            return postprocess(maps, photo, flash_trend=cfg.flash_trend, specular_level=cfg.uniform_specular)
+        maps.meta["burn_in"] = photo_burn_in(maps, photo)
         return maps
 
 

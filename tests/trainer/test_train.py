@@ -398,6 +398,7 @@ def test_predict_full_real_generator_tiles():
 def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
     from svbrdf.runtime.flash_trend import remove_flash_trend
 
+    from svbrdf.runtime.burn_in import photo_burn_in
     from svbrdf.runtime.flash_trend import uniform_specular
 
     for key in ("flash_trend", "uniform_specular"):
@@ -414,6 +415,8 @@ def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
         want = uniform_specular(want) if uniform else want
         for name in ("diffuse", "specular", "roughness", "normal"):
             assert (abs(getattr(maps, name) - getattr(want, name)).max()) < 1e-6, name
+        # The burn-in of the maps returned, whatever ran (callers read it instead of scoring again).
+        assert maps.meta["burn_in"] == photo_burn_in(maps, photo[0].permute(1, 2, 0).numpy())
 
 
 def test_bf16_switch_runs_or_falls_back():
