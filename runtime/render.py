@@ -10,7 +10,9 @@ Scene (all lengths in units of half the photo width):
   ``x = 2 (j + 0.5) / W - 1`` and ``y = (H / W) (1 - 2 (i + 0.5) / H)`` (+y up the image, OpenGL frame,
   see :mod:`svbrdf.runtime.maps`);
 * the camera sits above the centre at ``(0, 0, d)``, ``d = 1 / tan(fov / 2)``, fov is the horizontal field of
-  view across the photo width; the flash (point light) is co-located with it unless a light position is given.
+  view across the photo width, unless a camera position is given (a rectified view of the same plane region from
+  elsewhere, as in a multi-view capture); the flash (point light) is co-located with the camera unless a light
+  position is given.
 
 BRDF, with n, v, l, h the normal, view, light and half vectors, alpha = r**2:
 
@@ -192,7 +194,8 @@ def camera_position(config: RenderConfig = ZHAO) -> np.ndarray:
 
 
 def light_vectors(
-    height: int, width: int, light_pos: Optional[Sequence[float]] = None, config: RenderConfig = ZHAO
+    height: int, width: int, light_pos: Optional[Sequence[float]] = None, config: RenderConfig = ZHAO,
+    camera_pos: Optional[Sequence[float]] = None,
 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Unit view and light directions for every pixel of a whole photo, and the squared light distance.
 
@@ -203,12 +206,14 @@ def light_vectors(
         height, width: photo size in pixels.
         light_pos: light position (3,) in scene units; ``None`` = co-located with the camera (flash).
         config: renderer settings (field of view).
+        camera_pos: camera position (3,) in scene units; ``None`` = :func:`camera_position` (above the centre).
 
     Returns:
         ``(view, light, light_dist2)``: (H, W, 3), (H, W, 3) float32 unit vectors and (H, W, 1) float32.
     """
     pos = plane_positions(height, width).astype(np.float64)
-    cam = camera_position(config).astype(np.float64)
+    cam = camera_position(config).astype(np.float64) if camera_pos is None else \
+        np.asarray(camera_pos, dtype=np.float64).reshape(3)
     lp = cam if light_pos is None else np.asarray(light_pos, dtype=np.float64).reshape(3)
     v = cam - pos
     v /= np.linalg.norm(v, axis=-1, keepdims=True)
@@ -224,6 +229,7 @@ def render(
     config: RenderConfig = ZHAO,
     full_size: Optional[Tuple[int, int]] = None,
     offset: Tuple[int, int] = (0, 0),
+    camera_pos: Optional[Sequence[float]] = None,
 ) -> np.ndarray:
     """Render a texture set under a point light (numpy, no torch).
 
@@ -231,6 +237,9 @@ def render(
         maps: the texture set (see :class:`svbrdf.runtime.maps.Maps`).
         light_pos: light position (3,), scene units; ``None`` = the camera flash.
         config: renderer settings.
+        camera_pos: camera position (3,), scene units; ``None`` = above the centre at the ``config`` distance.
+            The image stays the rectified view of the plane region ``x in [-1, 1]`` (only the view direction
+            of each pixel changes).
         full_size: (H, W) of the whole photo when ``maps`` is a tile of it; default: the maps' size.
         offset: (row, column) of the tile's top-left pixel in the whole photo.
 
@@ -243,7 +252,7 @@ def render(
     maps.require(what="rendering")
     h, w = maps.shape
     fh, fw = full_size if full_size is not None else (h, w)
-    v, l, d2 = light_vectors(fh, fw, light_pos, config)
+    v, l, d2 = light_vectors(fh, fw, light_pos, config, camera_pos)
     y0, x0 = offset
     v, l, d2 = (a[y0:y0 + h, x0:x0 + w] for a in (v, l, d2))
     n = maps.normal
@@ -268,6 +277,25 @@ def novel_lights(config: RenderConfig = ZHAO, grid: int = 3, spread: float = 0.6
     d = config.camera_distance
     ticks = np.linspace(-spread, spread, grid)
     return np.array([[x, y, d] for y in ticks[::-1] for x in ticks], dtype=np.float32)
+
+
+def grazing_lights(config: RenderConfig = ZHAO, angles_deg: Sequence[float] = (60.0, 75.0),
+                   azimuths: int = 4) -> np.ndarray:
+    """Light positions (N, 3) that graze the material: ``angles_deg`` from the normal, ``azimuths`` directions each.
+
+    Seen from the photo centre, each light sits at the camera distance ``d`` (scene units) in the direction at
+    ``theta`` from +z and azimuth ``phi = 2 pi k / azimuths + theta`` (the second ring turned against the
+    first so that their azimuths differ). Under such light the normals and the roughness decide what a person
+    sees: bumps cast long shading, and the specular lobe rises at grazing angles.
+    """
+    d = config.camera_distance
+    out = []
+    for theta in np.radians(np.asarray(angles_deg, dtype=np.float64)):
+        for k in range(int(azimuths)):
+            phi = 2.0 * math.pi * k / azimuths + theta
+            out.append([d * math.sin(theta) * math.cos(phi), d * math.sin(theta) * math.sin(phi),
+                        d * math.cos(theta)])
+    return np.array(out, dtype=np.float32)
 
 
 def rerender_rmse(
@@ -314,5 +342,5 @@ def rerender_rmse(
 
 __all__ = [
     "RenderConfig", "ZHAO", "DESCHAINTRE", "physical_config", "shade", "render", "light_vectors", "plane_positions",
-    "camera_position", "novel_lights", "rerender_rmse", "ALPHA_MIN", "COS_EPS",
+    "camera_position", "novel_lights", "grazing_lights", "rerender_rmse", "ALPHA_MIN", "COS_EPS",
 ]

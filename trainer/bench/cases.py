@@ -18,6 +18,9 @@ Every image under the data folder is found by :func:`svbrdf.trainer.bench.datase
 
   The input panel of a Des18 file is not used (it was rendered with unknown perturbations; see the data README).
 * any other image is a **real photo**: centre-cropped to a square, area-averaged to ``size x size`` (linear).
+  A photo that is a view of a calibrated multi-view capture
+  (:func:`svbrdf.trainer.bench.datasets.capture_view`) also carries the capture's other views
+  (:class:`CaptureViews`), against which the benchmark relights its maps.
 
 Every random draw (camera, noise, Mitsuba sampler) is seeded by the case name, so a case gets the same photo in
 every run; :attr:`BenchCase.simulation` records how it was made.
@@ -36,7 +39,7 @@ import OpenImageIO as oiio
 
 from svbrdf.runtime.burn_in import highlight_centre
 from svbrdf.runtime.camera import Camera, expose, sample_camera
-from svbrdf.trainer.bench.datasets import Case, find_cases, read_gt
+from svbrdf.trainer.bench.datasets import Case, CaptureCalibration, capture_view, find_cases, read_gt
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import read_image
 from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
@@ -46,6 +49,25 @@ from svbrdf.runtime.render import ALPHA_MIN, ZHAO, RenderConfig, physical_config
 RENDERERS = ("auto", "ours", "mitsuba")
 #: Samples per pixel of the Mitsuba renders.
 MITSUBA_SPP = 32
+
+
+@dataclass
+class CaptureViews:
+    """The views of a multi-view flash capture, prepared like the case photos, for relighting one of them.
+
+    Attributes:
+        calibration: the capture's calibration (:class:`~svbrdf.trainer.bench.datasets.CaptureCalibration`).
+        index: the view this case is (its photo is the input of the methods).
+        photos: view index -> (S, S, 3) float32 linear photo in [0, 1] (every view, this one included).
+    """
+
+    calibration: CaptureCalibration
+    index: int
+    photos: Dict[int, np.ndarray]
+
+    def others(self) -> List[int]:
+        """The views to relight at: every view but this one, in index order."""
+        return sorted(i for i in self.photos if i != self.index)
 
 
 @dataclass
@@ -61,6 +83,7 @@ class BenchCase:
         gt: ground-truth maps (S, S) for synthetic cases, else None.
         centre: (row, column) of the flash highlight in pixels, used by the burn-in score.
         simulation: how a synthetic photo was made (renderer, camera, clipped fraction); None for photos.
+        capture: the capture's views when the photo is one view of a calibrated multi-view capture, else None.
     """
 
     name: str
@@ -71,6 +94,7 @@ class BenchCase:
     gt: Optional[Maps]
     centre: Tuple[float, float]
     simulation: Optional[Dict[str, Any]] = None
+    capture: Optional[CaptureViews] = None
 
 
 def _resize(arr: np.ndarray, height: int, width: int) -> np.ndarray:
@@ -265,9 +289,30 @@ def prepare_case(case: Case, size: int, *, realistic: bool = True, renderer: str
                "clipped_fraction": float((photo.max(axis=-1) >= 1.0).mean())}
         return BenchCase(case.name, str(case.path), "synthetic", case.format, photo, gt, (size / 2.0, size / 2.0),
                          sim)
-    img = centre_square(read_image(case.path))
-    photo = np.clip(_resize(img, size, size), 0.0, 1.0)
-    return BenchCase(case.name, str(case.path), "photo", case.format, photo, None, highlight_centre(photo))
+    photo = _read_photo(case.path, size)
+    view = capture_view(case.path)
+    capture = None
+    if view is not None:
+        calib, index = view
+        folder = Path(case.path).parent
+        photos = {i: photo if i == index else _read_photo(_view_file(folder, i, Path(case.path).suffix), size)
+                  for i in calib.views}
+        capture = CaptureViews(calib, index, photos)
+    return BenchCase(case.name, str(case.path), "photo", case.format, photo, None, highlight_centre(photo),
+                     capture=capture)
+
+
+def _read_photo(path: Path, size: int) -> np.ndarray:
+    """A real photo as the benchmark uses it: centre square, area-averaged to ``size``, linear, in [0, 1]."""
+    return np.clip(_resize(centre_square(read_image(path)), size, size), 0.0, 1.0)
+
+
+def _view_file(folder: Path, index: int, suffix: str) -> Path:
+    """The photo of view ``index`` of a capture folder (``03.png``, or ``3.png``)."""
+    for stem in (f"{index:02d}", str(index)):
+        if (folder / (stem + suffix)).is_file():
+            return folder / (stem + suffix)
+    raise SvbrdfError(f"{folder}: the calibration lists view {index} but there is no {index:02d}{suffix}")
 
 
 def load_cases(root: Path, size: int, spec: Optional[str] = None, **kw) -> List[BenchCase]:
@@ -278,5 +323,5 @@ def load_cases(root: Path, size: int, spec: Optional[str] = None, **kw) -> List[
     return [prepare_case(c, size, **kw) for c in select_cases(found, spec)]
 
 
-__all__ = ["BenchCase", "RENDERERS", "MITSUBA_SPP", "resize_maps", "centre_square", "render_mitsuba",
+__all__ = ["BenchCase", "CaptureViews", "RENDERERS", "MITSUBA_SPP", "resize_maps", "centre_square", "render_mitsuba",
            "mitsuba_available", "physical_config", "resolve_renderer", "simulate_photo", "select_cases", "case_seed", "prepare_case", "load_cases"]

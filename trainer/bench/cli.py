@@ -197,7 +197,7 @@ def run_benchmark(
 
                 def on_point(p: Point, case: BenchCase = case) -> None:
                     metrics = evaluate(p.maps, gt=case.gt, photo=case.photo if case.gt is None else None,
-                                       config=opts.config, centre=case.centre)
+                                       config=opts.config, centre=case.centre, capture=case.capture)
                     rec = {"case": case.name, "source": case.source, "kind": case.kind, "method": name,
                            "preset": preset, "iterations": p.iterations, "seconds": p.train_seconds + p.eval_seconds,
                            "train_seconds": p.train_seconds, "eval_seconds": p.eval_seconds,

@@ -38,15 +38,22 @@ Format detection (:func:`detect_format`), in this order:
    whose stem ends with ``_gt`` or that lives in a folder whose name contains ``xuejiao`` is ``xuejiao``;
    anything else is ``des19``;
 4. any other size -> ``photo`` (a real photo, no ground truth).
+
+Multi-view flash captures (the layout of Guo et al.'s svbrdf-diff-renderer, e.g. ``bath_tile/``): a folder of
+rectified photos of one flat material, ``00.png``, ``01.png``, ..., each taken from another camera position with
+the flash on the camera, plus a calibration JSON (:func:`read_capture_calibration`). Every view is an ordinary
+real photo for the methods; the benchmark relights the maps estimated from one view at the others
+(:func:`svbrdf.trainer.bench.metrics.capture_errors`).
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
 from dataclasses import dataclass
 from pathlib import Path
-from typing import List, Optional, Tuple, Union
+from typing import Dict, List, Optional, Tuple, Union
 
 import numpy as np
 import OpenImageIO as oiio
@@ -286,6 +293,75 @@ def normal_curl_ratio(normal: np.ndarray) -> float:
     return float(np.sqrt(np.mean((dp_dy - dq_dx) ** 2)) / scale)
 
 
+#: Calibration files of a multi-view capture, in the order they are looked for (two versions of one format).
+CAPTURE_CALIBRATIONS = ("parameters.json", "optim.json")
+
+
+@dataclass(frozen=True)
+class CaptureCalibration:
+    """Camera and light positions of a multi-view flash capture (lengths in cm).
+
+    The frame (both versions of the format): the origin at the centre of the rectified crop, +x to the right of
+    the image, +y up the image, +z out of the surface; every photo shows the same square ``width_cm`` wide, so a
+    pixel is the same point of the material in every view. This is the renderer's frame
+    (:mod:`svbrdf.runtime.render`) scaled by half the width.
+
+    Attributes:
+        path: the JSON read.
+        width_cm: physical width of the photographed square (``image_size``, or ``im_size`` in ``optim.json``).
+        views: view index -> (camera position (3,), light position (3,)) in cm; the index is the photo's
+            file stem (``03.png`` is view 3).
+    """
+
+    path: Path
+    width_cm: float
+    views: Dict[int, Tuple[Tuple[float, float, float], Tuple[float, float, float]]]
+
+    def scene_units(self, index: int) -> Tuple[np.ndarray, np.ndarray]:
+        """(camera, light) of view ``index`` in the renderer's units (half the photo width), float64 (3,)."""
+        cam, light = self.views[index]
+        half = self.width_cm / 2.0
+        return np.asarray(cam, np.float64) / half, np.asarray(light, np.float64) / half
+
+
+def read_capture_calibration(folder: PathLike) -> Optional[CaptureCalibration]:
+    """The calibration of a multi-view capture folder, or None when the folder has none.
+
+    Reads the first of :data:`CAPTURE_CALIBRATIONS` present: ``image_size`` or ``im_size`` (cm), ``camera_pos``
+    (one (3,) position per view, cm), ``light_pos`` (default: the camera positions, a co-located flash) and
+    ``idx`` (the view indices the positions belong to; default 0, 1, ...).
+
+    Raises:
+        ImageError: the JSON is unreadable or inconsistent (one line, with the file).
+    """
+    folder = Path(folder)
+    path = next((folder / n for n in CAPTURE_CALIBRATIONS if (folder / n).is_file()), None)
+    if path is None:
+        return None
+    try:
+        doc = json.loads(path.read_text())
+        width = float(doc["image_size"] if "image_size" in doc else doc["im_size"])
+        cams = [tuple(float(c) for c in p) for p in doc["camera_pos"]]
+        lights = [tuple(float(c) for c in p) for p in doc.get("light_pos", cams)]
+        idx = [int(i) for i in doc.get("idx", range(len(cams)))]
+    except (OSError, ValueError, KeyError, TypeError) as e:
+        raise ImageError(f"{path}: not a capture calibration ({type(e).__name__}: {e})") from None
+    if not (len(cams) == len(lights) == len(idx)) or any(len(p) != 3 for p in cams + lights) or width <= 0:
+        raise ImageError(f"{path}: camera_pos, light_pos and idx must list one (x, y, z) per view, and the "
+                         f"image size must be > 0")
+    return CaptureCalibration(path, width, {i: (c, l) for i, c, l in zip(idx, cams, lights)})
+
+
+def capture_view(path: PathLike) -> Optional[Tuple[CaptureCalibration, int]]:
+    """``(calibration, view index)`` when the image at ``path`` is a view of a calibrated capture, else None
+    (no calibration beside it, or a file stem that is not one of its view indices)."""
+    path = Path(path)
+    calib = read_capture_calibration(path.parent)
+    if calib is None or not path.stem.isdigit() or int(path.stem) not in calib.views:
+        return None
+    return calib, int(path.stem)
+
+
 def find_cases(root: PathLike, format: Optional[str] = None) -> List[Case]:
     """Every image under ``root`` (recursively), as ground-truth sets or real photos.
 
@@ -321,6 +397,7 @@ def find_cases(root: PathLike, format: Optional[str] = None) -> List[Case]:
     return sorted(cases, key=lambda c: c.name)
 
 
-__all__ = ["Case", "FORMATS", "LAYOUTS", "MAPS_ENCODINGS", "DEFAULT_NORMAL_Y", "DEFAULT_MAPS_ENCODING",
+__all__ = ["Case", "CaptureCalibration", "CAPTURE_CALIBRATIONS", "read_capture_calibration", "capture_view",
+           "FORMATS", "LAYOUTS", "MAPS_ENCODINGS", "DEFAULT_NORMAL_Y", "DEFAULT_MAPS_ENCODING",
            "IMAGE_EXTENSIONS", "detect_format", "find_cases", "read_des18",
            "read_des19", "read_xuejiao", "read_gt", "normal_curl_ratio"]

@@ -33,20 +33,44 @@ RMSE is pooled over all lights, pixels and channels:
   ``input_rmse`` with the benchmark's configuration (ZHAO: no light fall-off, which favours maps that carry the
   photo's fall-off as burn-in) and ``input_rmse_falloff`` with inverse-square fall-off, as a real flash has.
 
-Highlight burn-in: the label-free score of :mod:`svbrdf.runtime.burn_in` (``burn_*`` per map, ``burn_in`` the
-mean of their absolute values), imported from there so the runtime reports the same number.
+Highlight burn-in: the label-free score of :mod:`svbrdf.runtime.burn_in` (``burn_*`` signed disc scores and
+``ring_*`` ring scores per map, ``burn_in`` the worst map's), imported from there so the runtime reports the same
+number.
+
+What an artist sees (:func:`artist_metrics`; the artist measures of ``docs/benchmarks/artist/``):
+
+=====================  ================================================================================
+key                    definition
+=====================  ================================================================================
+std_<map>              spatial standard deviation of the predicted map (:func:`map_std`); every case
+detail_<map>           ``std_<map>`` of the prediction / that of the ground truth: 0 for a constant or
+                       flat map, ~1 for a faithful one (synthetic cases)
+normal_slope_corr      Pearson correlation of the predicted and true surface slopes ``(-n_x/n_z,
+                       -n_y/n_z)`` (the height field's gradient), both components pooled; 0 for a flat
+                       map (synthetic cases)
+grazing_rmse           ``rerender_rmse`` under :func:`~svbrdf.runtime.render.grazing_lights` (60 and 75
+                       degrees from the normal, 4 azimuths each), where normals and roughness show
+grazing_hp_corr        mean over those lights of the correlation of the relit images' high-pass (sRGB
+                       luminance minus its Gaussian blur of sigma W / 128), prediction against truth
+capture_rmse           real multi-view captures (:func:`capture_errors`): the maps relit at every other
+                       view's camera and flash, one exposure fitted per view, sRGB RMSE against the
+                       real photos over their unclipped pixels
+capture_ssim           the mean SSIM of the same relit views and photos (sRGB luminance, Gaussian
+                       window sigma 1.5 px), over the same pixels: 1 = the same local contrast
+=====================  ================================================================================
 """
 
 from __future__ import annotations
 
+import math
 from typing import Dict, Optional, Tuple
 
 import numpy as np
 
 from svbrdf.runtime.burn_in import BURN_METRICS, burn_in_scores
 from svbrdf.runtime.colour import linear_to_srgb
-from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
-from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, rerender_rmse
+from svbrdf.runtime.maps import MAP_NAMES, Maps, encode_normal, normalize_normals
+from svbrdf.runtime.render import ZHAO, RenderConfig, grazing_lights, novel_lights, render, rerender_rmse
 
 #: Keys returned by :func:`map_errors`.
 MAP_METRICS = ("diffuse_rmse", "diffuse_rmse_srgb", "specular_rmse", "specular_rmse_srgb", "roughness_rmse",
@@ -94,6 +118,145 @@ def map_errors(pred: Maps, gt: Maps) -> Dict[str, float]:
     }
 
 
+#: Keys of :func:`artist_metrics` (those that need a ground truth or a capture are absent without one).
+ARTIST_METRICS = (tuple(f"std_{n}" for n in MAP_NAMES) + tuple(f"detail_{n}" for n in MAP_NAMES)
+                  + ("normal_slope_corr", "grazing_rmse", "grazing_hp_corr", "capture_rmse", "capture_ssim"))
+#: Pixels of a capture photo at or above this sRGB value in any channel are clipped and left out.
+CAPTURE_CLIP_SRGB = 0.98
+#: SSIM constants for values in [0, 1] and its Gaussian window (pixels).
+SSIM_C1, SSIM_C2, SSIM_SIGMA = 0.01 ** 2, 0.03 ** 2, 1.5
+
+
+def map_std(name: str, arr: np.ndarray) -> float:
+    """Spatial standard deviation of one map (H, W, C): the root of the channels' mean variance over the pixels;
+    for normals, ``sqrt(var(n_x) + var(n_y))`` of the unit normals (0 for a flat map)."""
+    a = np.asarray(arr, dtype=np.float64)
+    if name == "normal":
+        n = normalize_normals(a).astype(np.float64)
+        return float(np.sqrt(n[..., 0].var() + n[..., 1].var()))
+    return float(np.sqrt(a.reshape(-1, a.shape[-1]).var(axis=0).mean()))
+
+
+def _corr(a: np.ndarray, b: np.ndarray) -> float:
+    """Pearson correlation of two arrays (0 when either is constant)."""
+    a = np.asarray(a, np.float64).ravel() - np.mean(a)
+    b = np.asarray(b, np.float64).ravel() - np.mean(b)
+    den = math.sqrt(float(np.dot(a, a)) * float(np.dot(b, b)))
+    return float(np.dot(a, b) / den) if den > 0 else 0.0
+
+
+def _slopes(normal: np.ndarray) -> np.ndarray:
+    """Surface slopes ``(-n_x / n_z, -n_y / n_z)`` (H, W, 2) of a normal map, each component mean-removed."""
+    n = normalize_normals(normal).astype(np.float64)
+    s = -n[..., :2] / np.maximum(n[..., 2:3], 0.05)
+    return s - s.reshape(-1, 2).mean(axis=0)
+
+
+def gaussian_blur(img: np.ndarray, sigma: float) -> np.ndarray:
+    """Separable Gaussian blur of an (H, W) array (reflected borders, kernel radius 3 sigma), float64."""
+    r = max(1, int(math.ceil(3.0 * sigma)))
+    k = np.exp(-0.5 * (np.arange(-r, r + 1) / sigma) ** 2)
+    k /= k.sum()
+    out = np.asarray(img, np.float64)
+    for axis in (0, 1):
+        pad = [(0, 0), (0, 0)]
+        pad[axis] = (r, r)
+        p = np.pad(out, pad, mode="reflect")
+        n = out.shape[axis]
+        out = sum(w * np.take(p, np.arange(i, i + n), axis=axis) for i, w in enumerate(k))
+    return out
+
+
+def ssim_map(a: np.ndarray, b: np.ndarray, sigma: float = SSIM_SIGMA) -> np.ndarray:
+    """Per-pixel SSIM (H, W) of two (H, W) images with values in [0, 1] (Gaussian window of ``sigma`` px)."""
+    a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
+    mu_a, mu_b = gaussian_blur(a, sigma), gaussian_blur(b, sigma)
+    var_a = gaussian_blur(a * a, sigma) - mu_a ** 2
+    var_b = gaussian_blur(b * b, sigma) - mu_b ** 2
+    cov = gaussian_blur(a * b, sigma) - mu_a * mu_b
+    return ((2 * mu_a * mu_b + SSIM_C1) * (2 * cov + SSIM_C2)) / \
+        ((mu_a ** 2 + mu_b ** 2 + SSIM_C1) * (var_a + var_b + SSIM_C2))
+
+
+def _luma_srgb(linear: np.ndarray) -> np.ndarray:
+    """sRGB-encoded (clipped) channel mean of a linear (H, W, 3) image, float64."""
+    return linear_to_srgb(np.asarray(linear, np.float32), clip=True).astype(np.float64).mean(axis=-1)
+
+
+def grazing_errors(pred: Maps, gt: Maps, config: RenderConfig = ZHAO) -> Dict[str, float]:
+    """``grazing_rmse`` and ``grazing_hp_corr`` of a prediction against the ground truth (module docstring)."""
+    lights = [tuple(float(c) for c in p) for p in grazing_lights(config)]
+    p, g = pred.clipped(), gt.clipped()
+    sigma = max(1.0, p.shape[1] / 128.0)
+    corrs = []
+    for light in lights:
+        a, b = _luma_srgb(render(p, light, config)), _luma_srgb(render(g, light, config))
+        corrs.append(_corr(a - gaussian_blur(a, sigma), b - gaussian_blur(b, sigma)))
+    return {"grazing_rmse": rerender_rmse(p, g, lights, config), "grazing_hp_corr": float(np.mean(corrs))}
+
+
+def capture_errors(pred: Maps, capture, config: RenderConfig = ZHAO) -> Dict[str, float]:
+    """Relighting error of maps estimated from one view of a real multi-view capture, at its other views.
+
+    For every other view j: the maps are rendered (:func:`svbrdf.runtime.render.render` with ``config`` and
+    inverse-square fall-off, the physics of a real flash) with view j's camera and flash positions; one
+    exposure ``k = sum(r p) / sum(r r)`` (linear light, all channels of the unclipped pixels) scales the render
+    ``r`` to the photo ``p``, as a camera's exposure would; the scaled render is clipped and sRGB-encoded and
+    compared with the photo over its unclipped pixels (every channel below :data:`CAPTURE_CLIP_SRGB`). The same
+    rule for every method.
+
+    Args:
+        pred: maps estimated from view ``capture.index`` (same size as the capture's photos).
+        capture: :class:`svbrdf.trainer.bench.cases.CaptureViews`.
+        config: renderer settings (fall-off is switched on).
+
+    Returns:
+        ``capture_rmse`` (sRGB RMSE pooled over the pixels of all other views), ``capture_ssim`` (mean over
+        the views of the mean SSIM of the sRGB luminance over the unclipped pixels) and ``capture_views``.
+    """
+    cfg = config.replace(falloff=True)
+    m = pred.clipped()
+    sq, n, ssims = 0.0, 0, []
+    for j in capture.others():
+        photo = np.asarray(capture.photos[j], np.float64)
+        cam, light = capture.calibration.scene_units(j)
+        r = render(m, light, cfg, camera_pos=cam).astype(np.float64)
+        ok = np.all(linear_to_srgb(photo.astype(np.float32), clip=True) < CAPTURE_CLIP_SRGB, axis=-1)
+        if not ok.any():
+            continue
+        den = float(np.sum(r[ok] ** 2))
+        k = float(np.sum(r[ok] * photo[ok])) / den if den > 0 else 0.0
+        relit = linear_to_srgb(np.clip(k * r, 0, 1).astype(np.float32), clip=True).astype(np.float64)
+        ref = linear_to_srgb(photo.astype(np.float32), clip=True).astype(np.float64)
+        sq += float(np.sum((relit[ok] - ref[ok]) ** 2))
+        n += int(ok.sum()) * 3
+        ssims.append(float(ssim_map(relit.mean(-1), ref.mean(-1))[ok].mean()))
+    if n == 0:
+        return {}
+    return {"capture_rmse": math.sqrt(sq / n), "capture_ssim": float(np.mean(ssims)),
+            "capture_views": len(ssims)}
+
+
+def artist_metrics(pred: Maps, gt: Optional[Maps] = None, capture=None,
+                   config: RenderConfig = ZHAO) -> Dict[str, float]:
+    """The measures of what an artist sees (keys :data:`ARTIST_METRICS`, see the module docstring)."""
+    out: Dict[str, float] = {}
+    p = pred.clipped()
+    stds = {n: map_std(n, a) for n, a in p.items()}
+    out.update({f"std_{n}": v for n, v in stds.items()})
+    if gt is not None:
+        g = gt.clipped()
+        for n, a in g.items():
+            ref = map_std(n, a)
+            if n in stds and ref > 1e-6:
+                out[f"detail_{n}"] = stds[n] / ref
+        out["normal_slope_corr"] = _corr(_slopes(p.normal), _slopes(g.normal))
+        out.update(grazing_errors(p, g, config))
+    if capture is not None:
+        out.update(capture_errors(p, capture, config))
+    return out
+
+
 def evaluation_lights(config: RenderConfig = ZHAO) -> list:
     """The fixed re-rendering lights: the 3 x 3 grid of :func:`novel_lights` plus the input flash (``None``)."""
     return [tuple(float(c) for c in p) for p in novel_lights(config)] + [None]
@@ -106,6 +269,7 @@ def evaluate(
     photo: Optional[np.ndarray] = None,
     config: RenderConfig = ZHAO,
     centre: Optional[Tuple[float, float]] = None,
+    capture=None,
 ) -> Dict[str, float]:
     """All metrics of one prediction.
 
@@ -116,6 +280,8 @@ def evaluate(
         photo: linear input photo (H, W, 3), used when there is no ground truth: ``input_rmse`` against it.
         config: renderer settings.
         centre: highlight centre for the burn-in scores (default the image centre).
+        capture: the capture's views (:class:`svbrdf.trainer.bench.cases.CaptureViews`) when the photo is one
+            view of a real multi-view capture: ``capture_*`` relighting errors.
 
     Returns:
         flat dict of floats (missing metrics are simply absent).
@@ -129,7 +295,10 @@ def evaluate(
         out["input_rmse"] = rerender_rmse(pred, photo, [None], config)
         out["input_rmse_falloff"] = rerender_rmse(pred, photo, [None], config.replace(falloff=True))
     out.update(burn_in_scores(pred, centre))
+    out.update(artist_metrics(pred, gt, capture, config))
     return out
 
 
-__all__ = ["rmse", "angular_error_deg", "map_errors", "evaluation_lights", "evaluate", "MAP_METRICS"]
+__all__ = ["rmse", "angular_error_deg", "map_errors", "evaluation_lights", "evaluate", "MAP_METRICS",
+           "ARTIST_METRICS", "map_std", "gaussian_blur", "ssim_map", "grazing_errors", "capture_errors",
+           "artist_metrics", "CAPTURE_CLIP_SRGB"]

@@ -614,7 +614,7 @@ def pareto_series(records: Sequence[Mapping[str, Any]]) -> Tuple[List[Dict[str, 
         s["points"].append((r["seconds"]["mean"], (r.get(metric) or {}).get("mean"),
                             (b.get("burn_in") or {}).get("mean")))
     ylabel = "re-render RMSE (sRGB)" if metric == "rerender_rmse" else "input-light RMSE (sRGB)"
-    return list(series.values()), (ylabel, "burn-in (mean |score| of 4 maps)")
+    return list(series.values()), (ylabel, "burn-in (worst of the 4 maps, rings included)")
 
 
 __all__ = ["SCHEMA", "METRICS", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",

@@ -1,0 +1,169 @@
+"""The artist measures of the benchmark (svbrdf.trainer.bench.metrics.artist_metrics, capture_errors and the
+capture reader): detail ratios, slope correlation, grazing lights, and the relighting of a multi-view capture,
+on hand-made maps and a capture synthesised with the project renderer in the layout of the public captures."""
+
+import dataclasses
+import json
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.camera import Camera, expose
+from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.maps import Maps
+from svbrdf.runtime.render import ZHAO, grazing_lights, render
+from svbrdf.trainer.bench import metrics as bm
+from svbrdf.trainer.bench.cases import load_cases
+from svbrdf.runtime.errors import ImageError
+from svbrdf.trainer.bench.datasets import capture_view, read_capture_calibration
+
+N = 64
+
+
+def _bumpy_maps(n=N, seed=0, amp=0.6) -> Maps:
+    """Maps with relief (a height field of bumps), a varied albedo and roughness."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:n, 0:n] / n
+    h = amp * (np.sin(2 * np.pi * 4 * xx) * np.cos(2 * np.pi * 3 * yy) + 0.3 * rng.standard_normal((n, n)))
+    gy, gx = np.gradient(h)
+    normal = np.stack([-gx * 4, gy * 4, np.ones_like(h)], -1)  # +y up the image: rows grow downwards
+    normal /= np.linalg.norm(normal, axis=-1, keepdims=True)
+    diffuse = np.clip(0.35 + 0.2 * rng.standard_normal((n, n, 1)) * np.array([1.0, 0.8, 0.6]), 0.02, 1)
+    rough = np.clip(0.45 + 0.15 * np.sin(2 * np.pi * 2 * yy)[..., None], 0.05, 1)
+    return Maps(diffuse=diffuse.astype(np.float32), specular=np.full((n, n, 1), 0.06, np.float32),
+                roughness=rough.astype(np.float32), normal=normal.astype(np.float32))
+
+
+def _flat_constant(m: Maps) -> Maps:
+    """The trivial baseline's kind of answer: mean albedo, constant roughness and specular, flat normals."""
+    n = m.shape[0]
+    flat = np.zeros((n, n, 3), np.float32)
+    flat[..., 2] = 1
+    return Maps(diffuse=np.broadcast_to(m.diffuse.mean((0, 1)), m.diffuse.shape).astype(np.float32),
+                specular=np.full((n, n, 1), 0.04, np.float32), roughness=np.full((n, n, 1), 0.5, np.float32),
+                normal=flat)
+
+
+def test_detail_ratios_and_slope_correlation():
+    gt = _bumpy_maps()
+    same = bm.artist_metrics(gt, gt)
+    for name in ("diffuse", "roughness", "normal"):
+        assert same[f"detail_{name}"] == pytest.approx(1.0)
+    assert same["normal_slope_corr"] == pytest.approx(1.0)
+    assert same["grazing_rmse"] == pytest.approx(0.0, abs=1e-6)
+    assert same["grazing_hp_corr"] == pytest.approx(1.0)
+    flat = bm.artist_metrics(_flat_constant(gt), gt)
+    # A flat normal map and constant maps score detail 0 (the issue's criterion), whatever their RMSE.
+    assert flat["detail_normal"] == 0.0 and flat["detail_roughness"] == 0.0 and flat["detail_diffuse"] == 0.0
+    assert flat["normal_slope_corr"] == 0.0
+    assert flat["grazing_rmse"] > 0.02
+    assert flat["grazing_hp_corr"] < same["grazing_hp_corr"] - 0.2
+    # Inverted relief: the detail ratio is right, the correlation says it is upside down.
+    inv = Maps(**{**dict(gt.items()), "normal": gt.normal * np.array([-1, -1, 1], np.float32)})
+    assert bm.artist_metrics(inv, gt)["normal_slope_corr"] == pytest.approx(-1.0)
+    # Without a ground truth only the absolute spreads are reported.
+    alone = bm.artist_metrics(gt)
+    assert set(alone) == {f"std_{n}" for n in ("diffuse", "specular", "roughness", "normal")}
+    assert alone["std_specular"] == 0.0 and alone["std_normal"] > 0.1
+
+
+def test_grazing_lights_are_grazing():
+    lights = grazing_lights(ZHAO)
+    assert lights.shape == (8, 3)
+    d = ZHAO.camera_distance
+    angles = np.degrees(np.arccos(lights[:, 2] / np.linalg.norm(lights, axis=1)))
+    assert np.allclose(np.sort(angles), [60] * 4 + [75] * 4, atol=1e-4)
+    assert np.allclose(np.linalg.norm(lights, axis=1), d, atol=1e-5)
+    assert len({(round(x, 3), round(y, 3)) for x, y in lights[:, :2]}) == 8  # 8 azimuths in all
+
+
+def test_ssim_and_blur():
+    rng = np.random.default_rng(0)
+    a = rng.uniform(0, 1, (32, 32))
+    assert np.allclose(bm.ssim_map(a, a), 1.0)
+    assert bm.ssim_map(a, rng.uniform(0, 1, (32, 32))).mean() < 0.2
+    const = np.full((20, 30), 0.4)
+    assert np.allclose(bm.gaussian_blur(const, 2.0), 0.4)  # reflected borders keep a constant
+    assert bm.gaussian_blur(a, 1.5).std() < a.std() / 2
+
+
+# --- multi-view capture -------------------------------------------------------------------------------------
+
+# Camera (= flash) positions in cm of a 10 cm wide square, in the public captures' frame (origin at the crop
+# centre, +x right, +y up the image, z out of the surface), deliberately asymmetric so that a flipped axis shows.
+CAMS = [(0.5, 0.2, 11.0), (3.5, 2.5, 10.0), (-2.5, -2.0, 10.5), (-1.0, 3.0, 10.2), (3.0, -3.0, 10.8)]
+WIDTH_CM = 10.0
+
+
+def _write_capture(folder, maps: Maps, key="image_size", name="parameters.json", cams=CAMS):
+    """A capture in the public layout: 00.png ... (8-bit sRGB, one exposure) + the calibration JSON."""
+    folder.mkdir(parents=True, exist_ok=True)
+    cfg = ZHAO.replace(falloff=True)
+    for i, cam in enumerate(cams):
+        pos = np.array(cam) / (WIDTH_CM / 2)
+        img = render(maps, pos, cfg, camera_pos=pos)
+        write_image(folder / f"{i:02d}.png", expose(img, Camera(ev=-0.5)), bits=8, srgb_encode=True)
+    doc = {"_comment": "in cm uint", key: WIDTH_CM, "idx": list(range(len(cams))),
+           "camera_pos": [list(c) for c in cams], "light_pos": [list(c) for c in cams],
+           "light_pow": [1500, 1500, 1500]}
+    (folder / name).write_text(json.dumps(doc))
+    return folder
+
+
+def test_synthetic_capture_scores_the_true_maps_near_zero(tmp_path):
+    gt = _bumpy_maps(n=N)
+    folder = _write_capture(tmp_path / "data" / "tile", gt)
+    cases = load_cases(tmp_path / "data", N)
+    assert [c.name for c in cases] == [f"tile/{i:02d}" for i in range(len(CAMS))]
+    for c in cases[:2]:
+        assert c.capture is not None and c.capture.index == int(c.name[-2:])
+        assert c.capture.others() == [i for i in range(len(CAMS)) if i != c.capture.index]
+        true = bm.capture_errors(gt, c.capture)
+        base = bm.capture_errors(_flat_constant(gt), c.capture)
+        assert true["capture_views"] == len(CAMS) - 1
+        assert true["capture_rmse"] < 0.01  # 8-bit storage only
+        assert true["capture_ssim"] > 0.98
+        assert base["capture_rmse"] > 5 * true["capture_rmse"] and base["capture_rmse"] > 0.02
+        assert base["capture_ssim"] < true["capture_ssim"] - 0.1
+    # Axes pinned: read with y down the image (or x to the left), the calibration relights the true maps badly.
+    c = cases[0]
+    for flip in ((1, -1, 1), (-1, 1, 1)):
+        f = np.array(flip, float)
+        calib = dataclasses.replace(c.capture.calibration, views={
+            i: (tuple(np.array(cam) * f), tuple(np.array(light) * f))
+            for i, (cam, light) in c.capture.calibration.views.items()})
+        wrong = dataclasses.replace(c.capture, calibration=calib)
+        assert bm.capture_errors(gt, wrong)["capture_rmse"] > 5 * bm.capture_errors(gt, c.capture)["capture_rmse"]
+    # evaluate() reports the capture measures of a view case.
+    out = bm.evaluate(gt, photo=c.photo, centre=c.centre, capture=c.capture)
+    assert out["capture_rmse"] < 0.01
+
+
+def test_capture_calibration_versions_and_errors(tmp_path):
+    gt = _bumpy_maps(n=32)
+    folder = _write_capture(tmp_path / "optim", gt, key="im_size", name="optim.json", cams=CAMS[:3])
+    calib = read_capture_calibration(folder)
+    assert calib.width_cm == WIDTH_CM and sorted(calib.views) == [0, 1, 2]
+    cam, light = calib.scene_units(1)
+    assert np.allclose(cam, np.array(CAMS[1]) / 5.0) and np.allclose(light, cam)
+    assert capture_view(folder / "01.png")[1] == 1
+    assert capture_view(folder / "07.png") is None  # not a listed view
+    assert read_capture_calibration(tmp_path) is None  # no calibration: an ordinary folder
+    (tmp_path / "bad").mkdir()
+    (tmp_path / "bad" / "parameters.json").write_text('{"image_size": 3, "camera_pos": [[1, 2]]}')
+    with pytest.raises(ImageError, match="parameters.json"):
+        read_capture_calibration(tmp_path / "bad")
+
+
+def test_shared_bath_tile_capture(shared_data):
+    folder = shared_data / "guo-svbrdf-diff-renderer" / "bath_tile"
+    if not folder.is_dir():
+        pytest.skip(f"third-party test data not found at {folder}")
+    cases = load_cases(shared_data, 64, "guo-svbrdf-diff-renderer/bath_tile/0[07]")
+    assert len(cases) == 2
+    for c in cases:
+        assert c.capture is not None and len(c.capture.others()) == 8
+        flat = _flat_constant(Maps(diffuse=c.photo, specular=c.photo[..., :1], roughness=c.photo[..., :1],
+                                   normal=np.dstack([np.zeros_like(c.photo[..., :2]), np.ones_like(c.photo[..., :1])])))
+        out = bm.capture_errors(flat, c.capture)
+        assert 0.05 < out["capture_rmse"] < 0.4 and out["capture_views"] == 8
