@@ -119,8 +119,8 @@ img {{ height: 96px; image-rendering: auto; }}
 <h1>{html.escape(root.name)}</h1>
 <p>{len(rows)} photos, {done} done, {len(rows) - done} failed. Worst first (failed, then highest re-render RMSE);
 click a column to sort. Strip: {views} (relit under a light from the upper left). RMSE: sRGB error of the maps
-re-rendered under the photo's flash; burn-in: flash highlight left in the maps (about 0.1 for a stationary
-material).</p>
+re-rendered under the photo's flash; burn-in: flash highlight left in the maps, as a disc or rings (the worst
+map's score; 0.1-0.3 for a stationary material).</p>
 <table id="lib"><thead><tr><th>#</th><th>material</th><th>{views}</th><th>status</th>
 <th>re-render RMSE</th><th>burn-in</th><th>seconds</th><th>error</th></tr></thead>
 <tbody>

@@ -376,8 +376,8 @@ def estimate(
         (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
         ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
         ``burn_in``: the label-free highlight burn-in of the maps returned
-        (:func:`svbrdf.runtime.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, about 0.1 for a
-        stationary material, higher when the flash highlight stayed in the maps), ``burn_in_model`` the same of
+        (:func:`svbrdf.runtime.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, the worst map's
+        disc or ring score, 0.1-0.3 for a stationary material, higher when the flash stayed in the maps), ``burn_in_model`` the same of
         the network's maps before the flash trend was removed (:data:`FLASH_TREND`; what the skip rule of
         ``--quality auto`` reads), ``flash_trend`` what was removed and ``uniform_specular`` the specular level
         (:data:`UNIFORM_SPECULAR`). ``render_config`` is the

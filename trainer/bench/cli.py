@@ -246,7 +246,7 @@ def run_benchmark(
         "errors": errors,
         "records": records,
     }
-    doc["summary"] = report.summarize(records, presets)
+    doc["summary"] = report.summarize(records, presets, case_docs)
     return doc
 
 
@@ -420,7 +420,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             if len(args.report) > 1 and args.out is None:
                 raise SvbrdfError("merging several --report runs needs --out")
             doc = merge_runs([_read_report(p) for p in args.report])
-            doc["summary"] = report.summarize(doc["records"], doc["settings"]["presets"])
+            doc["summary"] = report.summarize(doc["records"], doc["settings"]["presets"], doc["cases"])
             doc["report_command"] = shlex.join(["svbrdf-bench"] + argv)
             written = write_outputs(doc, args.out or _report_folder(args.report[0]), None, force=True)
             for p in written.values():

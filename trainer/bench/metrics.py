@@ -195,6 +195,25 @@ def grazing_errors(pred: Maps, gt: Maps, config: RenderConfig = ZHAO) -> Dict[st
     return {"grazing_rmse": rerender_rmse(p, g, lights, config), "grazing_hp_corr": float(np.mean(corrs))}
 
 
+def relight_view(pred: Maps, capture, view: int, config: RenderConfig = ZHAO
+                 ) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The maps relit at one view of a real multi-view capture, exposed like its photo (see :func:`capture_errors`).
+
+    Returns:
+        ``(relit, photo, unclipped)``: the relit image and the real photo, (H, W, 3) float64 sRGB in [0, 1], and
+        the (H, W) mask of the photo's unclipped pixels (every channel below :data:`CAPTURE_CLIP_SRGB`).
+    """
+    photo = np.asarray(capture.photos[view], np.float64)
+    cam, light = capture.calibration.scene_units(view)
+    r = render(pred.clipped(), light, config.replace(falloff=True), camera_pos=cam).astype(np.float64)
+    ref = linear_to_srgb(photo.astype(np.float32), clip=True).astype(np.float64)
+    ok = np.all(ref < CAPTURE_CLIP_SRGB, axis=-1)
+    den = float(np.sum(r[ok] ** 2))
+    k = float(np.sum(r[ok] * photo[ok])) / den if den > 0 else 0.0
+    relit = linear_to_srgb(np.clip(k * r, 0, 1).astype(np.float32), clip=True).astype(np.float64)
+    return relit, ref, ok
+
+
 def capture_errors(pred: Maps, capture, config: RenderConfig = ZHAO) -> Dict[str, float]:
     """Relighting error of maps estimated from one view of a real multi-view capture, at its other views.
 
@@ -203,7 +222,7 @@ def capture_errors(pred: Maps, capture, config: RenderConfig = ZHAO) -> Dict[str
     exposure ``k = sum(r p) / sum(r r)`` (linear light, all channels of the unclipped pixels) scales the render
     ``r`` to the photo ``p``, as a camera's exposure would; the scaled render is clipped and sRGB-encoded and
     compared with the photo over its unclipped pixels (every channel below :data:`CAPTURE_CLIP_SRGB`). The same
-    rule for every method.
+    rule for every method (:func:`relight_view`).
 
     Args:
         pred: maps estimated from view ``capture.index`` (same size as the capture's photos).
@@ -214,20 +233,11 @@ def capture_errors(pred: Maps, capture, config: RenderConfig = ZHAO) -> Dict[str
         ``capture_rmse`` (sRGB RMSE pooled over the pixels of all other views), ``capture_ssim`` (mean over
         the views of the mean SSIM of the sRGB luminance over the unclipped pixels) and ``capture_views``.
     """
-    cfg = config.replace(falloff=True)
-    m = pred.clipped()
     sq, n, ssims = 0.0, 0, []
     for j in capture.others():
-        photo = np.asarray(capture.photos[j], np.float64)
-        cam, light = capture.calibration.scene_units(j)
-        r = render(m, light, cfg, camera_pos=cam).astype(np.float64)
-        ok = np.all(linear_to_srgb(photo.astype(np.float32), clip=True) < CAPTURE_CLIP_SRGB, axis=-1)
+        relit, ref, ok = relight_view(pred, capture, j, config)
         if not ok.any():
             continue
-        den = float(np.sum(r[ok] ** 2))
-        k = float(np.sum(r[ok] * photo[ok])) / den if den > 0 else 0.0
-        relit = linear_to_srgb(np.clip(k * r, 0, 1).astype(np.float32), clip=True).astype(np.float64)
-        ref = linear_to_srgb(photo.astype(np.float32), clip=True).astype(np.float64)
         sq += float(np.sum((relit[ok] - ref[ok]) ** 2))
         n += int(ok.sum()) * 3
         ssims.append(float(ssim_map(relit.mean(-1), ref.mean(-1))[ok].mean()))
@@ -300,5 +310,5 @@ def evaluate(
 
 
 __all__ = ["rmse", "angular_error_deg", "map_errors", "evaluation_lights", "evaluate", "MAP_METRICS",
-           "ARTIST_METRICS", "map_std", "gaussian_blur", "ssim_map", "grazing_errors", "capture_errors",
+           "ARTIST_METRICS", "map_std", "gaussian_blur", "ssim_map", "grazing_errors", "relight_view", "capture_errors",
            "artist_metrics", "CAPTURE_CLIP_SRGB"]

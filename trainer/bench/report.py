@@ -33,6 +33,12 @@ per-preset value is kept under ``details``. A value is null when the runs it nee
   or after the plateau step divided by ``E`` at the end of the run.
 * ``details.skip_refine``: the ``--quality auto`` rule that skips the fine-tune when the preview already explains
   the photo (:func:`_skip_refine`).
+* ``artist`` (:func:`artist_table`): the table a user reads first, one row per method (``baseline``,
+  ``preview``, and every ``finetune`` preset at its largest evaluated iteration count): the relighting of real
+  multi-view captures (mean ``capture_rmse`` and ``capture_ssim`` over the capture views), the grazing-light
+  error and high-pass correlation, the detail ratios and normal slope correlation (synthetic cases), the burn-in
+  with rings (synthetic cases, real photos without a capture, and the ground truth's chance level) and the mean
+  seconds; with each method's ratio to the baseline where lower or higher is better.
 """
 
 from __future__ import annotations
@@ -49,13 +55,25 @@ from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.files import atomic_write
 from svbrdf.runtime.imageio import write_image
 
-from svbrdf.runtime.burn_in import BURN_METRICS
+from svbrdf.runtime.burn_in import BURN_METRICS, RING_METRICS
 
-from .metrics import MAP_METRICS
+from .metrics import ARTIST_METRICS, MAP_METRICS
 
 SCHEMA = "svbrdf-bench/1"
 #: Every numeric metric a record may carry, in table order.
-METRICS = ("rerender_rmse", "input_rmse") + MAP_METRICS + ("burn_in",) + BURN_METRICS
+METRICS = (("rerender_rmse", "input_rmse") + MAP_METRICS + ("burn_in",) + BURN_METRICS + RING_METRICS
+           + ARTIST_METRICS)
+#: Columns of :func:`artist_table`: (key, case group, metric); groups: ``capture`` (views of a real capture),
+#: ``synthetic`` (ground truth), ``photo`` (other real photos).
+ARTIST_COLUMNS = (
+    ("capture_rmse", "capture", "capture_rmse"), ("capture_ssim", "capture", "capture_ssim"),
+    ("grazing_rmse", "synthetic", "grazing_rmse"), ("grazing_hp_corr", "synthetic", "grazing_hp_corr"),
+    ("detail_diffuse", "synthetic", "detail_diffuse"), ("detail_specular", "synthetic", "detail_specular"),
+    ("detail_roughness", "synthetic", "detail_roughness"), ("detail_normal", "synthetic", "detail_normal"),
+    ("normal_slope_corr", "synthetic", "normal_slope_corr"), ("normal_angle_deg", "synthetic", "normal_angle_deg"),
+    ("burn_in_synthetic", "synthetic", "burn_in"), ("burn_in_photos", "photo", "burn_in"),
+    ("burn_in_capture", "capture", "burn_in"), ("seconds", "synthetic", "seconds"),
+)
 TIMES = ("seconds", "train_seconds", "eval_seconds")
 METHOD_ORDER = ("baseline", "preview", "finetune", "scratch")
 BUDGET = "budget"
@@ -235,8 +253,10 @@ def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[
             "error_ratio_on_skipped": float(np.mean(prices)) if prices else None}
 
 
-def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> Dict[str, Any]:
-    """Headline numbers (see the module docstring); every value is a float or None, with ``details``."""
+def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str],
+              cases: Sequence[Mapping[str, Any]] = ()) -> Dict[str, Any]:
+    """Headline numbers (see the module docstring); every value is a float or None, with ``details`` and the
+    ``artist`` table (:func:`artist_table`; ``cases``, the document's case list, gives its ground-truth row)."""
     rows = aggregate(records)
     kind, metric = _error_key(rows)
     details: Dict[str, Any] = {"error_metric": metric, "case_kind": kind}
@@ -318,7 +338,73 @@ def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str]) -> D
         saving = es[ref_es]["saving"]
         details["early_stop_reference_preset"] = ref_es
     return {"speedup_vs_paper": speedup, "two_stage_speedup": two_value, "preview_time_ratio": time_ratio,
-            "preview_error_ratio": err_ratio, "early_stop_saving": saving, "details": details}
+            "preview_error_ratio": err_ratio, "early_stop_saving": saving, "artist": artist_table(records, cases),
+            "details": details}
+
+
+def _group(rec: Mapping[str, Any]) -> str:
+    if rec["kind"] == "synthetic":
+        return "synthetic"
+    return "capture" if rec.get("capture_rmse") is not None else "photo"
+
+
+def artist_table(records: Sequence[Mapping[str, Any]], cases: Sequence[Mapping[str, Any]] = ()) -> List[Dict[str, Any]]:
+    """The artist measures per method (see the module docstring): rows ``{method, preset, iterations, <column>:
+    mean or None, n_<group>: cases}``, plus a ``ground truth`` row with the chance-level burn-in of the synthetic
+    cases' own maps (``cases``: the document's case list)."""
+    runs: Dict[tuple, List[Mapping[str, Any]]] = {}
+    for r in records:
+        if r.get("truncated"):
+            continue
+        runs.setdefault((r["method"], r.get("preset")), []).append(r)
+    rows = []
+    for (method, preset), recs in runs.items():
+        if method == "scratch":
+            continue
+        if method == "finetune":
+            last = max(r["iterations"] for r in recs)
+            recs = [r for r in recs if r["iterations"] == last]
+        row: Dict[str, Any] = {"method": method, "preset": preset,
+                               "iterations": recs[0].get("iterations")}
+        for key, group, metric in ARTIST_COLUMNS:
+            vals = [r.get(metric) for r in recs if _group(r) == group and r.get(metric) is not None]
+            row[key] = float(np.mean(vals)) if vals else None
+        for group in ("synthetic", "photo", "capture"):
+            row[f"n_{group}"] = sum(_group(r) == group for r in recs)
+        rows.append(row)
+    rows.sort(key=lambda r: _order({**r, "iterations": "-" if r["iterations"] is None else r["iterations"]}))
+    gt = [c["gt_burn_in"] for c in cases if c.get("gt_burn_in") is not None]
+    if gt:
+        rows.append({"method": "ground truth", "preset": None, "iterations": None,
+                     **{k: None for k, _, _ in ARTIST_COLUMNS}, "burn_in_synthetic": float(np.mean(gt)),
+                     "detail_diffuse": 1.0, "detail_specular": 1.0, "detail_roughness": 1.0, "detail_normal": 1.0,
+                     "normal_slope_corr": 1.0, "n_synthetic": len(gt), "n_photo": 0, "n_capture": 0})
+    return rows
+
+
+def _artist_markdown(rows: Sequence[Mapping[str, Any]]) -> List[str]:
+    if not rows:
+        return []
+    heads = [("capture_rmse", "capture relit RMSE ↓"), ("capture_ssim", "capture SSIM ↑"),
+             ("grazing_rmse", "grazing RMSE ↓"), ("grazing_hp_corr", "grazing detail corr ↑"),
+             ("detail_diffuse", "detail diffuse"), ("detail_specular", "detail specular"),
+             ("detail_roughness", "detail roughness"), ("detail_normal", "detail normal"),
+             ("normal_slope_corr", "normal slope corr ↑"), ("burn_in_synthetic", "burn-in synthetic ↓"),
+             ("burn_in_photos", "burn-in photos ↓"), ("burn_in_capture", "burn-in capture ↓"),
+             ("seconds", "seconds")]
+    out = ["## What an artist sees (read first)", "",
+           "| method | " + " | ".join(h for _, h in heads) + " |", "|---" * (len(heads) + 1) + "|"]
+    for r in rows:
+        name = r["method"] + (f" {r['preset']}" if r.get("preset") else "") + \
+            (f" @{r['iterations']}" if r.get("iterations") is not None else "")
+        out.append(f"| {name} | " + " | ".join(_fmt(r.get(k)) for k, _ in heads) + " |")
+    out += ["", "Capture: the maps estimated from each view of a real multi-view capture, relit at its other views "
+            "(one exposure fitted per view) against the real photos. Grazing: 8 lights 60-75° from the normal, "
+            "against renders of the ground truth. Detail: the map's spatial std over the truth's (0 = constant or "
+            "flat, 1 = as varied as the truth). Burn-in: the worst map's disc or ring score "
+            "(`svbrdf.runtime.burn_in`); the ground truth row is its chance level. Definitions: "
+            "`svbrdf.trainer.bench.metrics`.", ""]
+    return out
 
 
 # ----------------------------------------------------------------------------------------------- Markdown
@@ -414,6 +500,7 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
         "(train_seconds excludes evaluation; see `methods.py`)",
         "",
     ]
+    out += _artist_markdown(doc["summary"].get("artist") or [])
     if doc.get("skipped"):
         out += ["## Skipped", ""] + [f"- `{k['method']}`" + (f" ({k['preset']})" if k.get("preset") else "")
                                       + f": {k['reason']}" for k in doc["skipped"]] + [""]
@@ -617,5 +704,5 @@ def pareto_series(records: Sequence[Mapping[str, Any]]) -> Tuple[List[Dict[str, 
     return list(series.values()), (ylabel, "burn-in (worst of the 4 maps, rings included)")
 
 
-__all__ = ["SCHEMA", "METRICS", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",
+__all__ = ["SCHEMA", "METRICS", "ARTIST_COLUMNS", "artist_table", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",
            "text_supported", "write_text", "write_json"]
