@@ -36,7 +36,8 @@ per-preset value is kept under ``details``. A value is null when the runs it nee
 * ``artist`` (:func:`artist_table`): the table a user reads first, one row per method (``baseline``,
   ``preview``, and every ``finetune`` preset at its largest evaluated iteration count): the relighting of real
   multi-view captures (mean ``capture_rmse`` and ``capture_ssim`` over the capture views), the grazing-light
-  error and high-pass correlation, the detail ratios and normal slope correlation (synthetic cases), the burn-in
+  error and high-pass correlation, the detail ratios (median over the cases: a ratio to a near-constant truth is
+  unbounded) and normal slope correlation (synthetic cases), the burn-in
   with rings (synthetic cases, real photos without a capture, and the ground truth's chance level) and the mean
   seconds; with each method's ratio to the baseline where lower or higher is better.
 """
@@ -368,7 +369,8 @@ def artist_table(records: Sequence[Mapping[str, Any]], cases: Sequence[Mapping[s
                                "iterations": recs[0].get("iterations")}
         for key, group, metric in ARTIST_COLUMNS:
             vals = [r.get(metric) for r in recs if _group(r) == group and r.get(metric) is not None]
-            row[key] = float(np.mean(vals)) if vals else None
+            # A ratio to a near-constant truth is unbounded: the detail ratios are medians over the cases.
+            row[key] = (float(np.median(vals)) if key.startswith("detail_") else float(np.mean(vals))) if vals else None
         for group in ("synthetic", "photo", "capture"):
             row[f"n_{group}"] = sum(_group(r) == group for r in recs)
         rows.append(row)
@@ -401,7 +403,7 @@ def _artist_markdown(rows: Sequence[Mapping[str, Any]]) -> List[str]:
     out += ["", "Capture: the maps estimated from each view of a real multi-view capture, relit at its other views "
             "(one exposure fitted per view) against the real photos. Grazing: 8 lights 60-75° from the normal, "
             "against renders of the ground truth. Detail: the map's spatial std over the truth's (0 = constant or "
-            "flat, 1 = as varied as the truth). Burn-in: the worst map's disc or ring score "
+            "flat, 1 = as varied as the truth; median over the cases). Burn-in: the worst map's disc or ring score "
             "(`svbrdf.runtime.burn_in`); the ground truth row is its chance level. Definitions: "
             "`svbrdf.trainer.bench.metrics`.", ""]
     return out
