@@ -61,6 +61,16 @@ def test_detail_ratios_and_slope_correlation():
     # Inverted relief: the detail ratio is right, the correlation says it is upside down.
     inv = Maps(**{**dict(gt.items()), "normal": gt.normal * np.array([-1, -1, 1], np.float32)})
     assert bm.artist_metrics(inv, gt)["normal_slope_corr"] == pytest.approx(-1.0)
+    # A truth that is visually constant (specular 0.06 everywhere; a roughness varying by 1 / 1000) has no ratio:
+    # it would be unbounded (a marble's near-constant albedo once gave 165); one just above the floor has one.
+    faint = dataclasses.replace(gt, roughness=(0.5 + 0.001 * np.sign(gt.roughness - gt.roughness.mean()))
+                                .astype(np.float32))
+    got = bm.artist_metrics(gt, faint)
+    assert "detail_specular" not in got and "detail_roughness" not in got and "detail_diffuse" in got
+    visible = dataclasses.replace(faint, roughness=0.5 + 0.02 * (faint.roughness - 0.5) / 0.001)
+    assert bm.artist_metrics(gt, visible)["detail_roughness"] == pytest.approx(
+        bm.map_std("roughness", gt.roughness) / bm.map_std("roughness", visible.roughness))
+    assert bm.map_std("roughness", visible.roughness) == pytest.approx(0.02, rel=0.01)
     # Without a ground truth only the absolute spreads are reported.
     alone = bm.artist_metrics(gt)
     assert set(alone) == {f"std_{n}" for n in ("diffuse", "specular", "roughness", "normal")}

@@ -44,7 +44,8 @@ key                    definition
 =====================  ================================================================================
 std_<map>              spatial standard deviation of the predicted map (:func:`map_std`); every case
 detail_<map>           ``std_<map>`` of the prediction / that of the ground truth: 0 for a constant or
-                       flat map, ~1 for a faithful one (synthetic cases)
+                       flat map, ~1 for a faithful one (synthetic cases; absent where the truth itself
+                       is visually constant, std below :data:`DETAIL_MIN_STD`)
 normal_slope_corr      Pearson correlation of the predicted and true surface slopes ``(-n_x/n_z,
                        -n_y/n_z)`` (the height field's gradient), both components pooled; 0 for a flat
                        map (synthetic cases)
@@ -119,6 +120,10 @@ def map_errors(pred: Maps, gt: Maps) -> Dict[str, float]:
 
 
 #: Keys of :func:`artist_metrics` (those that need a ground truth or a capture are absent without one).
+#: A truth whose spatial std (:func:`map_std`) is below this is visually constant (2.5 of 255 codes; for
+#: normals about 0.6 degrees of tilt): no detail ratio is reported against it, the ratio would be unbounded.
+DETAIL_MIN_STD = 0.01
+
 ARTIST_METRICS = (tuple(f"std_{n}" for n in MAP_NAMES) + tuple(f"detail_{n}" for n in MAP_NAMES)
                   + ("normal_slope_corr", "grazing_rmse", "grazing_hp_corr", "capture_rmse", "capture_ssim"))
 #: Pixels of a capture photo at or above this sRGB value in any channel are clipped and left out.
@@ -258,7 +263,7 @@ def artist_metrics(pred: Maps, gt: Optional[Maps] = None, capture=None,
         g = gt.clipped()
         for n, a in g.items():
             ref = map_std(n, a)
-            if n in stds and ref > 1e-6:
+            if n in stds and ref >= DETAIL_MIN_STD:
                 out[f"detail_{n}"] = stds[n] / ref
         out["normal_slope_corr"] = _corr(_slopes(p.normal), _slopes(g.normal))
         out.update(grazing_errors(p, g, config))

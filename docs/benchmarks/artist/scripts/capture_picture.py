@@ -1,7 +1,7 @@
 """The bath_tile picture of the artist measures: one view of the real multi-view capture as the input, the maps of
 each method, and the maps relit at two other views beside the real photos of those views.
 
-    OMP_NUM_THREADS=1 python docs/benchmarks/artist/scripts/capture_picture.py 07 01,04 docs/benchmarks/artist/bath_tile.png
+    OMP_NUM_THREADS=1 python docs/benchmarks/artist/scripts/capture_picture.py 07 01,04 docs/benchmarks/artist/bath_tile.jpg
 
 Rows: baseline, preview, default refine (finetune, preset fast, 150 iterations). Columns: input photo, base
 colour, normal, roughness, specular, then for each of the two views: the maps relit there (one exposure fitted,

@@ -20,7 +20,7 @@ base = next(r for r in run["artist"] if r["method"] == "baseline")
 cols = [("capture_rmse", "real capture relit (sRGB RMSE)"), ("capture_ssim", "real capture SSIM"),
         ("grazing_rmse", "grazing lights RMSE"), ("grazing_hp_corr", "grazing detail corr"),
         ("detail_normal", "normal detail"), ("normal_slope_corr", "normal slope corr"),
-        ("detail_roughness", "roughness detail"), ("detail_specular", "specular detail"),
+        ("detail_diffuse", "base colour detail"), ("detail_roughness", "roughness detail"), ("detail_specular", "specular detail"),
         ("burn_in_synthetic", "burn-in (synthetic)"), ("burn_in_photos", "burn-in (real photos)"),
         ("seconds", "seconds")]
 print("| method | " + " | ".join(h for _, h in cols) + " |")
