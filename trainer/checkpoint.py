@@ -318,6 +318,10 @@ def _load_models(trainer, ckpt: Mapping[str, Any], source: PathLike) -> None:
         if state is None:
             continue
         stored = ckpt.get(f"{key}_config") or {}
+        try:  # fields added later (GeneratorConfig.arch) take their defaults, as when the model is rebuilt
+            stored = type(cfg).from_dict(stored).to_dict()
+        except (TypeError, ValueError):
+            pass
         mine = {k: v for k, v in cfg.to_dict().items() if k != "train_encoder"}
         theirs = {k: v for k, v in stored.items() if k != "train_encoder"}
         if mine != theirs:

@@ -14,12 +14,20 @@ Generator (paper widths, T = input size)::
               | lrelu up2 conv4 256->64 conv4 64->64 IN | lrelu conv3 64->outc | tanh
 
 with two decoders: ``decoder_nr`` (height, roughness) and ``decoder_ds`` (diffuse RGB, specular).
+
+``GeneratorConfig(arch="unet")`` builds the candidate for a prior over many materials instead (issue 26,
+:class:`UNetEncoder`, :class:`UNetDecoder`): a U-Net with skips down to full resolution, a global-feature track
+(per-channel means fed back as per-channel biases, the idea of Deschaintre et al. 2018, peers.md), no
+normalisation layer anywhere, and two cues that instance normalisation hid: the photo's log colour and the offset of
+every pixel from the brightest spot (the flash highlight). Same attribute names (``encoder``, ``decoder_nr``,
+``decoder_ds``, ``out_offset``), same :meth:`Generator.decode` outputs, so the fine-tune, the checkpoints, the ONNX
+export and its part graphs run it unchanged.
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields
-from typing import Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import torch
 import torch.nn.functional as F
@@ -43,6 +51,10 @@ def _from_dict(cls, d: Mapping):
     return cls(**d)
 
 
+#: Generator architectures (:attr:`GeneratorConfig.arch`).
+ARCHS: Tuple[str, ...] = ("wen", "unet")
+
+
 @dataclass
 class GeneratorConfig:
     """Generator hyper-parameters.
@@ -55,12 +67,16 @@ class GeneratorConfig:
         height_scale: slope factor of the height -> normal conversion (Zhao: 32 per pixel step).
         train_encoder: if False (Zhao's released code), the encoder keeps its random initialisation and its
             parameters have ``requires_grad = False``.
+        arch: ``"wen"`` (the published generator above, the default: every preset and checkpoint before issue 26)
+            or ``"unet"`` (the U-Net with a global track; ``decoder_blocks`` is then its number of resolution
+            levels below the full one, channels ``32 * 2**level * width`` capped at ``512 * width``).
     """
 
     width: float = 1.0
     decoder_blocks: int = 2
     height_scale: float = 32.0
     train_encoder: bool = False
+    arch: str = "wen"
 
     def __post_init__(self) -> None:
         if not self.width > 0:
@@ -69,6 +85,8 @@ class GeneratorConfig:
             raise ValueError(f"decoder_blocks must be an integer >= 1, got {self.decoder_blocks}")
         if not self.height_scale > 0:
             raise ValueError(f"height_scale must be > 0, got {self.height_scale}")
+        if self.arch not in ARCHS:
+            raise ValueError(f"arch must be one of {', '.join(ARCHS)}, got {self.arch!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -222,6 +240,126 @@ def pack_maps(maps: Mapping[str, torch.Tensor]) -> torch.Tensor:
     return torch.cat([maps[n] for n in MAP_NAMES], dim=1)
 
 
+
+# ------------------------------------------------------------------------------------------------ the U-Net candidate
+
+#: Offset added before the logarithm of the U-Net's input (linear photo values).
+UNET_LOG_EPS = 0.01
+#: Sharpness of the soft arg-max that finds the brightest spot (the flash highlight): weights ``luminance ** k``.
+UNET_FLASH_POWER = 8.0
+
+
+def _unet_channels(cfg: "GeneratorConfig") -> List[int]:
+    return [_ch(min(32 * 2 ** i, 512), cfg.width) for i in range(cfg.decoder_blocks + 1)]
+
+
+def _conv3(cin: int, cout: int, stride: int = 1) -> nn.Conv2d:
+    return nn.Conv2d(cin, cout, 3, stride=stride, padding=1)
+
+
+def flash_cue(x: torch.Tensor) -> Tuple[torch.Tensor, torch.Tensor]:
+    """Where the brightest spot of a photo is: a soft arg-max of its luminance.
+
+    Args:
+        x: (B, 3, H, W) linear photo, values >= 0.
+
+    Returns:
+        ``(offset, centre)``: (B, 2, H, W) offset of every pixel from the spot and (B, 2) the spot, both in the
+        units of :func:`svbrdf.runtime.render.plane_positions` (x right in [-1, 1] across the width, y up, scaled
+        by H / W). The spot is the mean position weighted by ``luminance ** UNET_FLASH_POWER`` (a softmax of the
+        log luminance), so a clipped highlight dominates; in a photo without one it drifts to the brightest area.
+    """
+    b, _, h, w = x.shape
+    lum = x.float().mean(1).clamp_min(1e-6)  # (B, H, W)
+    weight = torch.softmax(UNET_FLASH_POWER * torch.log(lum).flatten(1), dim=1).view(b, h, w)
+    xs = (2.0 * (torch.arange(w, device=x.device, dtype=torch.float32) + 0.5) / w - 1.0)
+    ys = (h / w) * (1.0 - 2.0 * (torch.arange(h, device=x.device, dtype=torch.float32) + 0.5) / h)
+    cx = (weight.sum(1) * xs).sum(-1)  # (B,)
+    cy = (weight.sum(2) * ys).sum(-1)
+    off_x = xs.view(1, 1, w) - cx.view(b, 1, 1)
+    off_y = ys.view(1, h, 1) - cy.view(b, 1, 1)
+    offset = torch.stack([off_x.expand(b, h, w), off_y.expand(b, h, w)], dim=1)
+    return offset.to(x.dtype), torch.stack([cx, cy], dim=1).to(x.dtype)
+
+
+class UNetEncoder(nn.Module):
+    """Encoder of the U-Net candidate: linear photo -> skips at every level and a global vector.
+
+    Input features (5 channels, full resolution): ``log(photo + UNET_LOG_EPS)`` (the photo's colour and level are
+    kept: no normalisation) and the :func:`flash_cue` offsets. Level 0 is one 3x3 conv at full resolution; each
+    further level halves the resolution (3x3 stride-2 conv) and adds a 3x3 conv, LeakyReLU(0.2) after every conv.
+    The global vector starts from the per-channel means of the input features, the flash spot and the deepest
+    level's per-channel means (one linear layer + LeakyReLU).
+
+    Args:
+        channels: channels per level, level 0 = full resolution.
+        global_dim: size of the global vector.
+    """
+
+    def __init__(self, channels: Sequence[int], global_dim: int):
+        super().__init__()
+        self.stem = _conv3(5, channels[0])
+        self.down = nn.ModuleList(
+            nn.ModuleList([_conv3(channels[i], channels[i + 1], stride=2), _conv3(channels[i + 1], channels[i + 1])])
+            for i in range(len(channels) - 1))
+        self.global_in = nn.Linear(5 + 2 + channels[-1], global_dim)
+
+    def forward(self, x: torch.Tensor) -> Tuple[Tuple[torch.Tensor, ...], torch.Tensor]:
+        """(B, 3, H, W) linear photo (H, W multiples of ``2 ** levels``) -> (skips, (B, global_dim))."""
+        act = nn.functional.leaky_relu
+        offset, centre = flash_cue(x)
+        feats = torch.cat([torch.log(x.clamp_min(0.0) + UNET_LOG_EPS), offset], dim=1)
+        h = act(self.stem(feats), LRELU_SLOPE)
+        skips = [h]
+        for down, conv in self.down:
+            h = act(conv(act(down(h), LRELU_SLOPE)), LRELU_SLOPE)
+            skips.append(h)
+        g = torch.cat([feats.mean((2, 3)), centre, h.mean((2, 3))], dim=1)
+        return tuple(skips), act(self.global_in(g), LRELU_SLOPE)
+
+
+class UNetDecoder(nn.Module):
+    """One decoder of the U-Net candidate: skips + global vector -> ``outc`` pre-tanh channels at full resolution.
+
+    From the deepest level up: bilinear x2 upsampling, concatenation with the encoder's skip of that level, a 3x3
+    conv (and a second one below full resolution), each followed by the global track's per-channel bias (a linear
+    layer of the global vector) and LeakyReLU(0.2); the global vector is then updated from itself and the new
+    level's per-channel means (Deschaintre et al. 2018's global track). A 1x1 conv gives the outputs.
+
+    Args:
+        channels: the encoder's channels per level.
+        global_dim: size of the global vector.
+        outc: output channels.
+    """
+
+    def __init__(self, channels: Sequence[int], global_dim: int, outc: int):
+        super().__init__()
+        levels = len(channels) - 1
+        self.convs = nn.ModuleList()
+        self.bias = nn.ModuleList()
+        self.track = nn.ModuleList()
+        for lvl in range(levels - 1, -1, -1):
+            cin, cout = channels[lvl + 1] + channels[lvl], channels[lvl]
+            convs = [_conv3(cin, cout)] + ([_conv3(cout, cout)] if lvl > 0 else [])
+            self.convs.append(nn.ModuleList(convs))
+            self.bias.append(nn.Linear(global_dim, cout))
+            self.track.append(nn.Linear(global_dim + cout, global_dim))
+        self.out = nn.Conv2d(channels[0], outc, 1)
+
+    def forward(self, latent: Tuple[Tuple[torch.Tensor, ...], torch.Tensor]) -> torch.Tensor:
+        act = nn.functional.leaky_relu
+        skips, g = latent
+        h = skips[-1]
+        for i, (convs, bias, track) in enumerate(zip(self.convs, self.bias, self.track)):
+            skip = skips[-2 - i]
+            h = F.interpolate(h, scale_factor=2.0, mode="bilinear", align_corners=False)
+            h = torch.cat([h, skip], dim=1)
+            h = act(convs[0](h) + bias(g)[:, :, None, None], LRELU_SLOPE)
+            for conv in convs[1:]:
+                h = act(conv(h), LRELU_SLOPE)
+            g = act(track(torch.cat([g, h.mean((2, 3))], dim=1)), LRELU_SLOPE)
+        return self.out(h)
+
 #: What each entry of :attr:`Generator.out_offset` shifts (pre-tanh): decoder_nr's two channels, then decoder_ds's four.
 OFFSET_CHANNELS = ("height", "roughness", "diffuse_r", "diffuse_g", "diffuse_b", "specular")
 
@@ -248,6 +386,14 @@ class Generator(nn.Module):
         self.cfg = cfg = cfg or GeneratorConfig()
         n, w = cfg.decoder_blocks, cfg.width
         self.multiple = 2 ** n
+        if cfg.arch == "unet":
+            ch, gdim = _unet_channels(cfg), _ch(128, w)
+            self.encoder = UNetEncoder(ch, gdim)
+            self.decoder_nr = UNetDecoder(ch, gdim, 2)
+            self.decoder_ds = UNetDecoder(ch, gdim, 4)
+            self.out_offset = nn.Parameter(torch.zeros(len(OFFSET_CHANNELS)))
+            self.encoder.requires_grad_(cfg.train_encoder)
+            return
         enc = [9, _ch(64, w)] + [_ch(min(64 * 2 ** i, 512), w) for i in range(1, n + 1)]
         layers = [_conv(3, enc[0], 5), _conv(enc[0], enc[1], 3, pre_act=True, norm=True)]
         layers += [_conv(enc[i], enc[i + 1], 3, stride=2, pre_act=True, norm=True) for i in range(1, n + 1)]
@@ -272,7 +418,7 @@ class Generator(nn.Module):
         layers.append(_conv(dec[-1], outc, 3, pre_act=True))  # Wen's trimmed last block: no upsampling
         return nn.Sequential(*layers)
 
-    def forward_features(self, x: torch.Tensor) -> torch.Tensor:
+    def forward_features(self, x: torch.Tensor) -> Any:
         """Encoder latent of a linear photo.
 
         Args:
@@ -280,7 +426,8 @@ class Generator(nn.Module):
                 (replicate, bottom/right) to a multiple of 4 (``2 ** decoder_blocks``) before encoding.
 
         Returns:
-            (B, C, ceil(H/4), ceil(W/4)) latent.
+            ``arch="wen"``: (B, C, ceil(H/4), ceil(W/4)) latent; ``arch="unet"``: ``(skips, global)``, the skips
+            at every level (level 0 at the padded full size) and the (B, G) global vector.
         """
         if x.ndim != 4 or x.shape[1] != 3:
             raise ValueError(f"Generator expects (B, 3, H, W), got {tuple(x.shape)}")
@@ -313,7 +460,11 @@ class Generator(nn.Module):
         unknown = want - set(MAP_NAMES)
         if unknown:
             raise ValueError(f"unknown maps {sorted(unknown)}; expected some of {', '.join(MAP_NAMES)}")
-        h, w = size if size is not None else (latent.shape[-2] * self.multiple, latent.shape[-1] * self.multiple)
+        if size is None:
+            full = latent[0][0] if self.cfg.arch == "unet" else latent
+            scale = 1 if self.cfg.arch == "unet" else self.multiple
+            size = (full.shape[-2] * scale, full.shape[-1] * scale)
+        h, w = size
         out: Dict[str, torch.Tensor] = {}
         if want & set(DECODER_MAPS["decoder_nr"]):
             y = self._unit(self.decoder_nr(latent) + self.out_offset[0:2].view(1, 2, 1, 1))[..., :h, :w]
@@ -362,7 +513,7 @@ def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
 
 
 __all__ = [
-    "OFFSET_CHANNELS",
+    "OFFSET_CHANNELS", "ARCHS", "UNetEncoder", "UNetDecoder", "flash_cue",
     "GeneratorConfig", "DiscriminatorConfig", "MODEL_PRESETS", "DISC_PRESETS", "DECODER_MAPS", "Generator",
     "Discriminator", "height_to_normal", "pack_maps", "count_parameters",
 ]
