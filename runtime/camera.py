@@ -23,8 +23,6 @@ from typing import Any, Dict, Optional
 
 import numpy as np
 
-from .colour import linear_to_srgb, srgb_to_linear
-
 #: Ranges of the realistic photo model (uniform draws): exposure in stops, vignetting strength at the corner,
 #: shot-noise variance per unit signal, read-noise standard deviation (linear units). A phone photo at base ISO
 #: has about 0.1-0.5 % read noise and a shot term that gives ~2-4 % noise at mid grey.
@@ -105,6 +103,9 @@ def expose(radiance: np.ndarray, camera: Camera, seed: int = 0) -> np.ndarray:
         img = img + np.random.default_rng(seed).standard_normal(img.shape) * np.sqrt(var)
     img = np.clip(img, 0.0, 1.0).astype(np.float32)
     if camera.quantize:
+        # imported here: the ranges above are read by the trainer on machines without OpenImageIO
+        from .colour import linear_to_srgb, srgb_to_linear
+
         img = np.clip(srgb_to_linear(np.round(linear_to_srgb(img) * 255.0) / 255.0), 0.0, 1.0)
     return img.astype(np.float32)
 

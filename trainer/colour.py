@@ -1,9 +1,9 @@
-"""The trainer's one place of colour conversion: the sRGB transfer function on torch tensors, via kornia.
+"""The trainer's one place of colour conversion: the sRGB transfer function on torch tensors.
 
-The same IEC 61966-2-1 curve as :mod:`svbrdf.runtime.colour` (the numpy pair, OpenImageIO), differentiable:
-:func:`linear_to_srgb` is kornia's ``linear_rgb_to_rgb`` and :func:`srgb_to_linear` its ``rgb_to_linear_rgb``,
-so results are exactly kornia's. Both agree with the numpy pair to within 3e-5 on [0, 1]
-(``tests/trainer/test_colour.py``).
+The same IEC 61966-2-1 curve as :mod:`svbrdf.runtime.colour` (the numpy pair, OpenImageIO), differentiable, written
+with the same operations as kornia's ``linear_rgb_to_rgb`` / ``rgb_to_linear_rgb`` (which it used to call), so results
+are exactly kornia's (checked in ``tests/trainer/test_colour.py``) without importing kornia: the procedural prior
+trains on GPU machines that do not have it. Both agree with the numpy pair to within 3e-5 on [0, 1].
 
 Clamping convention (that of the numpy pair): none. Values at or below the curve's threshold (0.0031308 linear,
 0.04045 encoded) follow the linear segment, so negative values stay negative; values above 1 follow the power
@@ -15,7 +15,10 @@ sensor clipped); the gradient of the encoding is finite everywhere (kornia evalu
 from __future__ import annotations
 
 import torch
-from kornia.color import linear_rgb_to_rgb, rgb_to_linear_rgb
+
+#: Linear value / encoded value where the curve's linear segment ends.
+LINEAR_THRESHOLD = 0.0031308
+ENCODED_THRESHOLD = 0.04045
 
 
 def linear_to_srgb(x: torch.Tensor, clip: bool = False) -> torch.Tensor:
@@ -29,7 +32,9 @@ def linear_to_srgb(x: torch.Tensor, clip: bool = False) -> torch.Tensor:
     Returns:
         tensor of the same shape and dtype, sRGB-encoded.
     """
-    return linear_rgb_to_rgb(x.clamp(0.0, 1.0) if clip else x)
+    x = x.clamp(0.0, 1.0) if clip else x
+    power = 1.055 * torch.pow(x.clamp(min=LINEAR_THRESHOLD), 1 / 2.4) - 0.055
+    return torch.where(x > LINEAR_THRESHOLD, power, 12.92 * x)
 
 
 def srgb_to_linear(x: torch.Tensor) -> torch.Tensor:
@@ -41,7 +46,8 @@ def srgb_to_linear(x: torch.Tensor) -> torch.Tensor:
     Returns:
         tensor of the same shape and dtype, linear.
     """
-    return rgb_to_linear_rgb(x)
+    power = torch.pow((x + 0.055).clamp(min=0.0) / 1.055, 2.4)
+    return torch.where(x > ENCODED_THRESHOLD, power, x / 12.92)
 
 
 __all__ = ["linear_to_srgb", "srgb_to_linear"]

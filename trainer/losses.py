@@ -14,7 +14,6 @@ from typing import Dict, Sequence
 
 import torch
 import torch.nn.functional as F
-from kornia.filters import get_gaussian_kernel1d
 from torch import nn
 
 from svbrdf.runtime.conversions import DIELECTRIC_F0
@@ -103,6 +102,8 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
     # float64: with float32 FFTs the round-off of the blurred variance follows the brightest part of the image
     # and reaches a few percent of the output in flat, low-noise regions (their std is ~1e-4).
     x = photo.double()
+    from kornia.filters import get_gaussian_kernel1d  # here: the prior's losses must import without kornia
+
     g = get_gaussian_kernel1d(kernel_size, sigma, device=x.device, dtype=x.dtype)[0]
     kernel = g[:, None] * g[None, :]  # separable: the outer product of the normalised 1D kernel sums to 1
     h, w = x.shape[-2:]
@@ -522,10 +523,47 @@ class RelitLoss(nn.Module):
         return relit_loss(pred_renderings, target_renderings, self.eps)
 
 
+#: Maps whose spatial detail :func:`gradient_loss` compares by default.
+GRADIENT_MAPS = ("normal", "roughness")
+
+
+def gradient_loss(pred: torch.Tensor, target: torch.Tensor, maps: Sequence[str] = GRADIENT_MAPS) -> torch.Tensor:
+    """Detail term: mean absolute difference of the horizontal and vertical forward differences of the named maps.
+
+    A per-map L1 is satisfied by a blurred map (the mean of the possible details); this term asks for the detail
+    itself (its edges and slopes), as map errors of the same size do not.
+
+    Args:
+        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.maps`), H, W >= 2.
+        maps: names of :data:`svbrdf.runtime.maps.SLICES` to compare (default: normal and roughness).
+
+    Returns:
+        scalar: the mean over the differences of both directions and every channel of those maps.
+    """
+    with torch.autocast(device_type=pred.device.type, enabled=False):
+        p = torch.cat([_f32(pred[:, SLICES[n]]) for n in maps], dim=1)
+        t = torch.cat([_f32(target[:, SLICES[n]]) for n in maps], dim=1)
+        dx = (p[..., :, 1:] - p[..., :, :-1]) - (t[..., :, 1:] - t[..., :, :-1])
+        dy = (p[..., 1:, :] - p[..., :-1, :]) - (t[..., 1:, :] - t[..., :-1, :])
+        return 0.5 * (dx.abs().mean() + dy.abs().mean())
+
+
+class GradientLoss(nn.Module):
+    """Module form of :func:`gradient_loss`."""
+
+    def __init__(self, maps: Sequence[str] = GRADIENT_MAPS):
+        super().__init__()
+        self.maps = tuple(maps)
+
+    def forward(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        return gradient_loss(pred, target, self.maps)
+
+
 __all__ = [
     "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
     "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
     "SUPERVISED_WEIGHTS", "supervised_maps_loss", "SupervisedMapsLoss", "RELIT_LOG_EPS", "relit_loss", "RelitLoss",
+    "GRADIENT_MAPS", "gradient_loss", "GradientLoss",
 ]

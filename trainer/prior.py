@@ -16,7 +16,17 @@ unchanged) is trained on an endless, seeded stream of procedural materials
 
 Loss: :func:`~svbrdf.trainer.losses.supervised_maps_loss` (per-map L1) + ``lambda_render`` times
 :func:`~svbrdf.trainer.losses.relit_loss` (log radiance under the flash and ``render_lights`` random point
-lights, rendered with the fine-tune's renderer settings). Adam with a cosine learning-rate decay.
+lights, rendered with the fine-tune's renderer settings; with ``render_views``, also under random distant views and
+lights, grazing ones included) + ``lambda_grad`` times :func:`~svbrdf.trainer.losses.gradient_loss` (detail of the
+normal and roughness maps). Adam with a cosine learning-rate decay.
+
+GPU scale (issue 26): with ``batched`` the materials, photos and relighting geometry of a batch are built with torch
+on the training device (:func:`simulate_photos_batched`, :func:`svbrdf.trainer.camera.expose_batch`), ``bf16``
+runs the generator under bfloat16 autocast, ``log_every`` averages the log over that many iterations (one read-back
+per record), and ``compact_checkpoint`` stores weights in float16 and Adam's moments in bfloat16.
+:meth:`PriorTrainer.run` takes a wall-clock limit (``max_seconds``) after which it saves and stops; the next run
+resumes the checkpoint on any device. :data:`PRIOR_PRESETS` names the settings: ``v1`` (the shipped recipe) and
+``v2`` (the U-Net candidate with all of the above, for a GPU).
 
 :class:`PriorTrainer` writes resumable, atomic checkpoints in the project's checkpoint format
 (:mod:`svbrdf.trainer.checkpoint`): ``stage="prior"``, no discriminator, ``train_config`` = the fine-tune preset
@@ -41,11 +51,13 @@ from svbrdf.runtime.maps import SLICES
 from svbrdf.runtime.render import RenderConfig, light_vectors, physical_config
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
-from svbrdf.trainer.losses import relit_loss, supervised_maps_loss
+from svbrdf.runtime.render import camera_position
+from svbrdf.trainer.camera import expose_batch
+from svbrdf.trainer.device import bf16_support, pick_device, set_threads
+from svbrdf.trainer.losses import gradient_loss, relit_loss, supervised_maps_loss
 from svbrdf.trainer.models import Generator, GeneratorConfig
 from svbrdf.trainer.procedural import FAMILIES, sample_materials
-from svbrdf.trainer.render import render_maps
-from svbrdf.trainer.train import pick_device, set_threads
+from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
 
 PathLike = Union[str, Path]
 STAGE = "prior"
@@ -75,10 +87,21 @@ class PriorConfig:
         camera: ranges of the camera model (default :data:`svbrdf.runtime.camera.REALISTIC`).
         lambda_render: weight of the relighting loss.
         render_lights: random point lights of the relighting loss (besides the flash).
+        render_views: further renderings of the relighting loss, each under a random distant view and a random
+            distant light (:func:`view_light_directions`; 0 = none, the v1 loss).
+        grazing_share: fraction of those views and lights drawn at ``grazing_deg`` from the normal.
+        grazing_deg: polar-angle range of a grazing view or light, degrees; the others are drawn up to its start.
+        lambda_grad: weight of :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps.
         families: procedural families to draw from (None = all).
         checkpoint_every: iterations between checkpoints (0 = only at the end).
         eval_every: iterations between evaluations on a fixed validation batch (0 = never).
         eval_batch: materials in that batch (its own seed, never trained on).
+        batched: build materials, photos and relighting geometry with torch on the training device
+            (:func:`simulate_photos_batched`) instead of photo by photo with numpy (v1). Another stream of photos.
+        bf16: run the generator under bfloat16 autocast where the device has it (losses stay float32).
+        log_every: iterations per log record (their mean); 1 = every iteration (v1).
+        compact_checkpoint: store the weights in float16 and Adam's moments in bfloat16, and only the log
+            records in the history (about a third of the float32 size; resuming casts them back).
     """
 
     generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
@@ -102,10 +125,19 @@ class PriorConfig:
     checkpoint_every: int = 100
     eval_every: int = 100
     eval_batch: int = 16
+    render_views: int = 0
+    grazing_share: float = 0.5
+    grazing_deg: Tuple[float, float] = (60.0, 75.0)
+    lambda_grad: float = 0.0
+    batched: bool = False
+    bf16: bool = False
+    log_every: int = 1
+    compact_checkpoint: bool = False
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
         self.fov_deg = tuple(float(f) for f in self.fov_deg)
+        self.grazing_deg = tuple(float(f) for f in self.grazing_deg)
         self.camera = {k: tuple(float(x) for x in v) for k, v in self.camera.items()}
         if self.families is not None:
             self.families = tuple(self.families)
@@ -128,6 +160,10 @@ class PriorConfig:
         need(self.light_offset >= 0 and self.render_lights >= 0 and self.lambda_render >= 0,
              "light_offset, render_lights and lambda_render must be >= 0")
         need(set(self.camera) == set(REALISTIC), f"camera ranges need exactly the keys {sorted(REALISTIC)}")
+        need(self.render_views >= 0 and self.lambda_grad >= 0, "render_views and lambda_grad must be >= 0")
+        need(0.0 <= self.grazing_share <= 1.0, f"grazing_share must be in [0, 1], got {self.grazing_share}")
+        need(0.0 < self.grazing_deg[0] <= self.grazing_deg[1] < 90.0, f"bad grazing_deg range {self.grazing_deg}")
+        need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
         unknown = set(self.families or ()) - set(FAMILIES)
         need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
         resolve(self.finetune_preset)  # raises on an unknown preset
@@ -138,7 +174,7 @@ class PriorConfig:
     def to_dict(self) -> Dict[str, Any]:
         d = asdict(self)
         d["generator"] = self.generator.to_dict()
-        d["betas"], d["fov_deg"] = list(self.betas), list(self.fov_deg)
+        d["betas"], d["fov_deg"], d["grazing_deg"] = list(self.betas), list(self.fov_deg), list(self.grazing_deg)
         d["camera"] = {k: list(v) for k, v in self.camera.items()}
         d["families"] = None if self.families is None else list(self.families)
         return d
@@ -164,6 +200,30 @@ def lights_for(config: RenderConfig, n: int, rng: torch.Generator) -> List[Tuple
     times [0.7, 1.3]."""
     d = config.camera_distance
     return [(_uniform(rng, -0.8, 0.8), _uniform(rng, -0.8, 0.8), d * _uniform(rng, 0.7, 1.3)) for _ in range(n)]
+
+
+def view_light_directions(n: int, config: "PriorConfig", rng: torch.Generator) -> torch.Tensor:
+    """``n`` random (view, light) pairs of distant directions for the relighting loss: (n, 2, 3) unit vectors.
+
+    Each direction's polar angle from the normal (+z) is in ``config.grazing_deg`` with probability
+    ``config.grazing_share``, else uniform in cosine up to the start of that range; azimuths are uniform. Half of
+    the pairs (every other one) put the light in the mirror direction of the view, so the highlight is in view.
+    """
+    lo, hi = (math.radians(a) for a in config.grazing_deg)
+    out = torch.empty(n, 2, 3)
+    for i in range(n):
+        dirs = []
+        for _ in range(2):
+            if _uniform(rng, 0.0, 1.0) < config.grazing_share:
+                theta = _uniform(rng, lo, hi)
+            else:
+                theta = math.acos(_uniform(rng, math.cos(lo), 1.0))
+            phi = _uniform(rng, 0.0, 2.0 * math.pi)
+            dirs.append((math.sin(theta) * math.cos(phi), math.sin(theta) * math.sin(phi), math.cos(theta)))
+        if i % 2 == 1:  # mirror configuration: the light reflected about the normal
+            dirs[1] = (-dirs[0][0], -dirs[0][1], dirs[0][2])
+        out[i] = torch.tensor(dirs)
+    return out
 
 
 def _geometry(h: int, w: int, light_pos, config: RenderConfig) -> Tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
@@ -213,23 +273,87 @@ def simulate_photos(maps: torch.Tensor, config: PriorConfig, rng: torch.Generato
     return torch.stack(photos).contiguous(), torch.stack(crops).contiguous(), draws
 
 
-def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None
+def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.Generator,
+                            crop: Optional[int] = None) -> Tuple[torch.Tensor, torch.Tensor, List[Dict[str, Any]]]:
+    """:func:`simulate_photos` for a whole batch at once, with torch on ``maps``' device (``config.batched``).
+
+    The same draws per photo (field of view, renderer mix, flash offset, camera, crop) from ``rng`` on the host;
+    the geometry (:func:`svbrdf.trainer.render.point_light_vectors`), the rendering and the camera
+    (:func:`svbrdf.trainer.camera.expose_batch`, its noise from a generator on the device seeded from ``rng``)
+    run on the device, with nothing read back. Returns what :func:`simulate_photos` returns.
+    """
+    b, _, h, w = maps.shape
+    dev = maps.device
+    base = resolve(config.finetune_preset).render_config.replace(falloff=True)
+    cams, lights, physical, cam_draws, draws, boxes = [], [], [], [], [], []
+    for _ in range(b):
+        fov = _uniform(rng, *config.fov_deg)
+        phys = _uniform(rng, 0.0, 1.0) < config.physical_share
+        rc = base.replace(fov_deg=fov)
+        o = config.light_offset
+        light = (_uniform(rng, -o, o), _uniform(rng, -o, o), rc.camera_distance)
+        cam = {k: _uniform(rng, *config.camera[k]) for k in ("ev", "vignetting", "shot", "read")}
+        cams.append(camera_position(rc))
+        lights.append(light)
+        physical.append(phys)
+        cam_draws.append(cam)
+        draws.append({"fov_deg": fov, "light": light, "physical": phys,
+                      "camera": Camera(**cam, quantize=True).to_dict()})
+    seed = int(torch.randint(0, 2 ** 31 - 1, (), generator=rng))
+    if crop is not None and crop < h:
+        for _ in range(b):
+            boxes.append((int(torch.randint(0, h - crop + 1, (), generator=rng)),
+                          int(torch.randint(0, w - crop + 1, (), generator=rng))))
+    v, l, d2 = point_light_vectors(plane_grid(h, w, dev), torch.as_tensor(np.stack(cams), device=dev),
+                                   torch.as_tensor(lights, device=dev))
+    maps = maps.float()
+    with torch.no_grad():
+        radiance = torch.empty(b, 3, h, w, device=dev)
+        for flag in (False, True):
+            idx = [i for i in range(b) if physical[i] == flag]
+            if idx:
+                rc = physical_config(base) if flag else base
+                sel = torch.as_tensor(idx, device=dev)
+                radiance[sel] = render_maps(maps[sel], v[sel], l[sel], rc, d2[sel])
+        noise = torch.Generator(device=dev).manual_seed(seed)
+        param = {k: torch.tensor([c[k] for c in cam_draws]) for k in ("ev", "vignetting", "shot", "read")}
+        photos = expose_batch(radiance, generator=noise, **param)
+    if boxes:
+        photos = torch.stack([photos[i, :, y:y + crop, x:x + crop] for i, (y, x) in enumerate(boxes)])
+        maps = torch.stack([maps[i, :, y:y + crop, x:x + crop] for i, (y, x) in enumerate(boxes)])
+    return photos.contiguous(), maps.contiguous(), draws
+
+
+def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None,
+                 device: Optional[Union[str, torch.device]] = None
                  ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
-    """One training batch: ``(photos (B, 3, S, S), maps (B, 8, S, S), info)`` with ``S = config.size``."""
+    """One training batch: ``(photos (B, 3, S, S), maps (B, 8, S, S), info)`` with ``S = config.size``.
+
+    With ``config.batched`` it is built on ``device`` (default CPU) by :func:`simulate_photos_batched`; otherwise
+    on the CPU photo by photo (:func:`simulate_photos`, v1), whatever ``device``.
+    """
     n = config.batch if batch is None else batch
     crop = _uniform(rng, 0.0, 1.0) < config.crop_share
     side = config.photo_size if crop else config.size
-    maps, families = sample_materials(n, side, rng, config.families)
-    photos, maps, draws = simulate_photos(maps, config, rng, crop=config.size if crop else None)
+    if config.batched:
+        maps, families = sample_materials(n, side, rng, config.families, device=device)
+        photos, maps, draws = simulate_photos_batched(maps, config, rng, crop=config.size if crop else None)
+    else:
+        maps, families = sample_materials(n, side, rng, config.families)
+        photos, maps, draws = simulate_photos(maps, config, rng, crop=config.size if crop else None)
     return photos, maps, {"families": families, "crop": crop, "draws": draws}
 
 
 def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rng: torch.Generator
                ) -> Dict[str, torch.Tensor]:
-    """The prior's loss terms: per-map L1 (``maps/*``), relighting (``render``) and ``total``.
+    """The prior's loss terms: per-map L1 (``maps/*``), relighting (``render``), detail (``grad``) and ``total``.
 
     Relighting renders both map sets with the fine-tune's renderer settings under the flash and
-    ``config.render_lights`` random lights (:func:`lights_for`), on the training image as a whole photo.
+    ``config.render_lights`` random lights (:func:`lights_for`), on the training image as a whole photo, and
+    under ``config.render_views`` random distant (view, light) pairs (:func:`view_light_directions`, no fall-off);
+    ``render`` is the mean over all these renderings. ``grad`` (with ``config.lambda_grad > 0``) is
+    :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps. With ``config.batched`` the
+    geometry is computed with torch on ``pred``'s device (the same formula as the numpy one).
     """
     terms = supervised_maps_loss(pred, target)
     out = {f"maps/{k}": v for k, v in terms.items() if k != "total"}
@@ -238,11 +362,29 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
         rc = resolve(config.finetune_preset).render_config.replace(falloff=True)
         h, w = pred.shape[-2:]
         rel = []
-        for light in [None] + lights_for(rc, config.render_lights, rng):
-            v, l, d2 = (t.to(pred.device) for t in _geometry(h, w, light, rc))
-            rel.append(relit_loss(render_maps(pred, v, l, rc, d2), render_maps(target, v, l, rc, d2)))
+        lights = [None] + lights_for(rc, config.render_lights, rng)
+        if config.batched:
+            cam = torch.as_tensor(camera_position(rc), device=pred.device)[None]
+            pos = plane_grid(h, w, pred.device)
+            for light in lights:
+                lp = cam if light is None else torch.tensor([light], device=pred.device)
+                v, l, d2 = point_light_vectors(pos, cam, lp)
+                rel.append(relit_loss(render_maps(pred, v, l, rc, d2), render_maps(target, v, l, rc, d2)))
+        else:
+            for light in lights:
+                v, l, d2 = (t.to(pred.device) for t in _geometry(h, w, light, rc))
+                rel.append(relit_loss(render_maps(pred, v, l, rc, d2), render_maps(target, v, l, rc, d2)))
+        if config.render_views:
+            distant = rc.replace(falloff=False)
+            pairs = view_light_directions(config.render_views, config, rng).to(pred.device)
+            for pair in pairs:
+                v, l = (direction_vectors(d[None], h, w) for d in pair)
+                rel.append(relit_loss(render_maps(pred, v, l, distant), render_maps(target, v, l, distant)))
         out["render"] = torch.stack(rel).mean()
         total = total + config.lambda_render * out["render"]
+    if config.lambda_grad > 0:
+        out["grad"] = gradient_loss(pred, target)
+        total = total + config.lambda_grad * out["grad"]
     out["total"] = total
     return out
 
@@ -290,6 +432,9 @@ class PriorTrainer:
         self.evals: List[Dict[str, Any]] = []
         self.seconds = 0.0
         self.interrupted = False
+        #: True when the last :meth:`run` stopped at its wall-clock limit (checkpoint saved, resumable).
+        self.timed_out = False
+        self.bf16, self.bf16_note = (bf16_support(self.device) if config.bf16 else (False, None))
         self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
 
     # ------------------------------------------------------------------ schedule
@@ -300,28 +445,55 @@ class PriorTrainer:
         return c.lr_min + 0.5 * (c.lr - c.lr_min) * (1.0 + math.cos(math.pi * t))
 
     # ------------------------------------------------------------------ training
-    def iteration(self) -> Dict[str, Any]:
-        """One optimiser step on a fresh batch; returns the log record."""
+    def _step(self) -> Tuple[Dict[str, torch.Tensor], Dict[str, Any]]:
+        """One optimiser step on a fresh batch: the (detached, on-device) loss terms and the host-side facts."""
         t0 = time.perf_counter()
-        photos, maps, info = sample_batch(self.config, self.rng)
+        photos, maps, info = sample_batch(self.config, self.rng, device=self.device)
         t_data = time.perf_counter() - t0
         photos, maps = photos.to(self.device), maps.to(self.device)
         for group in self.optimizer.param_groups:
             group["lr"] = self.lr_at(self.step)
         self.generator.train()
-        pred = self.generator(photos)
-        terms = prior_loss(pred, maps, self.config, self.rng)
+        with torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.bf16):
+            pred = self.generator(photos)
+        terms = prior_loss(pred.float(), maps, self.config, self.rng)
         self.optimizer.zero_grad(set_to_none=True)
-        skipped = not torch.isfinite(terms["total"])
+        skipped = not torch.isfinite(terms["total"])  # the one read-back of an iteration
         if not skipped:
             terms["total"].backward()
             self.optimizer.step()
         self.step += 1
-        rec: Dict[str, Any] = {"step": self.step, "lr": self.lr_at(self.step - 1), "crop": info["crop"],
-                               "data_seconds": t_data, "seconds": time.perf_counter() - t0}
-        rec.update({k: (float(v.detach()) if torch.isfinite(v) else None) for k, v in terms.items()})
-        if skipped:
+        facts = {"step": self.step, "lr": self.lr_at(self.step - 1), "crop": info["crop"], "data_seconds": t_data,
+                 "seconds": time.perf_counter() - t0, "skipped": skipped}
+        return {k: v.detach() for k, v in terms.items()}, facts
+
+    def iteration(self) -> Dict[str, Any]:
+        """One optimiser step on a fresh batch; returns the log record."""
+        terms, facts = self._step()
+        rec: Dict[str, Any] = {k: facts[k] for k in ("step", "lr", "crop", "data_seconds", "seconds")}
+        rec.update({k: (float(v) if torch.isfinite(v) else None) for k, v in terms.items()})
+        if facts["skipped"]:
             rec["skipped"] = True
+        return rec
+
+    def _record(self, window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]], seconds: float
+                ) -> Dict[str, Any]:
+        """The mean log record of ``window`` (``log_every`` > 1): terms averaged over its finite iterations,
+        ``iters`` in it, ``samples`` seen so far, ``seconds`` of wall time and ``s_per_iter``."""
+        last = window[-1][1]
+        rec: Dict[str, Any] = {"step": last["step"], "lr": last["lr"], "iters": len(window),
+                               "samples": last["step"] * self.config.batch, "seconds": seconds,
+                               "s_per_iter": seconds / len(window),
+                               "data_seconds": sum(f["data_seconds"] for _, f in window) / len(window),
+                               "crop_share": sum(bool(f["crop"]) for _, f in window) / len(window)}
+        keys = window[0][0].keys()
+        stacked = {k: torch.stack([t[k] for t, _ in window]) for k in keys}
+        for k, v in stacked.items():
+            ok = torch.isfinite(v)
+            rec[k] = float(v[ok].mean()) if bool(ok.any()) else None
+        skips = sum(bool(f["skipped"]) for _, f in window)
+        if skips:
+            rec["skipped"] = skips
         return rec
 
     def eval_set(self) -> Tuple[torch.Tensor, torch.Tensor]:
@@ -329,7 +501,7 @@ class PriorTrainer:
         if self._eval_set is None:
             rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
             cfg = dataclasses.replace(self.config, crop_share=0.0)
-            photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch)
+            photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch, device=self.device)
             self._eval_set = photos.to(self.device), maps.to(self.device)
         return self._eval_set
 
@@ -340,13 +512,33 @@ class PriorTrainer:
         self.generator.eval()
         return map_errors(self.generator(photos), maps)
 
-    def run(self) -> List[Dict[str, Any]]:
-        """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback."""
+    def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
+        """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback.
+
+        Args:
+            max_seconds: wall-clock limit of this call. Checked after every log record (every ``log_every``
+                iterations): past it, the run saves its checkpoint and stops with ``timed_out`` set; a later
+                ``resume`` continues the same schedule.
+        """
         c = self.config
         log = None if self.log_path is None else open(self.log_path, "a", encoding="utf-8")
+        start = time.perf_counter()
+        self.timed_out = False
+        window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]] = []
+        window_start = time.perf_counter()
         try:
             while self.step < c.iters:
-                rec = self.iteration()
+                if c.log_every == 1:
+                    rec = self.iteration()
+                else:
+                    window.append(self._step())
+                    due = (len(window) >= c.log_every or self.step >= c.iters
+                           or (c.eval_every and self.step % c.eval_every == 0)
+                           or (c.checkpoint_every and self.step % c.checkpoint_every == 0))
+                    if not due:
+                        continue
+                    rec = self._record(window, time.perf_counter() - window_start)
+                    window, window_start = [], time.perf_counter()
                 self.seconds += rec["seconds"]
                 if c.eval_every and (self.step % c.eval_every == 0 or self.step == c.iters):
                     ev = {"step": self.step, **self.evaluate()}
@@ -360,11 +552,15 @@ class PriorTrainer:
                     log.flush()
                 stop = bool(self.callback(self, rec)) if self.callback else False
                 at_end = self.step == c.iters
+                late = max_seconds is not None and time.perf_counter() - start >= max_seconds and not at_end
                 if self.checkpoint_path is not None and (
-                        at_end or stop or (c.checkpoint_every and self.step % c.checkpoint_every == 0)):
+                        at_end or stop or late or (c.checkpoint_every and self.step % c.checkpoint_every == 0)):
                     self.save()
                 if stop:
                     self.interrupted = True
+                    break
+                if late:
+                    self.timed_out = True
                     break
         finally:
             if log is not None:
@@ -385,6 +581,8 @@ class PriorTrainer:
         ckpt["prior_config"] = self.config.to_dict()
         ckpt["evals"] = [dict(e) for e in self.evals]
         ckpt["seconds"] = float(self.seconds)
+        if self.config.compact_checkpoint:
+            compact(ckpt)
         return ckpt
 
     def save(self, path: Optional[PathLike] = None) -> Path:
@@ -403,7 +601,8 @@ class PriorTrainer:
         if not ckpt.get("optimizers") or not ckpt.get("rng"):
             raise ModelError(f"{source}: cleaned checkpoint (no optimiser/RNG state); cannot resume")
         try:
-            self.generator.load_state_dict(ckpt["generator"])
+            self.generator.load_state_dict({k: v.float() if v.is_floating_point() else v
+                                            for k, v in ckpt["generator"].items()})
             self.optimizer.load_state_dict(ckpt["optimizers"]["g"])
         except (KeyError, ValueError, RuntimeError) as e:
             raise ModelError(f"{source}: does not fit this configuration ({str(e).splitlines()[0][:120]})") from None
@@ -413,6 +612,21 @@ class PriorTrainer:
         self.seconds = float(ckpt.get("seconds", 0.0))
         torch.set_rng_state(ckpt["rng"]["torch"])
         self.rng.set_state(ckpt["rng"]["stream"])
+
+
+def compact(ckpt: Dict[str, Any]) -> Dict[str, Any]:
+    """Shrink a prior checkpoint in place for ``compact_checkpoint``: float32 weights -> float16, Adam's moments
+    (``exp_avg``, ``exp_avg_sq``) -> bfloat16 (float16 would flush small second moments to zero). Loading casts
+    them back to the parameters' float32 (``load_state_dict`` of the module and of Adam). About 6 bytes per
+    parameter instead of 12: the resumed run differs from an uninterrupted one by these roundings only."""
+    ckpt["generator"] = {k: (v.half() if v.dtype == torch.float32 else v) for k, v in ckpt["generator"].items()}
+    for opt in (ckpt.get("optimizers") or {}).values():
+        for state in opt["state"].values():
+            for k in ("exp_avg", "exp_avg_sq"):
+                if k in state:
+                    state[k] = state[k].to(torch.bfloat16)
+    ckpt["format_notes"] = "compact: generator float16, Adam moments bfloat16"
+    return ckpt
 
 
 def train_prior(config: PriorConfig, **kw) -> PriorTrainer:
@@ -436,5 +650,28 @@ def resume_prior(checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optio
     return trainer
 
 
+#: Named prior settings (``svbrdf-train prior --preset``): ``v1`` is the shipped recipe (the defaults); ``v2`` the
+#: GPU recipe of issue 26: the U-Net candidate (``arch="unet"``, 4 levels, width 0.25: 0.71 M parameters), batches
+#: of 32 built on the device, 256 px photos (crops of 512 px ones), bf16, relighting under 3 point lights and 6
+#: random views and lights (half of them grazing), the detail term, one log record per 50 iterations, compact
+#: checkpoints (about 4.3 MB). ``iters`` is the length of its cosine schedule (extend it with ``--iters`` on resume).
+PRIOR_PRESETS: Dict[str, Callable[[], PriorConfig]] = {
+    "v1": PriorConfig,
+    "v2": lambda: PriorConfig(
+        generator=GeneratorConfig(width=0.25, decoder_blocks=4, train_encoder=True, arch="unet"),
+        size=256, photo_size=512, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3, render_views=6,
+        grazing_share=0.5, lambda_grad=1.0, batched=True, bf16=True, log_every=50, compact_checkpoint=True,
+        checkpoint_every=2000, eval_every=500, eval_batch=32),
+}
+
+
+def prior_preset(name: str) -> PriorConfig:
+    """A fresh :class:`PriorConfig` of :data:`PRIOR_PRESETS` ``name``."""
+    if name not in PRIOR_PRESETS:
+        raise ValueError(f"unknown prior preset {name!r}; expected one of {', '.join(PRIOR_PRESETS)}")
+    return PRIOR_PRESETS[name]()
+
+
 __all__ = ["PriorConfig", "PriorTrainer", "train_prior", "resume_prior", "sample_batch", "simulate_photos",
-           "prior_loss", "map_errors", "lights_for", "STAGE"]
+           "simulate_photos_batched", "prior_loss", "map_errors", "lights_for", "view_light_directions", "compact",
+           "PRIOR_PRESETS", "prior_preset", "STAGE"]

@@ -36,6 +36,15 @@ flat_metal     flat or hammered metal with patina / oxidation patches and smudge
 stone          multi-octave noise with warped ridged veins and small grains
 =============  ==================================================================================================
 
+Devices
+-------
+
+``sample_materials(..., device="cuda")`` builds the maps on that device: every field is computed there, and nothing
+is read back to the host (the slope factor of the normals stays a device tensor). Every random number still comes
+from the caller's CPU generator, in the same order: scalar draws are host numbers that parameterise the kernels, and
+random tables and spectra are drawn on the CPU and copied to the device. The stream is therefore the same on every
+device (to float rounding), and a run resumed on another device continues it. On the CPU nothing changes.
+
 Parameter distributions
 -----------------------
 
@@ -53,10 +62,9 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import List, Optional, Sequence, Tuple
+from typing import List, Optional, Sequence, Tuple, Union
 
 import torch
-from kornia.color import hsv_to_rgb
 
 from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer.colour import srgb_to_linear
@@ -138,7 +146,7 @@ TWO_PI = 2.0 * math.pi
 # ---------------------------------------------------------------------------------------------------------------
 
 def _u(g: torch.Generator, lo: float = 0.0, hi: float = 1.0) -> float:
-    return lo + (hi - lo) * float(torch.rand((), generator=g))
+    return lo + (hi - lo) * float(torch.rand((), generator=g, device="cpu"))
 
 
 def _logu(g: torch.Generator, lo: float, hi: float) -> float:
@@ -147,11 +155,21 @@ def _logu(g: torch.Generator, lo: float, hi: float) -> float:
 
 def _int(g: torch.Generator, lo: int, hi: int) -> int:
     """Uniform integer in [lo, hi] (inclusive)."""
-    return int(torch.randint(int(lo), int(hi) + 1, (), generator=g))
+    return int(torch.randint(int(lo), int(hi) + 1, (), generator=g, device="cpu"))
 
 
 def _chance(g: torch.Generator, p: float) -> bool:
     return _u(g) < p
+
+
+def _rand(g: torch.Generator, *shape: int) -> torch.Tensor:
+    """Uniform [0, 1) tensor drawn from ``g`` on the CPU, on the device the materials are built on."""
+    return torch.rand(shape, generator=g, device="cpu").to(torch.get_default_device())
+
+
+def _randn(g: torch.Generator, *shape: int) -> torch.Tensor:
+    """Standard normal tensor drawn from ``g`` on the CPU, on the device the materials are built on."""
+    return torch.randn(shape, generator=g, device="cpu").to(torch.get_default_device())
 
 
 def _choice(g: torch.Generator, options: Sequence):
@@ -161,6 +179,20 @@ def _choice(g: torch.Generator, options: Sequence):
 # ---------------------------------------------------------------------------------------------------------------
 # building blocks
 # ---------------------------------------------------------------------------------------------------------------
+
+def hsv_to_rgb(hsv: torch.Tensor) -> torch.Tensor:
+    """HSV to RGB, per pixel: (*, 3, H, W) with hue in radians [0, 2 pi), saturation and value in [0, 1] -> RGB in
+    the same encoding as the value (here sRGB-encoded). The closed form ``c = v - v s clamp(min(k, 4 - k), 0, 1)``
+    with ``k = (n + 6 h / 2 pi) mod 6`` and n = 5, 3, 1 for R, G, B (the conversion kornia's ``hsv_to_rgb``
+    implements, which this module used; checked against it in ``tests/trainer/test_procedural.py``)."""
+    h, s, v = hsv.unbind(-3)
+    h6 = h * (6.0 / TWO_PI)
+    out = []
+    for n in (5.0, 3.0, 1.0):
+        k = torch.remainder(n + h6, 6.0)
+        out.append(v - v * s * torch.minimum(k, 4.0 - k).clamp(0.0, 1.0))
+    return torch.stack(out, dim=-3)
+
 
 def _smoothstep(e0, e1, x: torch.Tensor) -> torch.Tensor:
     t = ((x - e0) / (e1 - e0)).clamp(0.0, 1.0)
@@ -182,10 +214,14 @@ def _features(g: torch.Generator, size: int, lo: Optional[float] = None, hi: Opt
     return _logu(g, lo, hi) if hi > lo else lo
 
 
-@lru_cache(maxsize=8)
 def _pixel_xy(size: int) -> Tuple[torch.Tensor, torch.Tensor]:
     """(H, W) pixel-centre coordinates in image units: x right, y up, centred on the image."""
-    t = (torch.arange(size, dtype=torch.float32) + 0.5) / size - 0.5
+    return _pixel_xy_on(size, torch.get_default_device())
+
+
+@lru_cache(maxsize=8)
+def _pixel_xy_on(size: int, device: torch.device) -> Tuple[torch.Tensor, torch.Tensor]:
+    t = (torch.arange(size, dtype=torch.float32, device=device) + 0.5) / size - 0.5
     y, x = torch.meshgrid(-t, t, indexing="ij")
     return x, y
 
@@ -212,10 +248,14 @@ def _axis_angle(g: torch.Generator, free_p: float = 0.25) -> float:
     return _choice(g, (0.0, 0.5 * math.pi)) + _u(g, -0.03, 0.03)
 
 
-@lru_cache(maxsize=8)
 def _freqs(size: int) -> Tuple[torch.Tensor, torch.Tensor]:
-    fy = torch.fft.fftfreq(size, d=1.0 / size)
-    fx = torch.fft.rfftfreq(size, d=1.0 / size)
+    return _freqs_on(size, torch.get_default_device())
+
+
+@lru_cache(maxsize=8)
+def _freqs_on(size: int, device: torch.device) -> Tuple[torch.Tensor, torch.Tensor]:
+    fy = torch.fft.fftfreq(size, d=1.0 / size, device=device)
+    fx = torch.fft.rfftfreq(size, d=1.0 / size, device=device)
     return torch.meshgrid(fy, fx, indexing="ij")
 
 
@@ -233,7 +273,7 @@ def _fbm(k: int, size: int, g: torch.Generator, beta: float, low: float, aniso: 
     amp = ((along * aniso) ** 2 + across ** 2 + low * low) ** (-0.5 * beta)
     amp[0, 0] = 0.0
     shape = (k,) + tuple(amp.shape)
-    spec = torch.complex(torch.randn(shape, generator=g), torch.randn(shape, generator=g)) * amp
+    spec = torch.complex(_randn(g, *shape), _randn(g, *shape)) * amp
     return _norm01(torch.fft.irfft2(spec, s=(size, size)))
 
 
@@ -250,7 +290,7 @@ def _worley(u: torch.Tensor, v: torch.Tensor, cells: int, g: torch.Generator, ji
         F1 (H, W) distance to the nearest point, F2 (H, W) to the second nearest (cell units), and the cell id
         (H, W) int64 in [0, cells^2) of the nearest point.
     """
-    pts = 0.5 + jitter * (torch.rand(2, cells * cells, generator=g) - 0.5)
+    pts = 0.5 + jitter * (_rand(g, 2, cells * cells) - 0.5)
     iu, iv = torch.floor(u), torch.floor(v)
     fu, fv = u - iu, v - iv
     iu, iv = iu.long(), iv.long()
@@ -270,8 +310,8 @@ def _segments(size: int, g: torch.Generator, n: int, angle: float, spread: float
     (half-widths, px) uniform in ``width_px``. Each segment is rasterised in its bounding box only.
     """
     out = torch.zeros(size, size)
-    r = torch.rand(n, 6, generator=g)
-    th = angle + spread * torch.randn(n, generator=g)
+    r = torch.rand(n, 6, generator=g, device="cpu")  # read on the host: segment boxes
+    th = angle + spread * torch.randn(n, generator=g, device="cpu")
     for i in range(n):
         cx, cy = float(r[i, 0]) * size, float(r[i, 1]) * size
         half = 0.5 * size * (length[0] + (length[1] - length[0]) * float(r[i, 2]))
@@ -343,7 +383,7 @@ def _fam_cells(size: int, g: torch.Generator) -> _Pattern:
     f1, f2, cid = _worley(u, v, c, g, _u(g, 0.5, 1.0))
     border = _u(g, 0.02, 0.15)
     inside = _smoothstep(border, border + _soft(g, size) * c, f2 - f1)
-    rnd = torch.rand(c * c, generator=g)[cid]
+    rnd = _rand(g, c * c)[cid]
     sel = (rnd < _u(g, 0.0, 0.6)).float()
     w = torch.stack([inside * (1 - sel), inside * sel, 1 - inside])
     dome = _u(g, 0.0, 1.0)
@@ -368,7 +408,7 @@ def _fam_tiles(size: int, g: torch.Generator) -> _Pattern:
     tile = _smoothstep(grout, grout + _soft(g, size), d)
     bev = _smoothstep(grout, grout + bevel, d)
     tid = (torch.remainder(col, 64) * 64 + torch.remainder(row, 64)).long()
-    rnd = torch.rand(64 * 64, generator=g)[tid]
+    rnd = _rand(g, 64 * 64)[tid]
     if _chance(g, P["tiles_second_p"]):
         sel = (torch.remainder(col + row, 2) if _chance(g, 0.4) else (rnd < _u(g, 0.2, 0.5)).float())
         w = torch.stack([tile * (1 - sel), tile * sel, 1 - tile])
@@ -386,13 +426,13 @@ def _fam_wood(size: int, g: torch.Generator) -> _Pattern:
     angle = _axis_angle(g, 0.1)
     u, v = _grid(size, g, (1.0 / length, planks), angle)
     row = torch.floor(v)
-    rtab = torch.rand(4, 64, generator=g)
+    rtab = _rand(g, 4, 64)
     ri = torch.remainder(row, 64).long()
     u = u + rtab[0][ri] * 7.0  # staggered plank ends
     col = torch.floor(u)
     fu, fv = u - col, v - row
     pid = (torch.remainder(col, 64) * 64).long() + ri
-    prnd = torch.rand(64 * 64, generator=g)[pid]
+    prnd = _rand(g, 64 * 64)[pid]
     # growth rings: distance from a per-plank pith below/above the board, warped by grain-stretched noise
     warp = _fbm(1, size, g, 1.3, 3.0, aniso=_u(g, 6.0, 20.0), angle=-angle)[0]
     pith = (prnd - 0.5) * 4.0
@@ -526,7 +566,7 @@ def _fam_scratches(size: int, g: torch.Generator) -> _Pattern:
     dents = torch.zeros(size, size)
     if nd:
         x, y = _pixel_xy(size)
-        prm = torch.rand(nd, 3, generator=g)
+        prm = _rand(g, nd, 3)
         r = 0.01 + 0.05 * prm[:, 2, None, None]
         dents = torch.exp(-((x - prm[:, 0, None, None] + 0.5) ** 2 + (y - prm[:, 1, None, None] + 0.5) ** 2)
                           / (r * r)).amax(0)
@@ -581,7 +621,7 @@ def _fam_stone(size: int, g: torch.Generator) -> _Pattern:
         c = min(_int(g, 20, 80), size // 4)
         u, v = _grid(size, g, (c, c))
         f1, f2, cid = _worley(u, v, c, g, 1.0)
-        sel = (torch.rand(c * c, generator=g)[cid] < _u(g, 0.1, 0.4)).float()
+        sel = (_rand(g, c * c)[cid] < _u(g, 0.1, 0.4)).float()
         grain = sel * _smoothstep(0.02, 0.08, f2 - f1) * (1 - vein)
         w = torch.stack([(1 - vein) * (1 - grain), vein, grain])
     else:
@@ -608,6 +648,7 @@ def _class_materials(g: torch.Generator, pat: _Pattern, neutral: bool
 
     Colours are drawn in sRGB-encoded HSV and decoded with the exact sRGB curve; a neutral class has saturation 0,
     so R = G = B exactly. Related classes (``pat.related``) are their source's colour times a darker factor.
+    Computed on the CPU (a few numbers), returned on the device the materials are built on.
     """
     P = PARAMS
     k = len(pat.metal)
@@ -616,7 +657,7 @@ def _class_materials(g: torch.Generator, pat: _Pattern, neutral: bool
         if not metal[i] and _chance(g, P["random_metal_class_p"]):
             metal[i] = True
     use_hue = pat.hue is not None and _chance(g, pat.hue_p)
-    hsv = torch.zeros(k, 3)
+    hsv = torch.zeros(k, 3, device="cpu")
     for i in range(k):
         grey = neutral or _chance(g, P["neutral_class_p"])
         hue = _u(g, *pat.hue) if use_hue else _u(g)
@@ -627,7 +668,7 @@ def _class_materials(g: torch.Generator, pat: _Pattern, neutral: bool
     for dst, src in (pat.related or {}).items():
         if not metal[dst] and not metal[src] and _chance(g, P["related_p"]):
             rgb[dst] = rgb[src] * _u(g, *P["related_factor"])
-    spec = torch.empty(k)
+    spec = torch.empty(k, device="cpu")
     for i in range(k):
         if metal[i]:
             spec[i] = _u(g, *P["spec_metal"])
@@ -635,22 +676,27 @@ def _class_materials(g: torch.Generator, pat: _Pattern, neutral: bool
             spec[i] = _u(g, *P["spec_dielectric_tail"])
         else:
             spec[i] = _logu(g, *P["spec_dielectric"])
-    rough = torch.rand(k, generator=g) * (P["roughness"][1] - P["roughness"][0]) + P["roughness"][0]
-    return rgb.clamp(0.0, 1.0), spec, rough
+    rough = torch.rand(k, generator=g, device="cpu") * (P["roughness"][1] - P["roughness"][0]) + P["roughness"][0]
+    dev = torch.get_default_device()
+    return rgb.clamp(0.0, 1.0).to(dev), spec.to(dev), rough.to(dev)
 
 
-def _normal_scale(h: torch.Tensor, angle_deg: float) -> float:
-    """Slope factor s such that ``height_to_normal(h, s)`` has a mean normal angle of about ``angle_deg``."""
+def _normal_scale(h: torch.Tensor, angle_deg: float) -> torch.Tensor:
+    """Slope factor s such that ``height_to_normal(h, s)`` has a mean normal angle of about ``angle_deg``.
+
+    Returns a 0-d float64 tensor on ``h``'s device (0 for a flat height), so nothing is read back from a GPU.
+    """
     grad = torch.hypot(h[..., 1:, :-1] - h[..., :-1, :-1], h[..., :-1, 1:] - h[..., :-1, :-1]).flatten()
-    mean = float(grad.mean())
-    if mean < 1e-9:
-        return 0.0
+    mean = grad.mean().double()
+    flat = mean < 1e-9
+    mean = torch.where(flat, torch.ones_like(mean), mean)
     target = math.radians(angle_deg)
     s = math.tan(target) / mean
+    cap = 4.0 * math.tan(target) / mean
     for _ in range(3):  # atan is concave: correct the first guess (at most x4 in all)
-        got = float(torch.atan(s * grad).mean())
-        s = min(s * target / max(got, 1e-9), 4.0 * math.tan(target) / mean)
-    return s
+        got = torch.atan(s * grad).mean().double()
+        s = torch.minimum(s * target / got.clamp_min(1e-9), cap)
+    return torch.where(flat, torch.zeros_like(s), s)
 
 
 def _material(family: str, size: int, g: torch.Generator) -> torch.Tensor:
@@ -677,8 +723,8 @@ def _material(family: str, size: int, g: torch.Generator) -> torch.Tensor:
                       "roughness": roughness.clamp(0.0, 1.0)[None], "normal": normal[None]})[0]
 
 
-def sample_materials(n: int, size: int, generator: torch.Generator, families: Optional[Sequence[str]] = None
-                     ) -> Tuple[torch.Tensor, List[str]]:
+def sample_materials(n: int, size: int, generator: torch.Generator, families: Optional[Sequence[str]] = None,
+                     device: Optional[Union[str, torch.device]] = None) -> Tuple[torch.Tensor, List[str]]:
     """Draw ``n`` procedural materials of ``size x size`` pixels.
 
     Args:
@@ -686,6 +732,7 @@ def sample_materials(n: int, size: int, generator: torch.Generator, families: Op
         size: side in pixels (>= 8).
         generator: the only source of randomness; the same state gives the same batch.
         families: names from :data:`FAMILIES` to draw from uniformly (default: all).
+        device: where the maps are built and returned (default: the CPU); see "Devices" in the module docstring.
 
     Returns:
         ``(maps, names)``: (n, 8, size, size) float32 packed maps (:data:`svbrdf.runtime.maps.SLICES`: diffuse
@@ -704,9 +751,9 @@ def sample_materials(n: int, size: int, generator: torch.Generator, families: Op
     if unknown or not fams:
         raise ValueError(f"sample_materials: unknown families {unknown or '(empty list)'}; "
                          f"choose from {', '.join(FAMILIES)}")
-    picks = torch.randint(0, len(fams), (int(n),), generator=generator).tolist()
+    picks = torch.randint(0, len(fams), (int(n),), generator=generator, device="cpu").tolist()
     names = [fams[i] for i in picks]
-    with torch.no_grad():
+    with torch.no_grad(), torch.device(torch.device(device) if device is not None else "cpu"):
         maps = torch.stack([_material(name, int(size), generator) for name in names])
     assert maps.shape[1] == SLICES["normal"].stop
     return maps.float(), names

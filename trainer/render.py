@@ -12,7 +12,7 @@ from typing import Optional, Sequence, Tuple
 import torch
 
 from svbrdf.runtime.maps import SLICES
-from svbrdf.runtime.render import ZHAO, RenderConfig, light_vectors, shade
+from svbrdf.runtime.render import ZHAO, RenderConfig, light_vectors, plane_positions, shade
 
 
 def render_maps(
@@ -75,3 +75,33 @@ class FlashGeometry:
         """Render (B, 8, h, w) maps that cover the tile at (y0, x0) of the photo."""
         v, l, d2 = self.crop(y0, x0, maps.shape[-2], maps.shape[-1])
         return render_maps(maps, v, l, self.config, d2)
+
+
+def plane_grid(height: int, width: int, device=None) -> torch.Tensor:
+    """(1, 3, H, W) float32 world positions of the pixel centres (:func:`svbrdf.runtime.render.plane_positions`)."""
+    return torch.as_tensor(plane_positions(height, width), device=device).permute(2, 0, 1)[None].contiguous()
+
+
+def point_light_vectors(positions: torch.Tensor, camera: torch.Tensor, light: torch.Tensor
+                        ) -> Tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """Batched torch form of :func:`svbrdf.runtime.render.light_vectors`: one camera and one point light per photo.
+
+    Args:
+        positions: (1, 3, H, W) pixel positions on the plane (:func:`plane_grid`).
+        camera: (B, 3) camera positions (``runtime.render.camera_position`` of each photo's configuration).
+        light: (B, 3) light positions (the camera's for a flash).
+
+    Returns:
+        ``(view, light, light_dist2)``: (B, 3, H, W), (B, 3, H, W) unit vectors and (B, 1, H, W), float32.
+    """
+    v = camera[:, :, None, None].float() - positions
+    v = v / v.norm(dim=1, keepdim=True)
+    l = light[:, :, None, None].float() - positions
+    d2 = (l * l).sum(1, keepdim=True)
+    return v, l / d2.sqrt(), d2
+
+
+def direction_vectors(directions: torch.Tensor, height: int, width: int) -> torch.Tensor:
+    """(B, 3) unit directions (a distant camera or light, the same for every pixel) -> (B, 3, H, W)."""
+    d = directions.float() / directions.float().norm(dim=1, keepdim=True)
+    return d[:, :, None, None].expand(-1, -1, height, width)

@@ -42,6 +42,7 @@ from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
+from svbrdf.trainer.device import bf16_support, pick_device, set_threads
 from svbrdf.trainer.guard import NumericalGuard
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
@@ -89,40 +90,6 @@ def tensor_photo_info(photo: torch.Tensor, name: str = "<tensor>") -> Dict[str, 
     data = photo.detach().to("cpu", torch.float32).contiguous().numpy().tobytes()
     return {"name": name, "sha256": hashlib.sha256(data).hexdigest(), "height": photo.shape[-2],
             "width": photo.shape[-1]}
-
-
-def pick_device(device: Optional[str] = None) -> torch.device:
-    """``device`` if given, else CUDA when available, else the CPU."""
-    if device:
-        try:
-            dev = torch.device(device)
-        except RuntimeError as e:
-            raise ValueError(f"unknown device {device!r}") from e
-        if dev.type == "cuda" and not torch.cuda.is_available():
-            raise ValueError(f"device {device!r} requested but CUDA is not available")
-        return dev
-    return torch.device("cuda" if torch.cuda.is_available() else "cpu")
-
-
-def bf16_support(device: torch.device) -> Tuple[bool, Optional[str]]:
-    """Whether bfloat16 autocast is worth running on ``device``, and a note when it is not."""
-    if device.type == "cpu":
-        if torch.ops.mkldnn._is_mkldnn_bf16_supported():
-            return True, None
-        return False, "bf16 requested but this CPU has no fast bfloat16 (AVX512-BF16/AMX): running fp32"
-    if device.type == "cuda" and not torch.cuda.is_bf16_supported():
-        return False, "bf16 requested but this GPU does not support bfloat16: running fp32"
-    return True, None
-
-
-def set_threads(threads: Optional[int] = None) -> int:
-    """Use ``threads`` CPU threads (default: every core this process may run on); returns the count."""
-    if threads is None:
-        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
-    if threads < 1:
-        raise ValueError(f"threads must be >= 1, got {threads}")
-    torch.set_num_threads(int(threads))
-    return int(threads)
 
 
 # ----------------------------------------------------------------------------------------------- inference

@@ -1,0 +1,46 @@
+"""The realistic photo model of :mod:`svbrdf.runtime.camera` on batched torch tensors, on any device.
+
+Same steps and order as :func:`svbrdf.runtime.camera.expose` (exposure ``2 ** ev``, vignetting
+``1 - v (r / r_corner)^2``, Poisson-Gaussian noise of variance ``shot * x + read^2``, clip to [0, 1], 8-bit sRGB
+storage), one camera per photo, for the procedural prior's batched stream (``PriorConfig.batched``). The noise comes
+from a generator on the photos' device seeded by the caller, so a GPU never waits for the host. Checked against the
+numpy model in ``tests/trainer/test_camera.py``.
+"""
+
+from __future__ import annotations
+
+from typing import Optional
+
+import torch
+
+from svbrdf.runtime.camera import radius2
+from svbrdf.trainer.colour import linear_to_srgb, srgb_to_linear
+
+
+def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Tensor, shot: torch.Tensor,
+                 read: torch.Tensor, generator: Optional[torch.Generator] = None,
+                 quantize: bool = True) -> torch.Tensor:
+    """The photos cameras record of ``radiance``.
+
+    Args:
+        radiance: (B, 3, H, W) linear renderings (>= 0, may exceed 1).
+        ev, vignetting, shot, read: (B,) camera parameters (see :class:`svbrdf.runtime.camera.Camera`).
+        generator: noise generator on ``radiance``'s device (None: torch's default one).
+        quantize: store as 8-bit sRGB and decode back.
+
+    Returns:
+        (B, 3, H, W) float32 linear photos in [0, 1].
+    """
+    b, _, h, w = radiance.shape
+    col = lambda t: t.to(radiance.device, torch.float32).view(b, 1, 1, 1)  # noqa: E731
+    r2 = torch.as_tensor(radius2(h, w), device=radiance.device)[..., 0][None, None]  # (1, 1, H, W)
+    img = radiance.float() * torch.exp2(col(ev)) * (1.0 - col(vignetting) * r2)
+    var = col(shot) * img.clamp_min(0.0) + col(read) ** 2
+    noise = torch.randn(img.shape, generator=generator, device=img.device, dtype=img.dtype)
+    img = (img + noise * var.sqrt()).clamp(0.0, 1.0)
+    if quantize:
+        img = srgb_to_linear(torch.round(linear_to_srgb(img) * 255.0) / 255.0).clamp(0.0, 1.0)
+    return img
+
+
+__all__ = ["expose_batch"]

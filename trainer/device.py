@@ -1,0 +1,46 @@
+"""Where training runs: the device, bfloat16 support and CPU threads (no kornia, no OpenImageIO, so that
+``svbrdf-train prior`` imports on a bare GPU machine; :mod:`svbrdf.trainer.train` re-exports these)."""
+
+from __future__ import annotations
+
+import os
+from typing import Optional, Tuple
+
+import torch
+
+
+def pick_device(device: Optional[str] = None) -> torch.device:
+    """``device`` if given, else CUDA when available, else the CPU."""
+    if device:
+        try:
+            dev = torch.device(device)
+        except RuntimeError as e:
+            raise ValueError(f"unknown device {device!r}") from e
+        if dev.type == "cuda" and not torch.cuda.is_available():
+            raise ValueError(f"device {device!r} requested but CUDA is not available")
+        return dev
+    return torch.device("cuda" if torch.cuda.is_available() else "cpu")
+
+
+def bf16_support(device: torch.device) -> Tuple[bool, Optional[str]]:
+    """Whether bfloat16 autocast is worth running on ``device``, and a note when it is not."""
+    if device.type == "cpu":
+        if torch.ops.mkldnn._is_mkldnn_bf16_supported():
+            return True, None
+        return False, "bf16 requested but this CPU has no fast bfloat16 (AVX512-BF16/AMX): running fp32"
+    if device.type == "cuda" and not torch.cuda.is_bf16_supported():
+        return False, "bf16 requested but this GPU does not support bfloat16: running fp32"
+    return True, None
+
+
+def set_threads(threads: Optional[int] = None) -> int:
+    """Use ``threads`` CPU threads (default: every core this process may run on); returns the count."""
+    if threads is None:
+        threads = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if threads < 1:
+        raise ValueError(f"threads must be >= 1, got {threads}")
+    torch.set_num_threads(int(threads))
+    return int(threads)
+
+
+__all__ = ["pick_device", "bf16_support", "set_threads"]
