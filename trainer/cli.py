@@ -17,6 +17,7 @@ iteration; ``--resume`` continues exactly from it).
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import signal
 import sys
 import time
@@ -30,6 +31,8 @@ from svbrdf.runtime.install import missing_train_module, train_hint
 
 PROG = "svbrdf-train"
 CHECKPOINT = "checkpoint.pt"
+#: Seconds between the speed lines of ``svbrdf-train prior`` with ``--log-every`` > 1.
+SPEED_LINE_SECONDS = 30.0
 LOG = "train_log.jsonl"
 
 PRESET_HEADER = """training presets (cost: seconds per iteration on one thread; "AMX": a shared Xeon core with bf16,
@@ -110,6 +113,9 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(every --checkpoint-every iterations, atomic) and train_log.jsonl into --out; "
                                    "Ctrl-C saves and --resume continues exactly.")
     p.add_argument("--out", metavar="DIR", default="prior", help="output folder (default ./prior)")
+    p.add_argument("--preset", choices=("v1", "v2"), default="v1",
+                   help="settings: v1 = the shipped recipe (default); v2 = the U-Net candidate built for a GPU "
+                        "(svbrdf.trainer.prior.PRIOR_PRESETS); the flags below override either")
     p.add_argument("--iters", type=int, help="iterations (default 5000; with --resume: the new total)")
     p.add_argument("--batch", type=int, help="materials per iteration (default 8)")
     p.add_argument("--size", type=int, help="training image side in px (default 128)")
@@ -118,7 +124,12 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--lr", type=float, help="peak Adam learning rate (default 5e-4, cosine decay)")
     p.add_argument("--seed", type=int, help="seed of the weights and the material stream (default 0)")
     p.add_argument("--checkpoint-every", type=int, metavar="N", help="iterations between checkpoints (default 100)")
-    p.add_argument("--resume", action="store_true", help="continue the run saved in --out exactly where it stopped")
+    p.add_argument("--resume", nargs="?", const=True, metavar="CKPT",
+                   help="continue the run saved in --out (or in CKPT; the run then saves into --out) where it stopped")
+    p.add_argument("--minutes", type=float, help="wall-clock limit: save the checkpoint and stop after this many "
+                                                 "minutes (resume later with --resume)")
+    p.add_argument("--log-every", type=int, metavar="N", help="iterations per (averaged) log record "
+                                                              "(default 1; v2: 50)")
     p.add_argument("--force", action="store_true", help="start over in an existing output folder")
     p.add_argument("--threads", type=int, help="CPU threads (default: all cores)")
     p.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
@@ -208,26 +219,40 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     ckpt_path = out / CHECKPOINT
     if args.resume and args.force:
         parser.error("--resume and --force exclude each other")
-    for flag in ("iters", "batch", "size", "photo_size", "checkpoint_every"):
+    for flag in ("iters", "batch", "size", "photo_size", "checkpoint_every", "log_every"):
         v = getattr(args, flag)
         if v is not None and v < 1:
             parser.error(f"--{flag.replace('_', '-')} must be >= 1, got {v}")
+    if args.minutes is not None and not args.minutes > 0:
+        parser.error(f"--minutes must be > 0, got {args.minutes}")
     kw = dict(device=args.device, threads=args.threads, checkpoint_path=ckpt_path, log_path=out / LOG)
     if args.resume:
-        if not ckpt_path.is_file():
-            raise _Fail(f"{ckpt_path}: no checkpoint to resume from")
-        ckpt = ckpt_io.load_checkpoint(ckpt_path)
-        if ckpt["stage"] != STAGE:
-            raise _Fail(f"{ckpt_path}: is a {ckpt['stage']!r} run, not a prior")
-        config = PriorConfig.from_dict(ckpt["prior_config"])
+        source = ckpt_path if args.resume is True else Path(args.resume)
+        if not source.is_file():
+            raise _Fail(f"{source}: no checkpoint to resume from")
+        ckpt = ckpt_io.load_checkpoint(source)
+        if ckpt["stage"] != STAGE or "prior_config" not in ckpt:
+            raise _Fail(f"{source}: is a {ckpt['stage']!r} run, not a prior")
+        try:
+            config = PriorConfig.from_dict(ckpt["prior_config"])
+        except (TypeError, ValueError) as e:
+            raise _Fail(f"{source}: bad prior settings ({e})") from None
         if args.iters is not None:
             config.iters = args.iters
+        if args.log_every is not None:
+            config.log_every = args.log_every
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
+        if args.preset != "v1":
+            ignored.append("preset")
         if ignored:
             log(f"note: --{', --'.join(ignored)} ignored with --resume (the settings come from the checkpoint)")
+        if out.exists() and not out.is_dir():
+            raise _Fail(f"{out}: exists and is not a folder")
+        out.mkdir(parents=True, exist_ok=True)
         trainer = PriorTrainer(config, **kw)
-        trainer.load_resume(ckpt, ckpt_path)
-        log(f"resuming {ckpt_path} at iteration {trainer.step}/{config.iters}")
+        trainer.load_resume(ckpt, source)
+        log(f"resuming {source} at iteration {trainer.step}/{config.iters}"
+            + ("" if source == ckpt_path else f"; saving into {ckpt_path}"))
     else:
         if out.exists() and (not out.is_dir() or any(out.iterdir())):
             if not out.is_dir():
@@ -237,25 +262,34 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             for p in (ckpt_path, out / LOG):
                 p.unlink(missing_ok=True)
         over = {k: getattr(args, k) for k in ("iters", "batch", "size", "photo_size", "lr", "seed",
-                                              "checkpoint_every") if getattr(args, k) is not None}
+                                              "checkpoint_every", "log_every") if getattr(args, k) is not None}
         try:
-            if args.width is not None:
-                from svbrdf.trainer.models import GeneratorConfig
+            from svbrdf.trainer.prior import prior_preset
 
-                over["generator"] = GeneratorConfig(width=args.width, train_encoder=True)
-            config = PriorConfig(**over)
+            config = prior_preset(args.preset)
+            if args.width is not None:
+                over["generator"] = dataclasses.replace(config.generator, width=args.width)
+            config = dataclasses.replace(config, **over)
         except ValueError as e:
             parser.error(str(e))
         out.mkdir(parents=True, exist_ok=True)
         trainer = PriorTrainer(config, **kw)
     c = trainer.config
     log(f"prior: {c.iters} iterations of {c.batch} procedural materials at {c.size} px, device {trainer.device}, "
-        f"out {out}")
-    state = {"stop": False}
+        f"generator {c.generator.arch}, bf16 {trainer.bf16}, out {out}"
+        + ("" if args.minutes is None else f", stopping after {args.minutes:g} min"))
+    if trainer.bf16_note:
+        log(f"note: {trainer.bf16_note}")
+    state = {"stop": False, "said": time.perf_counter()}
     bar = Progress(c.iters, "prior", quiet=args.quiet, initial=trainer.step)
 
     def progress(tr, rec) -> bool:
         bar.update(rec["step"], **loss_postfix(rec))
+        if "s_per_iter" in rec and time.perf_counter() - state["said"] >= SPEED_LINE_SECONDS:
+            state["said"] = time.perf_counter()
+            total = "nan" if rec.get("total") is None else f"{rec['total']:.4f}"
+            log(f"it {rec['step']}/{c.iters}: {rec['s_per_iter']:.4f} s/it ({rec['data_seconds']:.4f} s data), "
+                f"{rec['samples']} samples seen, loss {total}, lr {rec['lr']:.2e}")
         if "eval" in rec:
             ev = rec["eval"]
             log(f"it {rec['step']}: held-out RMSE diffuse {ev['diffuse']:.3f} specular {ev['specular']:.3f} "
@@ -271,7 +305,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
 
     old = signal.signal(signal.SIGINT, on_sigint)
     try:
-        trainer.run()
+        trainer.run(max_seconds=None if args.minutes is None else 60.0 * args.minutes)
     except KeyboardInterrupt:
         bar.close()
         print(f"{PROG}: interrupted; the last checkpoint is {ckpt_path}; resume with: {resume_cmd}", file=sys.stderr)
@@ -283,6 +317,12 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         print(f"{PROG}: interrupted at iteration {trainer.step}/{c.iters}; checkpoint saved to {ckpt_path}; "
               f"resume with: {resume_cmd}", file=sys.stderr)
         return 130
+    if trainer.timed_out:
+        size = ckpt_path.stat().st_size / 2 ** 20
+        log(f"time limit: stopped at iteration {trainer.step}/{c.iters} ({trainer.step * c.batch} samples, "
+            f"{trainer.seconds:.0f} s of training in all); checkpoint {ckpt_path} ({size:.2f} MiB); "
+            f"resume with: {resume_cmd}")
+        return 0
     log(f"done: {trainer.step} iterations ({trainer.seconds:.0f} s of training); checkpoint {ckpt_path}; "
         f"export with: svbrdf-export {ckpt_path} -o MODEL.onnx")
     return 0
