@@ -128,6 +128,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="continue the run saved in --out (or in CKPT; the run then saves into --out) where it stopped")
     p.add_argument("--minutes", type=float, help="wall-clock limit: save the checkpoint and stop after this many "
                                                  "minutes (resume later with --resume)")
+    p.add_argument("--eval-every", type=int, metavar="N", help="iterations between held-out evaluations (0 = never; "
+                                                               "default 100; v2: 500)")
     p.add_argument("--log-every", type=int, metavar="N", help="iterations per (averaged) log record "
                                                               "(default 1; v2: 50)")
     p.add_argument("--force", action="store_true", help="start over in an existing output folder")
@@ -223,6 +225,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         v = getattr(args, flag)
         if v is not None and v < 1:
             parser.error(f"--{flag.replace('_', '-')} must be >= 1, got {v}")
+    if args.eval_every is not None and args.eval_every < 0:
+        parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
     if args.minutes is not None and not args.minutes > 0:
         parser.error(f"--minutes must be > 0, got {args.minutes}")
     kw = dict(device=args.device, threads=args.threads, checkpoint_path=ckpt_path, log_path=out / LOG)
@@ -241,6 +245,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             config.iters = args.iters
         if args.log_every is not None:
             config.log_every = args.log_every
+        if args.eval_every is not None:
+            config.eval_every = args.eval_every
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")
@@ -262,7 +268,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             for p in (ckpt_path, out / LOG):
                 p.unlink(missing_ok=True)
         over = {k: getattr(args, k) for k in ("iters", "batch", "size", "photo_size", "lr", "seed",
-                                              "checkpoint_every", "log_every") if getattr(args, k) is not None}
+                                              "checkpoint_every", "log_every", "eval_every")
+                if getattr(args, k) is not None}
         try:
             from svbrdf.trainer.prior import prior_preset
 

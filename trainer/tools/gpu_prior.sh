@@ -1,0 +1,90 @@
+#!/usr/bin/env bash
+# One chunk of the v2 prior's training on a lent GPU machine (issue 26), resumable across sessions.
+#
+#   bash trainer/tools/gpu_prior.sh            # on the device machine, from the repository root, with $OUT set
+#
+# 1. makes `svbrdf.*` importable without pip (a folder of links, since the device has no network and no build of
+#    the package; the prior's path needs torch, numpy and tqdm only: no kornia, no OpenImageIO); installs wheels
+#    from .whl/ first if that folder was carried (not needed by the prior);
+# 2. preflight: CUDA, bf16, and how many host synchronisations one batch of the on-device stream causes;
+# 3. trains for $MINUTES minutes: resumes $RESUME when it exists (the committed checkpoint of the last chunk), else
+#    starts `--preset v2`; the run saves into $RUN and stops cleanly at the limit;
+# 4. copies the resume checkpoint ($OUT/resume.pt, < 16 MiB), this chunk's log ($OUT/train_log.jsonl) and the
+#    console output ($OUT/console.txt) into $OUT.
+#
+# Environment (all optional): MINUTES (default 8.5), RESUME (default docs/benchmarks/prior-v2/resume.pt), RUN
+# (default runs/prior_v2), PYTHON (default python3), PREFLIGHT (default 1). Extra arguments go to
+# `svbrdf-train prior` (e.g. --iters 60000 to re-spread the schedule, --device cpu for a dry run).
+# How to call it through the device tool and commit what comes back: docs/benchmarks/prior-v2/README.md.
+set -uo pipefail
+
+: "${OUT:?set OUT to the folder that receives the checkpoint and the logs}"
+MINUTES="${MINUTES:-8.5}"
+RESUME="${RESUME:-docs/benchmarks/prior-v2/resume.pt}"
+RUN="${RUN:-runs/prior_v2}"
+PYTHON="${PYTHON:-python3}"
+PREFLIGHT="${PREFLIGHT:-1}"
+ROOT="$(pwd)"
+mkdir -p "$OUT" "$RUN"
+CONSOLE="$OUT/console.txt"
+say() { echo "gpu_prior: $*" | tee -a "$CONSOLE"; }
+
+# 1. the package, without pip
+SITE="$(mktemp -d)"
+mkdir -p "$SITE/svbrdf"
+for part in runtime trainer export models; do ln -s "$ROOT/$part" "$SITE/svbrdf/$part"; done
+export PYTHONPATH="$SITE${PYTHONPATH:+:$PYTHONPATH}"
+if compgen -G ".whl/*.whl" > /dev/null; then
+    "$PYTHON" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site .whl/*.whl \
+        || { say "wheel install failed"; exit 1; }
+    export PYTHONPATH="/tmp/site:$PYTHONPATH"
+fi
+export PYTHONUNBUFFERED=1
+"$PYTHON" -c "import svbrdf.trainer.prior" 2>&1 | tee -a "$CONSOLE" || { say "cannot import svbrdf.trainer.prior"; exit 1; }
+
+# 2. preflight
+if [ "$PREFLIGHT" = 1 ]; then
+    "$PYTHON" - <<'EOF' 2>&1 | tee -a "$CONSOLE"
+import time, warnings
+import torch
+from svbrdf.trainer.prior import prior_preset, sample_batch
+print(f"gpu_prior: torch {torch.__version__}, cuda {torch.cuda.is_available()}"
+      + (f", {torch.cuda.get_device_name(0)}, bf16 {torch.cuda.is_bf16_supported()}" if torch.cuda.is_available() else ""))
+if torch.cuda.is_available():
+    cfg = prior_preset("v2")
+    rng = torch.Generator().manual_seed(1)
+    sample_batch(cfg, rng, device="cuda")  # warm-up (caches, kernels)
+    torch.cuda.synchronize()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        torch.cuda.set_sync_debug_mode("warn")
+        t0 = time.perf_counter()
+        photos, maps, _ = sample_batch(cfg, rng, device="cuda")
+        torch.cuda.set_sync_debug_mode("default")
+        torch.cuda.synchronize()
+    syncs = sum("synchroniz" in str(w.message) for w in caught)
+    print(f"gpu_prior: one v2 batch {tuple(photos.shape)} on cuda in {time.perf_counter() - t0:.3f} s, "
+          f"{syncs} host synchronisations")
+EOF
+fi
+
+# 3. train
+args=(prior --out "$RUN" --minutes "$MINUTES")
+if [ -f "$RESUME" ]; then
+    args+=(--resume "$RESUME")
+    say "resuming $RESUME for $MINUTES min"
+else
+    args+=(--preset v2 --force)
+    say "no $RESUME: starting --preset v2 for $MINUTES min"
+fi
+"$PYTHON" -m svbrdf.trainer.cli "${args[@]}" "$@" 2>&1 | tr '\r' '\n' | grep -Ev '^prior: +[0-9]+/[0-9]+ ' | tee -a "$CONSOLE"
+rc=${PIPESTATUS[0]}
+say "svbrdf-train exit status $rc"
+
+# 4. what comes back
+if [ -f "$RUN/checkpoint.pt" ]; then
+    cp "$RUN/checkpoint.pt" "$OUT/resume.pt"
+    say "resume checkpoint $(du -h "$OUT/resume.pt" | cut -f1) -> \$OUT/resume.pt"
+fi
+[ -f "$RUN/train_log.jsonl" ] && cp "$RUN/train_log.jsonl" "$OUT/train_log.jsonl"
+exit "$rc"
