@@ -324,7 +324,8 @@ class UNetDecoder(nn.Module):
     From the deepest level up: bilinear x2 upsampling, concatenation with the encoder's skip of that level, a 3x3
     conv (and a second one below full resolution), each followed by the global track's per-channel bias (a linear
     layer of the global vector) and LeakyReLU(0.2); the global vector is then updated from itself and the new
-    level's per-channel means (Deschaintre et al. 2018's global track). A 1x1 conv gives the outputs.
+    level's per-channel means (Deschaintre et al. 2018's global track) for the next level. A 1x1 conv gives the
+    outputs.
 
     Args:
         channels: the encoder's channels per level.
@@ -343,21 +344,23 @@ class UNetDecoder(nn.Module):
             convs = [_conv3(cin, cout)] + ([_conv3(cout, cout)] if lvl > 0 else [])
             self.convs.append(nn.ModuleList(convs))
             self.bias.append(nn.Linear(global_dim, cout))
-            self.track.append(nn.Linear(global_dim + cout, global_dim))
+            if lvl > 0:  # the global vector after the last level would feed nothing
+                self.track.append(nn.Linear(global_dim + cout, global_dim))
         self.out = nn.Conv2d(channels[0], outc, 1)
 
     def forward(self, latent: Tuple[Tuple[torch.Tensor, ...], torch.Tensor]) -> torch.Tensor:
         act = nn.functional.leaky_relu
         skips, g = latent
         h = skips[-1]
-        for i, (convs, bias, track) in enumerate(zip(self.convs, self.bias, self.track)):
+        for i, (convs, bias) in enumerate(zip(self.convs, self.bias)):
             skip = skips[-2 - i]
             h = F.interpolate(h, scale_factor=2.0, mode="bilinear", align_corners=False)
             h = torch.cat([h, skip], dim=1)
             h = act(convs[0](h) + bias(g)[:, :, None, None], LRELU_SLOPE)
             for conv in convs[1:]:
                 h = act(conv(h), LRELU_SLOPE)
-            g = act(track(torch.cat([g, h.mean((2, 3))], dim=1)), LRELU_SLOPE)
+            if i < len(self.track):
+                g = act(self.track[i](torch.cat([g, h.mean((2, 3))], dim=1)), LRELU_SLOPE)
         return self.out(h)
 
 #: What each entry of :attr:`Generator.out_offset` shifts (pre-tanh): decoder_nr's two channels, then decoder_ds's four.

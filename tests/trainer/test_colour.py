@@ -37,3 +37,28 @@ def test_gradient_is_finite_at_zero():
     x = torch.zeros(1, 3, 2, 2, requires_grad=True)
     linear_to_srgb(x).sum().backward()
     assert torch.isfinite(x.grad).all()
+
+
+def test_the_curves_are_kornias_without_importing_it():
+    kornia = pytest.importorskip("kornia")
+    x = torch.linspace(-0.1, 1.2, 3 * 23 * 29).view(3, 23, 29)
+    assert torch.equal(linear_to_srgb(x), kornia.color.linear_rgb_to_rgb(x))
+    assert torch.equal(srgb_to_linear(x), kornia.color.rgb_to_linear_rgb(x))
+
+
+def test_the_prior_imports_without_kornia_and_openimageio():
+    import subprocess
+    import sys
+
+    code = (
+        "import sys, importlib.abc\n"
+        "class Block(importlib.abc.MetaPathFinder):\n"
+        "    def find_spec(self, name, path, target=None):\n"
+        "        if name.split('.')[0] in ('kornia', 'kornia_rs', 'OpenImageIO'):\n"
+        "            raise ImportError('blocked ' + name)\n"
+        "sys.meta_path.insert(0, Block())\n"
+        "import svbrdf.trainer.prior, svbrdf.trainer.cli\n"
+        "print('ok')\n"
+    )
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert run.returncode == 0 and run.stdout.strip() == "ok", run.stderr[-2000:]

@@ -380,3 +380,20 @@ def test_relit_loss_is_zero_for_equal_renderings_and_log_scaled():
     x.requires_grad_(True)
     RelitLoss()(x, torch.rand(2, 3, 8, 8)).backward()
     assert torch.isfinite(x.grad).all()
+
+
+def test_gradient_loss_measures_detail_not_level():
+    from svbrdf.trainer.losses import GradientLoss, gradient_loss
+
+    target = torch.rand(2, 8, 16, 16, generator=torch.Generator().manual_seed(0))
+    shifted = target.clone()
+    shifted[:, SLICES["roughness"]] += 0.2  # the same detail at another level
+    assert float(gradient_loss(shifted, target)) == pytest.approx(0.0, abs=1e-6)
+    blurred = target.clone()
+    blurred[:, SLICES["normal"]] = target[:, SLICES["normal"]].mean((2, 3), keepdim=True)
+    assert float(gradient_loss(blurred, target)) > 0.01
+    other = target.clone()
+    other[:, SLICES["diffuse"]] = 0.0  # maps outside the term do not count
+    assert float(gradient_loss(other, target)) == 0.0
+    assert float(GradientLoss()(blurred, target)) == pytest.approx(float(gradient_loss(blurred, target)))
+    assert float(gradient_loss(other, target, maps=("diffuse",))) > 0

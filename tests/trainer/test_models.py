@@ -5,7 +5,7 @@ import torch.nn.functional as F
 from svbrdf.runtime.maps import MAP_NAMES, N_CHANNELS, SLICES
 from svbrdf.trainer.models import (
     DISC_PRESETS, MODEL_PRESETS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
-    count_parameters, height_to_normal, pack_maps,
+    count_parameters, flash_cue, height_to_normal, pack_maps,
 )
 
 
@@ -237,3 +237,53 @@ def test_fused_upsample_conv_is_upsample_then_conv(cin, cout, h, w):
     weight = first[1].weight.detach()
     plain = first(upsample(act(x.detach())))
     assert (upsample_conv4(act(x.detach()), weight.flip(-1)) - plain).abs().max() > 1e-3
+
+
+# ------------------------------------------------------------------------------------- the U-Net candidate (issue 26)
+
+def _unet(**kw):
+    with torch.random.fork_rng():  # seeded weights without resetting the RNG of the tests that follow
+        torch.manual_seed(0)
+        return Generator(GeneratorConfig(**{**dict(width=0.125, decoder_blocks=3, arch="unet"), **kw})).eval()
+
+
+def test_unet_keeps_the_contract_of_the_published_generator():
+    g = _unet()
+    x = torch.rand(2, 3, 37, 50)
+    y = g(x)
+    assert y.shape == (2, N_CHANNELS, 37, 50) and torch.isfinite(y).all()
+    assert torch.allclose(y[:, SLICES["normal"]].norm(dim=1), torch.ones(2, 37, 50), atol=1e-5)
+    lat = g.forward_features(x)
+    part = g.decode(lat, ["normal"], size=(37, 50))
+    assert list(part) == ["normal"] and torch.equal(part["normal"], y[:, SLICES["normal"]])
+    assert {n for n, _ in g.named_children()} >= {"encoder", "decoder_nr", "decoder_ds"}
+    assert GeneratorConfig.from_dict(g.cfg.to_dict()) == g.cfg
+    with pytest.raises(ValueError, match="arch"):
+        GeneratorConfig(arch="resnet")
+
+
+def test_unet_sees_the_photo_level_and_colour():
+    x = torch.rand(1, 3, 32, 32) * 0.5
+    tinted = x * torch.tensor([1.0, 0.5, 0.25]).view(1, 3, 1, 1)
+    g = _unet()
+    with torch.no_grad():
+        base = g(x)[:, SLICES["diffuse"]]
+        assert (g(2.0 * x)[:, SLICES["diffuse"]] - base).abs().mean() > 1e-3  # a global gain reaches the output
+        assert (g(tinted)[:, SLICES["diffuse"]] - base).abs().mean() > 1e-3  # and so does a tint
+
+
+def test_flash_cue_finds_the_highlight():
+    x = torch.full((1, 3, 40, 40), 0.1)
+    x[..., 5:8, 30:33] = 1.0  # a clipped highlight up and to the right
+    offset, centre = flash_cue(x)
+    assert centre[0, 0] > 0.5 and centre[0, 1] > 0.5
+    assert offset.shape == (1, 2, 40, 40)
+    assert offset[0, :, 6, 31].abs().max() < 0.05  # about zero on the highlight
+
+
+def test_unet_gradients_reach_every_trainable_part_and_the_encoder_can_be_frozen():
+    g = _unet(train_encoder=False).train()
+    g(torch.rand(1, 3, 32, 32)).sum().backward()
+    assert all(p.grad is None for p in g.encoder.parameters())
+    for name in ("decoder_nr", "decoder_ds"):
+        assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in getattr(g, name).parameters())

@@ -16,7 +16,8 @@ from svbrdf.trainer.stage import make_trainer
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.models import GeneratorConfig
 from svbrdf.trainer.prior import (
-    STAGE, PriorConfig, PriorTrainer, map_errors, prior_loss, resume_prior, sample_batch, simulate_photos,
+    STAGE, PriorConfig, PriorTrainer, map_errors, prior_loss, prior_preset, resume_prior, sample_batch,
+    simulate_photos, view_light_directions,
 )
 from svbrdf.trainer.procedural import sample_materials
 
@@ -173,3 +174,147 @@ def test_cli_trains_refuses_a_used_folder_and_resumes(tmp_path, capsys):
     assert cli.main(["prior", "--out", str(tmp_path / "none"), "--resume"]) == 1
     assert "no checkpoint to resume from" in capsys.readouterr().err
     assert cli.main(["prior", "--out", str(tmp_path / "x"), "--size", "30"]) == 2
+
+
+# ------------------------------------------------------------------------------------------- GPU scale (issue 26)
+
+def tiny_v2(**kw) -> PriorConfig:
+    """The v2 recipe (U-Net, batched stream, bf16, views, detail term, averaged log) at test size."""
+    base = dict(size=32, photo_size=64, batch=2, iters=6, checkpoint_every=0, eval_every=0, eval_batch=2,
+                log_every=2, render_views=2, bf16=False)
+    base.update(kw)
+    return dataclasses.replace(prior_preset("v2"), **base)
+
+
+def test_v1_preset_is_the_default_and_v2_changes_only_what_it_names():
+    assert prior_preset("v1") == PriorConfig()
+    v1, v2 = PriorConfig(), prior_preset("v2")
+    assert (v1.render_views, v1.lambda_grad, v1.batched, v1.bf16, v1.log_every, v1.compact_checkpoint) == \
+        (0, 0.0, False, False, 1, False)
+    assert v2.generator.arch == "unet" and v2.batched and v2.compact_checkpoint and v2.render_views > 0
+    assert PriorConfig.from_dict(json.loads(json.dumps(v2.to_dict()))) == v2
+    with pytest.raises(ValueError, match="unknown prior preset"):
+        prior_preset("v3")
+    with pytest.raises(ValueError, match="grazing_deg"):
+        tiny(grazing_deg=(70.0, 95.0))
+
+
+def test_view_light_directions_honour_the_grazing_range_and_mirror_every_other_pair():
+    rng = torch.Generator().manual_seed(3)
+    deg = lambda d: torch.rad2deg(torch.acos(d[..., 2]))  # noqa: E731
+    graze = view_light_directions(20, tiny(grazing_share=1.0), rng)
+    assert graze.shape == (20, 2, 3) and torch.allclose(graze.norm(dim=-1), torch.ones(20, 2))
+    assert deg(graze).min() >= 60.0 - 1e-4 and deg(graze).max() <= 75.0 + 1e-4
+    steep = view_light_directions(20, tiny(grazing_share=0.0), rng)
+    assert deg(steep).max() < 60.0
+    mirrored = graze[1::2]
+    assert torch.allclose(mirrored[:, 1, :2], -mirrored[:, 0, :2]) and torch.allclose(mirrored[:, 1, 2],
+                                                                                      mirrored[:, 0, 2])
+
+
+def test_v2_loss_has_the_detail_term_and_more_renderings():
+    cfg = tiny_v2()
+    photos, maps, _ = sample_batch(cfg, torch.Generator().manual_seed(0))
+    same = prior_loss(maps, maps, cfg, torch.Generator().manual_seed(1))
+    assert set(same) >= {"render", "grad", "total"} and float(same["total"]) == pytest.approx(0.0, abs=1e-6)
+    other = maps.flip(-1)
+    v1_terms = prior_loss(other, maps, dataclasses.replace(cfg, render_views=0, lambda_grad=0.0),
+                          torch.Generator().manual_seed(1))
+    assert "grad" not in v1_terms
+    terms = prior_loss(other, maps, cfg, torch.Generator().manual_seed(1))
+    assert float(terms["grad"]) > 0 and float(terms["total"]) > float(v1_terms["total"])
+
+
+def test_batched_photos_follow_the_same_photo_model():
+    cfg = tiny_v2(crop_share=0.0)
+    photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(4))
+    assert photos.shape == (2, 3, 32, 32) and maps.shape == (2, 8, 32, 32)
+    assert photos.min() >= 0 and photos.max() <= 1 and len(info["draws"]) == 2
+    codes = linear_to_srgb(photos.numpy()) * 255.0
+    np.testing.assert_allclose(codes, np.round(codes), atol=1e-2)  # 8-bit sRGB like the numpy camera
+    again, _, _ = sample_batch(cfg, torch.Generator().manual_seed(4))
+    assert torch.equal(photos, again)
+    crops, cmaps, _ = sample_batch(tiny_v2(crop_share=1.0), torch.Generator().manual_seed(4))
+    assert crops.shape == (2, 3, 32, 32) and cmaps.shape == (2, 8, 32, 32)
+
+
+@pytest.mark.parametrize("compact_ckpt", [False, True])
+def test_time_limited_and_resumed_run_reaches_the_same_step_and_schedule(tmp_path, compact_ckpt):
+    cfg = tiny_v2(compact_checkpoint=compact_ckpt)
+    full = PriorTrainer(cfg, threads=1)
+    full.run()
+    first = PriorTrainer(cfg, threads=1, checkpoint_path=tmp_path / "c.pt", log_path=tmp_path / "log.jsonl")
+    first.run(max_seconds=0.0)  # stops after its first log record (log_every = 2 iterations), saved
+    assert first.timed_out and not first.interrupted and first.step == 2
+    ckpt = ckpt_io.load_checkpoint(tmp_path / "c.pt")
+    assert ckpt["step"] == 2
+    resumed = resume_prior(tmp_path / "c.pt", threads=1)
+    assert resumed.step == full.step == cfg.iters and not resumed.timed_out
+    assert [h["lr"] for h in resumed.history] == [h["lr"] for h in full.history]  # the cosine goes on
+    assert [h["step"] for h in resumed.history] == [2, 4, 6] and resumed.history[-1]["samples"] == 6 * cfg.batch
+    worst = max(float((a - b).abs().max()) for a, b in zip(full.generator.state_dict().values(),
+                                                           resumed.generator.state_dict().values()))
+    if compact_ckpt:
+        assert 0 < worst < 1e-2  # float16 weights and bfloat16 moments: near, not equal
+    else:
+        assert worst == 0.0
+
+
+def test_compact_checkpoint_of_the_v2_generator_is_under_16_mib(tmp_path):
+    sizes = {}
+    for compact_ckpt in (False, True):
+        t = PriorTrainer(tiny_v2(iters=1, log_every=1, render_views=0, compact_checkpoint=compact_ckpt),
+                         threads=1, checkpoint_path=tmp_path / f"{compact_ckpt}.pt")
+        t.run()
+        sizes[compact_ckpt] = (tmp_path / f"{compact_ckpt}.pt").stat().st_size
+        assert t.checkpoint()["generator_config"]["arch"] == "unet"
+    assert sizes[True] < 16 * 2 ** 20
+    assert sizes[True] < 0.6 * sizes[False]
+    gen = ckpt_io.load_generator(tmp_path / "True.pt")[0]  # a compact checkpoint still rebuilds the generator
+    assert gen.cfg.arch == "unet" and next(gen.parameters()).dtype == torch.float32
+
+
+def test_finetune_starts_from_a_unet_prior(tmp_path):
+    PriorTrainer(tiny_v2(iters=1, log_every=1), threads=1, checkpoint_path=tmp_path / "p.pt").run()
+    photo = torch.from_numpy(np.random.default_rng(0).random((1, 3, 48, 48), dtype=np.float32) * 0.5)
+    trainer = make_trainer(photo, "finetune", resolve("tiny", iters_finetune=1), init=tmp_path / "p.pt", threads=1)
+    trainer.run()
+    assert trainer.step == 1 and trainer.generator.cfg.arch == "unet"
+
+
+@pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
+def test_cuda_stream_stays_on_the_device_and_trains():
+    cfg = tiny_v2(bf16=True)
+    rng = torch.Generator().manual_seed(0)
+    sample_batch(cfg, rng, device="cuda")
+    torch.cuda.set_sync_debug_mode("error")  # any read-back from the GPU raises
+    try:
+        photos, maps, _ = sample_batch(cfg, rng, device="cuda")
+    finally:
+        torch.cuda.set_sync_debug_mode("default")
+    assert photos.is_cuda and maps.is_cuda
+    cpu_maps, _ = sample_materials(2, 64, torch.Generator().manual_seed(5))
+    gpu_maps, _ = sample_materials(2, 64, torch.Generator().manual_seed(5), device="cuda")
+    torch.testing.assert_close(gpu_maps.cpu(), cpu_maps, atol=1e-3, rtol=0)  # one stream on every device
+    trainer = PriorTrainer(cfg, device="cuda")
+    trainer.run()
+    assert trainer.step == cfg.iters and trainer.bf16
+
+
+def test_cli_time_limit_resume_from_a_file_and_bad_input(tmp_path, capsys):
+    out = tmp_path / "v2"
+    args = ["prior", "--preset", "v2", "--out", str(out), "--size", "32", "--photo-size", "64", "--batch", "1",
+            "--threads", "1", "--iters", "50", "--log-every", "2", "--eval-every", "0"]
+    assert cli.main([*args, "--minutes", "0.0001"]) == 0
+    err = capsys.readouterr().err
+    assert "time limit: stopped at iteration 2/50" in err and "generator unet" in err
+    other = tmp_path / "next"
+    assert cli.main(["prior", "--out", str(other), "--resume", str(out / "checkpoint.pt"), "--iters", "4",
+                     "--threads", "1"]) == 0
+    assert ckpt_io.load_checkpoint(other / "checkpoint.pt")["step"] == 4
+    for bad in (["--minutes", "0"], ["--log-every", "0"], ["--eval-every", "-1"]):
+        assert cli.main(["prior", "--out", str(tmp_path / "bad"), *bad]) == 2
+        lines = capsys.readouterr().err.strip().splitlines()
+        assert "Traceback" not in "\n".join(lines) and lines[-1].startswith("svbrdf-train: error:")
+    assert cli.main(["prior", "--out", str(tmp_path / "r"), "--resume", str(tmp_path / "missing.pt")]) == 1
+    assert "no checkpoint to resume from" in capsys.readouterr().err

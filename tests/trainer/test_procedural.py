@@ -166,3 +166,17 @@ def test_contact_sheet_writes_and_refuses_overwrite(tmp_path, capsys):
     assert "exists" in capsys.readouterr().err
     assert contact_sheet.main(args + ["--force"]) == 0
     assert contact_sheet.main(["--out", str(tmp_path / "x.png"), "--families", "nope"]) == 2
+
+
+def test_hsv_conversion_is_kornias():
+    kornia = pytest.importorskip("kornia")
+    from svbrdf.trainer.procedural import hsv_to_rgb
+
+    hsv = torch.rand(4, 3, 8, 8, generator=torch.Generator().manual_seed(0)) * torch.tensor([2 * np.pi, 1.0, 1.0]).view(1, 3, 1, 1)
+    torch.testing.assert_close(hsv_to_rgb(hsv), kornia.color.hsv_to_rgb(hsv), atol=1e-6, rtol=0)
+
+
+def test_an_explicit_cpu_device_gives_the_same_stream():
+    a, fa = sample_materials(3, 32, torch.Generator().manual_seed(9))
+    b, fb = sample_materials(3, 32, torch.Generator().manual_seed(9), device="cpu")
+    assert fa == fb and torch.equal(a, b)

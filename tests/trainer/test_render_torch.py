@@ -115,3 +115,17 @@ def test_finite_values_and_gradients(rough, spec, diffuse, tilt, azimuth, intens
     for name in MAP_NAMES:
         packed[:, SLICES[name]] = torch.tensor(values[name], dtype=torch.float32)[None, :, None, None]
     _assert_finite_with_grads(packed, config, light)
+
+
+@pytest.mark.parametrize("light", [None, (0.3, -0.2, 1.1)])
+def test_batched_point_light_vectors_equal_the_numpy_geometry(light):
+    from svbrdf.runtime.render import camera_position
+    from svbrdf.trainer.render import plane_grid, point_light_vectors
+
+    cfg = ZHAO.replace(fov_deg=50.0)
+    v_np, l_np, d2_np = light_vectors(12, 20, light, cfg)
+    cam = torch.as_tensor(camera_position(cfg))[None]
+    lp = cam if light is None else torch.tensor([light])
+    v, l, d2 = point_light_vectors(plane_grid(12, 20), cam, lp)
+    for got, want in ((v, v_np), (l, l_np), (d2, d2_np)):
+        np.testing.assert_allclose(got[0].permute(1, 2, 0).numpy(), want, atol=1e-6)

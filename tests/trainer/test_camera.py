@@ -1,0 +1,32 @@
+"""The batched torch camera (svbrdf.trainer.camera) against the numpy photo model (svbrdf.runtime.camera)."""
+
+import numpy as np
+import pytest
+import torch
+
+from svbrdf.runtime.camera import Camera, expose
+from svbrdf.trainer.camera import expose_batch
+
+
+@pytest.mark.parametrize("quantize", [False, True])
+def test_noise_free_exposure_equals_the_numpy_camera(quantize):
+    rng = np.random.default_rng(0)
+    radiance = rng.random((2, 3, 16, 24)).astype(np.float32) * 1.5
+    cams = [Camera(ev=0.4, vignetting=0.2, quantize=quantize), Camera(ev=-0.3, vignetting=0.0, quantize=quantize)]
+    got = expose_batch(torch.from_numpy(radiance), torch.tensor([c.ev for c in cams]),
+                       torch.tensor([c.vignetting for c in cams]), torch.zeros(2), torch.zeros(2),
+                       quantize=quantize).numpy()
+    for i, cam in enumerate(cams):
+        want = expose(radiance[i].transpose(1, 2, 0), cam).transpose(2, 0, 1)
+        # quantised: the torch and numpy sRGB curves agree to 3e-5 (test_colour.py), far below one 8-bit code
+        np.testing.assert_allclose(got[i], want, atol=2e-6 if not quantize else 6e-5)
+    assert got.max() == 1.0  # bright pixels clip
+
+
+def test_noise_has_the_model_variance_and_follows_the_seed():
+    x = torch.full((1, 3, 64, 64), 0.25)
+    args = (torch.zeros(1), torch.zeros(1), torch.tensor([1e-3]), torch.tensor([2e-3]))
+    a = expose_batch(x, *args, generator=torch.Generator().manual_seed(1), quantize=False)
+    b = expose_batch(x, *args, generator=torch.Generator().manual_seed(1), quantize=False)
+    assert torch.equal(a, b)
+    assert float(a.var()) == pytest.approx(1e-3 * 0.25 + 2e-3 ** 2, rel=0.1)
