@@ -206,3 +206,23 @@ def test_cli(tmp_path, capsys):
     assert "no such checkpoint" in capsys.readouterr().err
     assert main([str(ckpt_path), "-o", str(tmp_path / "x.bin")]) == 2
     assert main(["--opset"]) == 2
+
+
+def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path):
+    from svbrdf.trainer.models import GeneratorConfig
+
+    with torch.random.fork_rng():
+        torch.manual_seed(2)
+        generator = Generator(GeneratorConfig(width=0.125, decoder_blocks=3, arch="unet")).eval()
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        report = export_generator(generator, tmp_path / "unet.onnx", sizes=SIZES)
+    assert report["max_abs_diff"] <= export_onnx.PARITY_ATOL
+    assert all(p["max_abs_diff"] <= export_onnx.PARITY_ATOL for p in report["parts"].values())
+    manifest = json.loads((tmp_path / "unet.json").read_text())
+    assert manifest["training"]["generator_config"]["arch"] == "unet"
+    sess = ort.InferenceSession(str(tmp_path / "unet.onnx"), providers=["CPUExecutionProvider"])
+    x = np.random.default_rng(3).random((1, 3, 37, 53), dtype=np.float32)  # not a multiple of 8: padded inside
+    with torch.inference_mode():
+        want = generator(torch.from_numpy(x)).numpy()
+    np.testing.assert_allclose(sess.run(None, {"image": x})[0], want, atol=export_onnx.PARITY_ATOL)
