@@ -128,6 +128,8 @@ def build_parser() -> argparse.ArgumentParser:
                    help="continue the run saved in --out (or in CKPT; the run then saves into --out) where it stopped")
     p.add_argument("--minutes", type=float, help="wall-clock limit: save the checkpoint and stop after this many "
                                                  "minutes (resume later with --resume)")
+    p.add_argument("--material-reuse", type=int, metavar="N",
+                   help="photograph each batch of materials N times before drawing new ones (default 1)")
     p.add_argument("--eval-every", type=int, metavar="N", help="iterations between held-out evaluations (0 = never; "
                                                                "default 100; v2: 500)")
     p.add_argument("--log-every", type=int, metavar="N", help="iterations per (averaged) log record "
@@ -221,7 +223,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     ckpt_path = out / CHECKPOINT
     if args.resume and args.force:
         parser.error("--resume and --force exclude each other")
-    for flag in ("iters", "batch", "size", "photo_size", "checkpoint_every", "log_every"):
+    for flag in ("iters", "batch", "size", "photo_size", "checkpoint_every", "log_every", "material_reuse"):
         v = getattr(args, flag)
         if v is not None and v < 1:
             parser.error(f"--{flag.replace('_', '-')} must be >= 1, got {v}")
@@ -247,6 +249,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             config.log_every = args.log_every
         if args.eval_every is not None:
             config.eval_every = args.eval_every
+        if args.material_reuse is not None:
+            config.material_reuse = args.material_reuse
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")
@@ -268,7 +272,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             for p in (ckpt_path, out / LOG):
                 p.unlink(missing_ok=True)
         over = {k: getattr(args, k) for k in ("iters", "batch", "size", "photo_size", "lr", "seed",
-                                              "checkpoint_every", "log_every", "eval_every")
+                                              "checkpoint_every", "log_every", "eval_every", "material_reuse")
                 if getattr(args, k) is not None}
         try:
             from svbrdf.trainer.prior import prior_preset

@@ -102,6 +102,10 @@ class PriorConfig:
         log_every: iterations per log record (their mean); 1 = every iteration (v1).
         compact_checkpoint: store the weights in float16 and Adam's moments in bfloat16, and only the log
             records in the history (about a third of the float32 size; resuming casts them back).
+        material_reuse: iterations that photograph the same materials anew (new flash, field of view, camera and
+            crop each time) before new ones are drawn; > 1 where drawing materials bounds the speed (a GPU waiting
+            for the host's many small kernel launches). Make ``log_every`` a multiple of it so that a run stopped
+            by its time limit resumes exactly (the materials in use are not stored).
     """
 
     generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
@@ -133,6 +137,7 @@ class PriorConfig:
     bf16: bool = False
     log_every: int = 1
     compact_checkpoint: bool = False
+    material_reuse: int = 1
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -164,6 +169,7 @@ class PriorConfig:
         need(0.0 <= self.grazing_share <= 1.0, f"grazing_share must be in [0, 1], got {self.grazing_share}")
         need(0.0 < self.grazing_deg[0] <= self.grazing_deg[1] < 90.0, f"bad grazing_deg range {self.grazing_deg}")
         need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
+        need(self.material_reuse >= 1, f"material_reuse must be >= 1, got {self.material_reuse}")
         unknown = set(self.families or ()) - set(FAMILIES)
         need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
         resolve(self.finetune_preset)  # raises on an unknown preset
@@ -332,15 +338,25 @@ def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int]
     With ``config.batched`` it is built on ``device`` (default CPU) by :func:`simulate_photos_batched`; otherwise
     on the CPU photo by photo (:func:`simulate_photos`, v1), whatever ``device``.
     """
+    return photograph(config, rng, *draw_materials(config, rng, batch, device))
+
+
+def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None,
+                   device: Optional[Union[str, torch.device]] = None) -> Tuple[torch.Tensor, List[str], bool]:
+    """The materials of one batch (first half of :func:`sample_batch`): ``(maps, families, crop)``, the maps at
+    ``photo_size`` when the batch is cropped (``crop``), else at ``size``."""
     n = config.batch if batch is None else batch
     crop = _uniform(rng, 0.0, 1.0) < config.crop_share
     side = config.photo_size if crop else config.size
-    if config.batched:
-        maps, families = sample_materials(n, side, rng, config.families, device=device)
-        photos, maps, draws = simulate_photos_batched(maps, config, rng, crop=config.size if crop else None)
-    else:
-        maps, families = sample_materials(n, side, rng, config.families)
-        photos, maps, draws = simulate_photos(maps, config, rng, crop=config.size if crop else None)
+    maps, families = sample_materials(n, side, rng, config.families, device=device if config.batched else None)
+    return maps, families, crop
+
+
+def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, families: List[str], crop: bool
+               ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
+    """Photos of materials from :func:`draw_materials` (second half of :func:`sample_batch`)."""
+    simulate = simulate_photos_batched if config.batched else simulate_photos
+    photos, maps, draws = simulate(maps, config, rng, crop=config.size if crop else None)
     return photos, maps, {"families": families, "crop": crop, "draws": draws}
 
 
@@ -436,6 +452,7 @@ class PriorTrainer:
         self.timed_out = False
         self.bf16, self.bf16_note = (bf16_support(self.device) if config.bf16 else (False, None))
         self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
+        self._materials: Optional[Tuple[torch.Tensor, List[str], bool]] = None
 
     # ------------------------------------------------------------------ schedule
     def lr_at(self, step: int) -> float:
@@ -448,7 +465,9 @@ class PriorTrainer:
     def _step(self) -> Tuple[Dict[str, torch.Tensor], Dict[str, Any]]:
         """One optimiser step on a fresh batch: the (detached, on-device) loss terms and the host-side facts."""
         t0 = time.perf_counter()
-        photos, maps, info = sample_batch(self.config, self.rng, device=self.device)
+        if self._materials is None or self.step % self.config.material_reuse == 0:
+            self._materials = draw_materials(self.config, self.rng, device=self.device)
+        photos, maps, info = photograph(self.config, self.rng, *self._materials)
         t_data = time.perf_counter() - t0
         photos, maps = photos.to(self.device), maps.to(self.device)
         for group in self.optimizer.param_groups:
@@ -673,5 +692,5 @@ def prior_preset(name: str) -> PriorConfig:
 
 
 __all__ = ["PriorConfig", "PriorTrainer", "train_prior", "resume_prior", "sample_batch", "simulate_photos",
-           "simulate_photos_batched", "prior_loss", "map_errors", "lights_for", "view_light_directions", "compact",
+           "simulate_photos_batched", "draw_materials", "photograph", "prior_loss", "map_errors", "lights_for", "view_light_directions", "compact",
            "PRIOR_PRESETS", "prior_preset", "STAGE"]

@@ -318,3 +318,16 @@ def test_cli_time_limit_resume_from_a_file_and_bad_input(tmp_path, capsys):
         assert "Traceback" not in "\n".join(lines) and lines[-1].startswith("svbrdf-train: error:")
     assert cli.main(["prior", "--out", str(tmp_path / "r"), "--resume", str(tmp_path / "missing.pt")]) == 1
     assert "no checkpoint to resume from" in capsys.readouterr().err
+
+
+def test_material_reuse_photographs_the_same_materials_anew(monkeypatch):
+    from svbrdf.trainer import prior as prior_mod
+
+    drawn = []
+    real = prior_mod.draw_materials
+    monkeypatch.setattr(prior_mod, "draw_materials", lambda *a, **k: drawn.append(1) or real(*a, **k))
+    t = PriorTrainer(tiny_v2(iters=6, material_reuse=3, log_every=3, render_views=0), threads=1)
+    t.run()
+    assert t.step == 6 and len(drawn) == 2
+    with pytest.raises(ValueError, match="material_reuse"):
+        tiny(material_reuse=0)

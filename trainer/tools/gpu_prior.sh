@@ -12,14 +12,14 @@
 # 4. copies the resume checkpoint ($OUT/resume.pt, < 16 MiB), this chunk's log ($OUT/train_log.jsonl) and the
 #    console output ($OUT/console.txt) into $OUT.
 #
-# Environment (all optional): MINUTES (default 8.5), RESUME (default docs/benchmarks/prior-v2/resume.pt), RUN
+# Environment (all optional): MINUTES (default 8), RESUME (default docs/benchmarks/prior-v2/resume.pt), RUN
 # (default runs/prior_v2), PYTHON (default python3), PREFLIGHT (default 1). Extra arguments go to
 # `svbrdf-train prior` (e.g. --iters 60000 to re-spread the schedule, --device cpu for a dry run).
 # How to call it through the device tool and commit what comes back: docs/benchmarks/prior-v2/README.md.
 set -uo pipefail
 
 : "${OUT:?set OUT to the folder that receives the checkpoint and the logs}"
-MINUTES="${MINUTES:-8.5}"
+MINUTES="${MINUTES:-8}"
 RESUME="${RESUME:-docs/benchmarks/prior-v2/resume.pt}"
 RUN="${RUN:-runs/prior_v2}"
 PYTHON="${PYTHON:-python3}"
