@@ -9,12 +9,20 @@ numpy model in ``tests/trainer/test_camera.py``.
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Optional
 
 import torch
 
 from svbrdf.runtime.camera import radius2
 from svbrdf.trainer.colour import linear_to_srgb, srgb_to_linear
+from svbrdf.trainer.device import to_device
+
+
+@lru_cache(maxsize=16)
+def _radius2(height: int, width: int, device: torch.device) -> torch.Tensor:
+    """(1, 1, H, W) :func:`svbrdf.runtime.camera.radius2` on ``device``, cached."""
+    return to_device(torch.from_numpy(radius2(height, width))[..., 0][None, None], device)
 
 
 def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Tensor, shot: torch.Tensor,
@@ -32,8 +40,8 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
         (B, 3, H, W) float32 linear photos in [0, 1].
     """
     b, _, h, w = radiance.shape
-    col = lambda t: t.to(radiance.device, torch.float32).view(b, 1, 1, 1)  # noqa: E731
-    r2 = torch.as_tensor(radius2(h, w), device=radiance.device)[..., 0][None, None]  # (1, 1, H, W)
+    col = lambda t: to_device(t, radiance.device, torch.float32).view(b, 1, 1, 1)  # noqa: E731
+    r2 = _radius2(h, w, radiance.device)
     img = radiance.float() * torch.exp2(col(ev)) * (1.0 - col(vignetting) * r2)
     var = col(shot) * img.clamp_min(0.0) + col(read) ** 2
     noise = torch.randn(img.shape, generator=generator, device=img.device, dtype=img.dtype)

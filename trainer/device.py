@@ -1,11 +1,12 @@
-"""Where training runs: the device, bfloat16 support and CPU threads (no kornia, no OpenImageIO, so that
+"""Where training runs: the device, bfloat16 support, CPU threads and uploads to a GPU (no kornia, no OpenImageIO, so that
 ``svbrdf-train prior`` imports on a bare GPU machine; :mod:`svbrdf.trainer.train` re-exports these)."""
 
 from __future__ import annotations
 
 import os
-from typing import Optional, Tuple
+from typing import Any, Optional, Tuple, Union
 
+import numpy as np
 import torch
 
 
@@ -43,4 +44,22 @@ def set_threads(threads: Optional[int] = None) -> int:
     return int(threads)
 
 
-__all__ = ["pick_device", "bf16_support", "set_threads"]
+def to_device(x: Union[torch.Tensor, np.ndarray, Any], device: Union[str, torch.device],
+              dtype: Optional[torch.dtype] = None) -> torch.Tensor:
+    """``x`` (a tensor, an array or numbers) as a tensor on ``device``, without making the host wait for a GPU.
+
+    A plain host-to-GPU copy (``tensor.to("cuda")``) synchronises the stream: the host stops until every kernel
+    queued before it has run, so a data pipeline that uploads small random tables cannot run ahead of the GPU. On
+    CUDA the host data is staged in pinned memory and copied asynchronously instead (torch's caching host
+    allocator keeps the staging buffer alive until the copy is done). Elsewhere it is an ordinary conversion.
+    """
+    device = torch.device(device)
+    t = x if isinstance(x, torch.Tensor) else torch.as_tensor(np.asarray(x), device="cpu")
+    if dtype is not None:
+        t = t.to(dtype)
+    if device.type != "cuda" or t.device.type == "cuda":
+        return t.to(device)
+    return t.pin_memory().to(device, non_blocking=True)
+
+
+__all__ = ["pick_device", "bf16_support", "set_threads", "to_device"]

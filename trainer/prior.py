@@ -53,7 +53,7 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
 from svbrdf.runtime.render import camera_position
 from svbrdf.trainer.camera import expose_batch
-from svbrdf.trainer.device import bf16_support, pick_device, set_threads
+from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
 from svbrdf.trainer.losses import gradient_loss, relit_loss, supervised_maps_loss
 from svbrdf.trainer.models import Generator, GeneratorConfig
 from svbrdf.trainer.procedural import FAMILIES, sample_materials
@@ -310,8 +310,8 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
         for _ in range(b):
             boxes.append((int(torch.randint(0, h - crop + 1, (), generator=rng)),
                           int(torch.randint(0, w - crop + 1, (), generator=rng))))
-    v, l, d2 = point_light_vectors(plane_grid(h, w, dev), torch.as_tensor(np.stack(cams), device=dev),
-                                   torch.as_tensor(lights, device=dev))
+    v, l, d2 = point_light_vectors(plane_grid(h, w, dev), to_device(np.stack(cams), dev),
+                                   to_device(np.asarray(lights, dtype=np.float32), dev))
     maps = maps.float()
     with torch.no_grad():
         radiance = torch.empty(b, 3, h, w, device=dev)
@@ -319,7 +319,7 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
             idx = [i for i in range(b) if physical[i] == flag]
             if idx:
                 rc = physical_config(base) if flag else base
-                sel = torch.as_tensor(idx, device=dev)
+                sel = to_device(torch.tensor(idx), dev)
                 radiance[sel] = render_maps(maps[sel], v[sel], l[sel], rc, d2[sel])
         noise = torch.Generator(device=dev).manual_seed(seed)
         param = {k: torch.tensor([c[k] for c in cam_draws]) for k in ("ev", "vignetting", "shot", "read")}
@@ -380,10 +380,10 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
         rel = []
         lights = [None] + lights_for(rc, config.render_lights, rng)
         if config.batched:
-            cam = torch.as_tensor(camera_position(rc), device=pred.device)[None]
+            cam = to_device(camera_position(rc)[None], pred.device)
             pos = plane_grid(h, w, pred.device)
             for light in lights:
-                lp = cam if light is None else torch.tensor([light], device=pred.device)
+                lp = cam if light is None else to_device(torch.tensor([light]), pred.device)
                 v, l, d2 = point_light_vectors(pos, cam, lp)
                 rel.append(relit_loss(render_maps(pred, v, l, rc, d2), render_maps(target, v, l, rc, d2)))
         else:
@@ -392,7 +392,7 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
                 rel.append(relit_loss(render_maps(pred, v, l, rc, d2), render_maps(target, v, l, rc, d2)))
         if config.render_views:
             distant = rc.replace(falloff=False)
-            pairs = view_light_directions(config.render_views, config, rng).to(pred.device)
+            pairs = to_device(view_light_directions(config.render_views, config, rng), pred.device)
             for pair in pairs:
                 v, l = (direction_vectors(d[None], h, w) for d in pair)
                 rel.append(relit_loss(render_maps(pred, v, l, distant), render_maps(target, v, l, distant)))
@@ -477,10 +477,21 @@ class PriorTrainer:
             pred = self.generator(photos)
         terms = prior_loss(pred.float(), maps, self.config, self.rng)
         self.optimizer.zero_grad(set_to_none=True)
-        skipped = not torch.isfinite(terms["total"])  # the one read-back of an iteration
-        if not skipped:
+        if self.config.batched:
+            # No read-back: a non-finite loss zeroes its gradients on the device (Adam then takes a step with a
+            # zero gradient) and is counted at the next log record.
+            finite = torch.isfinite(terms["total"])
             terms["total"].backward()
+            for p in self.generator.parameters():
+                if p.grad is not None:
+                    p.grad = torch.where(finite, p.grad, torch.zeros_like(p.grad))
             self.optimizer.step()
+            skipped: Any = ~finite
+        else:
+            skipped = not torch.isfinite(terms["total"])
+            if not skipped:
+                terms["total"].backward()
+                self.optimizer.step()
         self.step += 1
         facts = {"step": self.step, "lr": self.lr_at(self.step - 1), "crop": info["crop"], "data_seconds": t_data,
                  "seconds": time.perf_counter() - t0, "skipped": skipped}
@@ -510,7 +521,7 @@ class PriorTrainer:
         for k, v in stacked.items():
             ok = torch.isfinite(v)
             rec[k] = float(v[ok].mean()) if bool(ok.any()) else None
-        skips = sum(bool(f["skipped"]) for _, f in window)
+        skips = int(sum(int(f["skipped"]) for _, f in window))
         if skips:
             rec["skipped"] = skips
         return rec

@@ -42,7 +42,8 @@ Devices
 ``sample_materials(..., device="cuda")`` builds the maps on that device: every field is computed there, and nothing
 is read back to the host (the slope factor of the normals stays a device tensor). Every random number still comes
 from the caller's CPU generator, in the same order: scalar draws are host numbers that parameterise the kernels, and
-random tables and spectra are drawn on the CPU and copied to the device. The stream is therefore the same on every
+random tables and spectra are drawn on the CPU and copied to the device asynchronously
+(:func:`svbrdf.trainer.device.to_device`). The stream is therefore the same on every
 device (to float rounding), and a run resumed on another device continues it. On the CPU nothing changes.
 
 Parameter distributions
@@ -68,6 +69,7 @@ import torch
 
 from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer.colour import srgb_to_linear
+from svbrdf.trainer.device import to_device
 from svbrdf.trainer.models import height_to_normal, pack_maps
 
 __all__ = ["FAMILIES", "sample_materials"]
@@ -164,12 +166,12 @@ def _chance(g: torch.Generator, p: float) -> bool:
 
 def _rand(g: torch.Generator, *shape: int) -> torch.Tensor:
     """Uniform [0, 1) tensor drawn from ``g`` on the CPU, on the device the materials are built on."""
-    return torch.rand(shape, generator=g, device="cpu").to(torch.get_default_device())
+    return to_device(torch.rand(shape, generator=g, device="cpu"), torch.get_default_device())
 
 
 def _randn(g: torch.Generator, *shape: int) -> torch.Tensor:
     """Standard normal tensor drawn from ``g`` on the CPU, on the device the materials are built on."""
-    return torch.randn(shape, generator=g, device="cpu").to(torch.get_default_device())
+    return to_device(torch.randn(shape, generator=g, device="cpu"), torch.get_default_device())
 
 
 def _choice(g: torch.Generator, options: Sequence):
@@ -678,7 +680,7 @@ def _class_materials(g: torch.Generator, pat: _Pattern, neutral: bool
             spec[i] = _logu(g, *P["spec_dielectric"])
     rough = torch.rand(k, generator=g, device="cpu") * (P["roughness"][1] - P["roughness"][0]) + P["roughness"][0]
     dev = torch.get_default_device()
-    return rgb.clamp(0.0, 1.0).to(dev), spec.to(dev), rough.to(dev)
+    return to_device(rgb.clamp(0.0, 1.0), dev), to_device(spec, dev), to_device(rough, dev)
 
 
 def _normal_scale(h: torch.Tensor, angle_deg: float) -> torch.Tensor:

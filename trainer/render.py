@@ -7,12 +7,14 @@ with each tile (:class:`FlashGeometry`).
 
 from __future__ import annotations
 
+from functools import lru_cache
 from typing import Optional, Sequence, Tuple
 
 import torch
 
 from svbrdf.runtime.maps import SLICES
 from svbrdf.runtime.render import ZHAO, RenderConfig, light_vectors, plane_positions, shade
+from svbrdf.trainer.device import to_device
 
 
 def render_maps(
@@ -78,8 +80,15 @@ class FlashGeometry:
 
 
 def plane_grid(height: int, width: int, device=None) -> torch.Tensor:
-    """(1, 3, H, W) float32 world positions of the pixel centres (:func:`svbrdf.runtime.render.plane_positions`)."""
-    return torch.as_tensor(plane_positions(height, width), device=device).permute(2, 0, 1)[None].contiguous()
+    """(1, 3, H, W) float32 world positions of the pixel centres (:func:`svbrdf.runtime.render.plane_positions`),
+    cached per size and device."""
+    return _plane_grid(int(height), int(width), torch.device(device if device is not None else "cpu"))
+
+
+@lru_cache(maxsize=16)
+def _plane_grid(height: int, width: int, device: torch.device) -> torch.Tensor:
+    grid = torch.from_numpy(plane_positions(height, width)).permute(2, 0, 1)[None].contiguous()
+    return to_device(grid, device)
 
 
 def point_light_vectors(positions: torch.Tensor, camera: torch.Tensor, light: torch.Tensor

@@ -331,3 +331,22 @@ def test_material_reuse_photographs_the_same_materials_anew(monkeypatch):
     assert t.step == 6 and len(drawn) == 2
     with pytest.raises(ValueError, match="material_reuse"):
         tiny(material_reuse=0)
+
+
+def test_a_non_finite_loss_in_the_batched_stream_leaves_the_weights_finite_and_is_counted(monkeypatch):
+    from svbrdf.trainer import prior as prior_mod
+
+    real, calls = prior_mod.prior_loss, []
+
+    def sometimes_nan(*a, **k):
+        out = real(*a, **k)
+        calls.append(1)
+        if len(calls) == 2:
+            out["total"] = out["total"] * float("nan")
+        return out
+
+    monkeypatch.setattr(prior_mod, "prior_loss", sometimes_nan)
+    t = PriorTrainer(tiny_v2(iters=4, log_every=4, render_views=0), threads=1)
+    t.run()
+    assert t.history[-1]["skipped"] == 1 and t.history[-1]["total"] is not None
+    assert all(torch.isfinite(p).all() for p in t.generator.parameters())
