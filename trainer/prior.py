@@ -546,9 +546,11 @@ class PriorTrainer:
         """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback.
 
         Args:
-            max_seconds: wall-clock limit of this call. Checked after every log record (every ``log_every``
-                iterations): past it, the run saves its checkpoint and stops with ``timed_out`` set; a later
-                ``resume`` continues the same schedule.
+            max_seconds: wall-clock limit of this call. Checked after every iteration that starts a new draw of
+                materials (every ``material_reuse`` iterations): past it, the run writes the (possibly short) log
+                record, saves its checkpoint and stops with ``timed_out`` set; a later ``resume`` continues the
+                same schedule. Log records fall on multiples of ``log_every``, so a resumed run realigns its
+                records after a short one.
         """
         c = self.config
         log = None if self.log_path is None else open(self.log_path, "a", encoding="utf-8")
@@ -562,7 +564,9 @@ class PriorTrainer:
                     rec = self.iteration()
                 else:
                     window.append(self._step())
-                    due = (len(window) >= c.log_every or self.step >= c.iters
+                    due = (self.step % c.log_every == 0 or self.step >= c.iters
+                           or (max_seconds is not None and self.step % c.material_reuse == 0
+                               and time.perf_counter() - start >= max_seconds)
                            or (c.eval_every and self.step % c.eval_every == 0)
                            or (c.checkpoint_every and self.step % c.checkpoint_every == 0))
                     if not due:
@@ -582,7 +586,8 @@ class PriorTrainer:
                     log.flush()
                 stop = bool(self.callback(self, rec)) if self.callback else False
                 at_end = self.step == c.iters
-                late = max_seconds is not None and time.perf_counter() - start >= max_seconds and not at_end
+                late = (max_seconds is not None and time.perf_counter() - start >= max_seconds and not at_end
+                        and self.step % c.material_reuse == 0)
                 if self.checkpoint_path is not None and (
                         at_end or stop or late or (c.checkpoint_every and self.step % c.checkpoint_every == 0)):
                     self.save()

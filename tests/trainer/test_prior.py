@@ -244,20 +244,35 @@ def test_time_limited_and_resumed_run_reaches_the_same_step_and_schedule(tmp_pat
     full = PriorTrainer(cfg, threads=1)
     full.run()
     first = PriorTrainer(cfg, threads=1, checkpoint_path=tmp_path / "c.pt", log_path=tmp_path / "log.jsonl")
-    first.run(max_seconds=0.0)  # stops after its first log record (log_every = 2 iterations), saved
-    assert first.timed_out and not first.interrupted and first.step == 2
+    first.run(max_seconds=0.0)  # stops after its first iteration, inside a log window (log_every = 2): a short record
+    assert first.timed_out and not first.interrupted and first.step == 1
     ckpt = ckpt_io.load_checkpoint(tmp_path / "c.pt")
-    assert ckpt["step"] == 2
+    assert ckpt["step"] == 1
     resumed = resume_prior(tmp_path / "c.pt", threads=1)
     assert resumed.step == full.step == cfg.iters and not resumed.timed_out
-    assert [h["lr"] for h in resumed.history] == [h["lr"] for h in full.history]  # the cosine goes on
-    assert [h["step"] for h in resumed.history] == [2, 4, 6] and resumed.history[-1]["samples"] == 6 * cfg.batch
+    assert [h["step"] for h in resumed.history] == [1, 2, 4, 6]  # the records realign on multiples of log_every
+    assert [h["lr"] for h in resumed.history[2:]] == [h["lr"] for h in full.history[1:]]  # the cosine goes on
+    assert resumed.history[-1]["samples"] == 6 * cfg.batch
     worst = max(float((a - b).abs().max()) for a, b in zip(full.generator.state_dict().values(),
                                                            resumed.generator.state_dict().values()))
     if compact_ckpt:
         assert 0 < worst < 1e-2  # float16 weights and bfloat16 moments: near, not equal
     else:
         assert worst == 0.0
+
+
+def test_time_limit_stops_only_where_a_new_draw_of_materials_starts(tmp_path):
+    cfg = tiny_v2(material_reuse=3, log_every=6, compact_checkpoint=False)
+    first = PriorTrainer(cfg, threads=1, checkpoint_path=tmp_path / "c.pt")
+    first.run(max_seconds=0.0)
+    assert first.timed_out and first.step == 3  # not 1: a resume would draw the reused materials anew
+    full = PriorTrainer(cfg, threads=1)
+    full.run()
+    resumed = resume_prior(tmp_path / "c.pt", threads=1)
+    assert resumed.step == full.step == cfg.iters
+    worst = max(float((a - b).abs().max()) for a, b in zip(full.generator.state_dict().values(),
+                                                           resumed.generator.state_dict().values()))
+    assert worst == 0.0
 
 
 def test_compact_checkpoint_of_the_v2_generator_is_under_16_mib(tmp_path):
@@ -307,7 +322,7 @@ def test_cli_time_limit_resume_from_a_file_and_bad_input(tmp_path, capsys):
             "--threads", "1", "--iters", "50", "--log-every", "2", "--eval-every", "0"]
     assert cli.main([*args, "--minutes", "0.0001"]) == 0
     err = capsys.readouterr().err
-    assert "time limit: stopped at iteration 2/50" in err and "generator unet" in err
+    assert "time limit: stopped at iteration 1/50" in err and "generator unet" in err
     other = tmp_path / "next"
     assert cli.main(["prior", "--out", str(other), "--resume", str(out / "checkpoint.pt"), "--iters", "4",
                      "--threads", "1"]) == 0
