@@ -13,7 +13,8 @@
 #    console output ($OUT/console.txt) into $OUT.
 #
 # Environment (all optional): MINUTES (default 8), RESUME (default docs/benchmarks/prior-v2/resume.pt), RUN
-# (default runs/prior_v2), PYTHON (default python3), PREFLIGHT (default 1). Extra arguments go to
+# (default runs/prior_v2), PYTHON (default python3), PREFLIGHT (default 1), LIMIT_S (default 570: seconds from the
+# script's start after which the training is killed, inside the device tool's 600 s). Extra arguments go to
 # `svbrdf-train prior` (e.g. --iters 60000 to re-spread the schedule, --device cpu for a dry run).
 # How to call it through the device tool and commit what comes back: docs/benchmarks/prior-v2/README.md.
 set -uo pipefail
@@ -24,6 +25,7 @@ RESUME="${RESUME:-docs/benchmarks/prior-v2/resume.pt}"
 RUN="${RUN:-runs/prior_v2}"
 PYTHON="${PYTHON:-python3}"
 PREFLIGHT="${PREFLIGHT:-1}"
+LIMIT_S="${LIMIT_S:-570}"
 ROOT="$(pwd)"
 mkdir -p "$OUT" "$RUN"
 CONSOLE="$OUT/console.txt"
@@ -77,8 +79,20 @@ else
     args+=(--preset v2 --force)
     say "no $RESUME: starting --preset v2 for $MINUTES min"
 fi
-"$PYTHON" -m svbrdf.trainer.cli "${args[@]}" "$@" 2>&1 | tr '\r' '\n' | grep -Ev '^prior: +[0-9]+/[0-9]+ ' | tee -a "$CONSOLE"
-rc=${PIPESTATUS[0]}
+# A hard stop well inside the device tool's 600 s, in case an iteration is far slower than expected: the
+# training stops itself at MINUTES (checked every iteration), this only catches a hang; a killed run still
+# returns its last periodic checkpoint (every 2000 iterations in v2), if any.
+left=$(( LIMIT_S - SECONDS ))
+if [ "$left" -lt 60 ]; then say "only $left s left of LIMIT_S=$LIMIT_S: not training"; left=0; fi
+if [ $(( left - 30 )) -lt "$(awk -v m="$MINUTES" 'BEGIN { printf "%d", m * 60 }')" ]; then
+    say "warning: MINUTES=$MINUTES does not fit in the $left s left of LIMIT_S=$LIMIT_S; the hard stop will end it"
+fi
+rc=124
+if [ "$left" -gt 0 ]; then
+    timeout -k 10 "$left" "$PYTHON" -m svbrdf.trainer.cli "${args[@]}" "$@" 2>&1 | tr '\r' '\n' \
+        | grep -Ev '^prior: +[0-9]+/[0-9]+ ' | tee -a "$CONSOLE"
+    rc=${PIPESTATUS[0]}
+fi
 say "svbrdf-train exit status $rc"
 
 # 4. what comes back
