@@ -72,6 +72,9 @@ fi
 
 # 3. train
 args=(prior --out "$RUN" --minutes "$MINUTES")
+# A warm machine keeps ignored folders such as runs/ between calls: clear the last call's checkpoint and log, so
+# that $OUT gets this chunk's records only, and never a stale checkpoint when this chunk fails before saving.
+rm -f "$RUN/checkpoint.pt" "$RUN/train_log.jsonl"
 if [ -f "$RESUME" ]; then
     args+=(--resume "$RESUME")
     say "resuming $RESUME for $MINUTES min"
@@ -84,13 +87,13 @@ fi
 # returns its last periodic checkpoint (every 2000 iterations in v2), if any.
 left=$(( LIMIT_S - SECONDS ))
 if [ "$left" -lt 60 ]; then say "only $left s left of LIMIT_S=$LIMIT_S: not training"; left=0; fi
-if [ $(( left - 30 )) -lt "$(awk -v m="$MINUTES" 'BEGIN { printf "%d", m * 60 }')" ]; then
+if [ $(( left - 30 )) -lt "$("$PYTHON" -c "print(int(float('$MINUTES') * 60))")" ]; then
     say "warning: MINUTES=$MINUTES does not fit in the $left s left of LIMIT_S=$LIMIT_S; the hard stop will end it"
 fi
 rc=124
 if [ "$left" -gt 0 ]; then
     timeout -k 10 "$left" "$PYTHON" -m svbrdf.trainer.cli "${args[@]}" "$@" 2>&1 | tr '\r' '\n' \
-        | grep -Ev '^prior: +[0-9]+/[0-9]+ ' | tee -a "$CONSOLE"
+        | grep --line-buffered -Ev '^prior: +[0-9]+/[0-9]+ ' | tee -a "$CONSOLE"
     rc=${PIPESTATUS[0]}
 fi
 say "svbrdf-train exit status $rc"

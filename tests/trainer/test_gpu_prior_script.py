@@ -1,0 +1,47 @@
+"""trainer/tools/gpu_prior.sh on the CPU at test size: what a device call returns, and that the next call resumes it."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from svbrdf.trainer import checkpoint as ckpt_io
+
+ROOT = Path(__file__).resolve().parents[2]
+SCRIPT = ROOT / "trainer" / "tools" / "gpu_prior.sh"
+TINY = ["--device", "cpu", "--threads", "1", "--size", "32", "--photo-size", "64", "--batch", "1",
+        "--eval-every", "0", "--log-every", "2"]
+
+pytestmark = pytest.mark.skipif(shutil.which("bash") is None or shutil.which("timeout") is None,
+                                reason="needs bash and timeout")
+
+
+def call(tmp_path: Path, out: str, resume: Path, *extra: str, preflight: str = "0") -> subprocess.CompletedProcess:
+    env = {**os.environ, "OUT": str(tmp_path / out), "RESUME": str(resume), "RUN": str(tmp_path / "run"),
+           "PYTHON": sys.executable, "PREFLIGHT": preflight, "MINUTES": "5", "OMP_NUM_THREADS": "1"}
+    return subprocess.run(["bash", str(SCRIPT), *extra], cwd=ROOT, env=env, capture_output=True, text=True,
+                          timeout=300)
+
+
+def test_a_chunk_returns_its_checkpoint_and_log_and_the_next_call_resumes_it(tmp_path):
+    resume = tmp_path / "resume.pt"  # the committed file: absent before the first chunk
+    first = call(tmp_path, "out1", resume, *TINY, "--iters", "3", preflight="1")
+    assert first.returncode == 0, first.stdout + first.stderr
+    assert "starting --preset v2" in first.stdout and "exit status 0" in first.stdout
+    assert sorted(p.name for p in (tmp_path / "out1").iterdir()) == ["console.txt", "resume.pt", "train_log.jsonl"]
+    assert (tmp_path / "out1" / "resume.pt").stat().st_size < 16 * 2 ** 20
+    assert ckpt_io.load_checkpoint(tmp_path / "out1" / "resume.pt")["step"] == 3
+
+    shutil.copy(tmp_path / "out1" / "resume.pt", resume)  # "commit" it; run/ stays, as on a warm machine
+    second = call(tmp_path, "out2", resume, "--threads", "1", "--iters", "6")
+    assert second.returncode == 0, second.stdout + second.stderr
+    assert "resuming" in second.stdout and "at iteration 3/6" in second.stdout
+    assert ckpt_io.load_checkpoint(tmp_path / "out2" / "resume.pt")["step"] == 6
+    steps = [json.loads(line)["step"] for line in (tmp_path / "out2" / "train_log.jsonl").read_text().splitlines()]
+    assert steps == [4, 6]  # this chunk's records only, realigned on log_every
