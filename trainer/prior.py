@@ -104,8 +104,9 @@ class PriorConfig:
             records in the history (about a third of the float32 size; resuming casts them back).
         material_reuse: iterations that photograph the same materials anew (new flash, field of view, camera and
             crop each time) before new ones are drawn; > 1 where drawing materials bounds the speed (a GPU waiting
-            for the host's many small kernel launches). Make ``log_every`` a multiple of it so that a run stopped
-            by its time limit resumes exactly (the materials in use are not stored).
+            for the host's many small kernel launches). The time limit stops a run only where a new draw starts,
+            so that it resumes exactly (the materials in use are not stored); make ``log_every`` and
+            ``checkpoint_every`` multiples of it for the same after an interrupt or a crash.
     """
 
     generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
