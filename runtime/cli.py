@@ -35,10 +35,13 @@ examples:
   {PROG} wood.jpg --model my.onnx      a model of your own (or set SVBRDF_MODEL)
   {PROG} wood.jpg --refine --iters 300 fine-tune the model on this photo first (needs torch)
   {PROG} wood.jpg --maps normal        only the normal map (runs only the normal/roughness decoder)
+  {PROG} wood.jpg --tileable --view    maps that repeat without a seam, and wood_view.html to relight them
 
 Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name>_specular (.png 16-bit or
 .exr), <name>.json (sidecar) and <name>_relit.png (renders under the flash and two other lights). With
 --maps only those maps' files and the sidecar are written (no relit panel: it needs all four maps).
+--view adds <name>_view.html: the maps relit in the browser under a light that follows the pointer (one file,
+no network).
 """
 
 
@@ -99,6 +102,12 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                    help="comma list of the maps to compute and write: diffuse (or basecolor), specular, roughness, "
                         "normal (default: all). roughness/normal alone run only the normal-roughness decoder, "
                         "diffuse/specular only the diffuse-specular one; no relit panel; --target generic only")
+    p.add_argument("--tileable", action="store_true",
+                   help="make the maps repeat without a visible seam, at the same size and scale (all four cut "
+                        "the same way; the sidecar records the seam scores)")
+    p.add_argument("--view", action="store_true",
+                   help="also write <name>_view.html: the maps relit in the browser with the project's renderer, "
+                        "one tile and repeated (--target generic, all four maps)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--refine", action="store_true",
                    help="fine-tune the model's training checkpoint on each photo with torch before predicting")
@@ -128,6 +137,8 @@ def check_options(args) -> Optional[str]:
         return "--iters and --quality need --refine"
     if args.maps != MAP_NAMES and args.target != "generic":
         return f"--maps needs --target generic: the {args.target} preset converts all four maps"
+    if getattr(args, "view", False) and (args.maps != MAP_NAMES or args.target != "generic"):
+        return "--view needs all four maps and --target generic (it relights the project's own texture set)"
     return None
 
 
@@ -230,20 +241,32 @@ def photo_maps(photo: Path, session, config, args, refine=None, name: Optional[s
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config
+    if getattr(args, "tileable", False):
+        from .tileable import make_tileable
+
+        maps = make_tileable(maps)
+        worst = [s["after"]["max"] for s in maps.meta["tileable"]["seam"].values() if s["after"]["max"] is not None]
+        detail += f", tileable (seam score {max(worst):.2f})" if worst else ", tileable"
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
     return maps, relit, detail
 
 
 def write_maps(maps, relit, out_dir: Path, name: str, args, extra_meta: dict):
     """Write ``maps`` (and ``relit``) as the texture set ``name`` in ``out_dir`` for ``args.target`` (all or
-    nothing, :mod:`svbrdf.runtime.texture_set`); returns the written paths by role."""
+    nothing, :mod:`svbrdf.runtime.texture_set`), and with ``args.view`` its viewer page
+    (:func:`svbrdf.runtime.viewer.write_viewer`); returns the written paths by role."""
     from .targets import write_target
     from .texture_set import write_texture_set
 
-    if args.target == "generic":
-        return write_texture_set(maps, out_dir, name, normal=args.normal, fmt=args.format,
-                                 force=args.force, extra_meta=extra_meta, relit=relit)
-    return write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra_meta, relit=relit)
+    if args.target != "generic":
+        return write_target(maps, out_dir, name, args.target, force=args.force, extra_meta=extra_meta, relit=relit)
+    paths = write_texture_set(maps, out_dir, name, normal=args.normal, fmt=args.format,
+                              force=args.force, extra_meta=extra_meta, relit=relit)
+    if getattr(args, "view", False):
+        from .viewer import write_viewer
+
+        paths["viewer"] = write_viewer(paths["sidecar"], force=args.force)
+    return paths
 
 
 def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> str:
@@ -254,8 +277,12 @@ def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> 
     start = time.perf_counter()
     name = photo.stem
     # Cheap early refusal before minutes of inference; write_texture_set re-checks every file it writes.
-    if not args.force and (out_dir / f"{name}.json").exists():
-        raise SvbrdfError(exists_message(out_dir / f"{name}.json"))
+    if not args.force:
+        from .viewer import VIEWER_FILE
+
+        for early in [f"{name}.json"] + ([VIEWER_FILE.format(name=name)] if args.view else []):
+            if (out_dir / early).exists():
+                raise SvbrdfError(exists_message(out_dir / early))
     maps, relit, detail = photo_maps(photo, session, config, args, refine)
     write_maps(maps, relit, out_dir, name, args, {"tool": f"{PROG} {__version__}"})
     h, w = maps.shape
