@@ -35,6 +35,13 @@ def _pixels(chromium, view, w, h):
     return np.frombuffer(data, np.uint8).reshape(h, w, 4)[..., :3].astype(np.int16)
 
 
+def _read_png(data, tmp_path):
+    from svbrdf.runtime.imageio import read_image
+
+    (tmp_path / "shot.png").write_bytes(data)
+    return np.rint(read_image(tmp_path / "shot.png", raw=True)[..., :3] * 255).astype(np.int16)
+
+
 def _open(chromium, page):
     chromium.open(page.resolve().as_uri())
     assert chromium.evaluate("window.svbrdfViewer.ready.then(() => true)") is True
@@ -125,6 +132,15 @@ def test_shader_matches_numpy_render_on_the_example(chromium, example_set, tmp_p
         assert np.abs(got - other).max() > TOLERANCE
         seen.append(got)
         shots.append(chromium.screenshot())
+        # the screenshot itself: the material view shown at one CSS pixel per map pixel
+        shot = _read_png(shots[-1], tmp_path)
+        x0, y0 = chromium.evaluate("(function () { var c = document.getElementById('material');"
+                                   f" c.style.width = '{w}px'; var r = c.getBoundingClientRect();"
+                                   " return [Math.round(r.left), Math.round(r.top)]; })()")
+        shot = _read_png(chromium.screenshot(), tmp_path)[y0:y0 + h, x0:x0 + w]
+        diff = np.abs(shot - want)
+        print(f"  screenshot: max |screen - numpy| = {diff.max()} / 255")
+        assert diff.max() <= TOLERANCE
     assert np.abs(seen[0] - seen[1]).mean() > 5  # the image changes with the light
     assert shots[0] != shots[1]
     # the tiled view: the 3 x 3 repeat seen from 3 d is render() of the repeated maps with the light / 3, the
