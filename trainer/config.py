@@ -45,6 +45,10 @@ class TrainConfig:
             alternating,joint``).
         lr, betas: Adam settings shared by the three optimisers.
         lambda_gan: weight of the generator GAN term in both decoder losses.
+        gan_steps: the GAN (the generator's term and the discriminator's update) runs for the first ``gan_steps``
+            iterations of a run only, then the run goes on without it (0 = every iteration, as in the paper). The
+            GAN term is what makes a fine-tune's maps drift after its first 150 iterations
+            (docs/benchmarks/refine-detail/README.md); without it the later iterations are also faster.
         lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".
         lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
             ``vgg_weights``: optional VGG-19 state-dict file.
@@ -111,6 +115,7 @@ class TrainConfig:
     lr: float = 2e-5
     betas: Tuple[float, float] = (0.0, 0.9)
     lambda_gan: float = 0.1
+    gan_steps: int = 0
     lambda_fourier: float = 0.1
     fourier_mode: str = "complex"
     lambda_perceptual: float = 0.2
@@ -181,7 +186,7 @@ class TrainConfig:
 
         need(self.tile >= self.min_tile, f"tile must be >= {self.min_tile} px, got {self.tile}")
         for name in ("nr_updates", "ds_updates", "d_updates", "iters_pretrain", "iters_finetune", "iters_fit",
-                     "checkpoint_every", "maps_every", "eval_every"):
+                     "checkpoint_every", "maps_every", "eval_every", "gan_steps"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
         need(self.lr > 0 and self.camera_lr > 0, f"lr and camera_lr must be > 0, got {self.lr}, {self.camera_lr}")
         need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "

@@ -392,12 +392,12 @@ class Trainer:
         cfg = self.config
         radiance = self._radiance(maps, y0, x0)
         rendering = self._seen(radiance)
-        with self._amp():
-            fake_logits = self.discriminator(rendering)
-        gan = gan_generator_loss(fake_logits.float())
-        shared = cfg.lambda_gan * gan  # without L_d: the normal/roughness decoder's loss
-        logged = {"gan": gan}
-        weighted = []
+        logged, weighted = {}, []
+        if self.gan_active:
+            with self._amp():
+                fake_logits = self.discriminator(rendering)
+            logged["gan"] = gan = gan_generator_loss(fake_logits.float())
+            weighted.append(cfg.lambda_gan * gan)
         if cfg.lambda_fourier > 0:
             logged["fourier"] = lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
             weighted.append(cfg.lambda_fourier * lf)
@@ -418,7 +418,8 @@ class Trainer:
             weights = {k: (w if k in cfg.anchor_maps else 0.0) for k, w in SUPERVISED_WEIGHTS.items()}
             logged["anchor"] = la = supervised_maps_loss(maps, self._crop(self.anchor, y0, x0), weights)["total"]
             weighted.append(cfg.lambda_anchor * la)
-        for term in weighted:
+        shared = weighted[0] if weighted else maps.new_zeros(())  # without L_d: the nr decoder's loss
+        for term in weighted[1:]:
             shared = shared + term
         total = shared
         if "ds" in keys:
@@ -455,7 +456,13 @@ class Trainer:
             maps = self.generator(x)
         rendering, total = self._generator_losses(("nr", "ds"), x, guess, maps.float(), y0, x0, terms)
         self._apply(("nr", "ds") + self._camera_keys, total)
-        self._d_step(terms, x, rendering)
+        if self.gan_active:
+            self._d_step(terms, x, rendering)
+
+    @property
+    def gan_active(self) -> bool:
+        """Whether this iteration runs the GAN (``config.gan_steps``: only the first N iterations, 0 = all)."""
+        return self.config.gan_steps == 0 or self.step < self.config.gan_steps
 
     def iteration(self) -> Dict[str, Any]:
         """Run one iteration of the schedule; returns its record (mean of each loss term over its sub-steps)."""
@@ -469,7 +476,7 @@ class Trainer:
                 self._g_step("nr", terms)
             for _ in range(self.config.ds_updates):
                 self._g_step("ds", terms)
-            for _ in range(self.config.d_updates):
+            for _ in range(self.config.d_updates if self.gan_active else 0):
                 self._d_step(terms)
         self.step += 1
         rec: Dict[str, Any] = {"step": self.step}

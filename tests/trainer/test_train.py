@@ -152,6 +152,24 @@ def test_joint_schedule_trains_both_decoders_and_the_discriminator():
         assert all(math.isfinite(rec[k]) for k in ("nr/fourier", "ds/perceptual", "d/loss"))
 
 
+@pytest.mark.parametrize("schedule", ["alternating", "joint"])
+def test_gan_steps_stops_the_gan_after_n_iterations(schedule):
+    photo = random_photo()
+    trainer = Trainer(photo, resolve("tiny", iters_fit=3, schedule=schedule, gan_steps=1, eval_every=0), threads=1)
+    trainer.run()
+    d_after_first = params(trainer.discriminator)
+    first, *later = trainer.history
+    assert first["d/loss"] is not None and first["nr/gan"] is not None
+    for rec in later:  # no GAN term, no discriminator update, the other terms as before
+        assert "d/loss" not in rec and "nr/gan" not in rec and "ds/gan" not in rec
+        assert math.isfinite(rec["ds/diffuse"]) and math.isfinite(rec["nr/total"])
+    trainer.iters = 5
+    trainer.run()
+    assert torch.equal(d_after_first, params(trainer.discriminator))
+    with pytest.raises(ValueError, match="gan_steps"):
+        resolve("tiny", gan_steps=-1)
+
+
 HIGHLIGHT_FREE = dict(lambda_render=1.0, lambda_flash=10.0, saturate=True, diffuse_target="normalized",
                       render={**ZHAO.to_dict(), "falloff": True})
 
