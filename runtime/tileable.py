@@ -6,21 +6,30 @@ returns one of the same size whose opposite borders join: column ``W - 1`` conti
 
 Methods (chosen by measurement, docs/benchmarks/tileable/):
 
-``"cut"`` (default): a strip of the material itself is laid over the wrap, joined by minimal-error cuts.
+``"cut"`` (default): a strip of the material itself is laid over the wrap, joined by minimal-error cuts, and the
+    steps left across the cuts are repaired.
     For the horizontal wrap, a vertical strip ``4 o`` pixels wide is copied from where it best fits
     (``o`` = :func:`default_overlap`) and placed across the wrap: its left half ends at column ``W - 1``, its
     right half starts at column 0, so the wrap falls *inside* the copied strip, between two pixels that were
     neighbours in the photo. On each side, the ``o`` columns where the strip and the maps overlap are joined
     along the path of least difference (a dynamic-programming cut, top to bottom, one column per row at most).
     Then the same for the vertical wrap with a horizontal strip of the result; that cut runs across the whole
-    width and is constrained to close on itself across the horizontal wrap. Nothing is resampled or blended:
-    every output pixel is a pixel of the input, so the scale and the value statistics are kept; the cost is
-    that a strip of ``4 o`` pixels repeats content from elsewhere in the set. The difference that decides the
-    cuts is summed over every map present, each normalised by its own variance.
+    width and is constrained to close on itself across the horizontal wrap. The difference that decides the
+    cuts is summed over every map present, each normalised by its own variance. A cut still leaves a step
+    where the two sides differ in level (a smooth map such as roughness: the raw cuts' joins carry 2-10x the
+    energy of natural neighbour pairs, docs/benchmarks/tileable/), so the repair solves a periodic screened
+    Poisson problem (:func:`_repair`, by FFT): every gradient of the result is kept except across a join,
+    where the input's own gradient at the source is asked for, and the step is spread smoothly over about
+    ``o`` pixels. Every detail is a pixel of the input; only a smooth correction of small amplitude is added,
+    so the scale and the value statistics are kept; the cost is that a strip of ``4 o`` pixels repeats
+    content from elsewhere in the set.
 ``"blend"``: the variance-preserving cross-fade of the set with itself shifted by half its size (first along
     x, then along y): ``mu + (w (a - mu) + (1 - w) (b - mu)) / sqrt(w^2 + (1 - w)^2)`` per channel, ``w`` a
     raised cosine that is 0 at the borders and 1 in the middle; normals renormalised. Kept for comparison: it
     doubles every feature in the cross-faded zones (a ghosted cross).
+
+Neither method makes a non-stationary set stationary: a large-scale pattern (a ring left around the flash, a
+gradient across the photo) repeats with the tile.
 
 Scores (:func:`seam_scores`, :func:`histogram_distance`) are what the benchmark reports and what
 :func:`make_tileable` records in ``meta["tileable"]``.
@@ -36,9 +45,11 @@ from .errors import SvbrdfError
 from .maps import MAP_NAMES, Maps
 
 #: Methods of :func:`make_tileable`; the first is the default.
-METHODS = ("split", "cut", "blend")
+METHODS = ("cut", "blend")
 #: Smallest side :func:`make_tileable` accepts, in pixels.
 MIN_SIZE = 16
+#: The repair spreads a join's step over about this many overlaps (the screened Poisson weight is 1 / (s o)^2).
+REPAIR_SPREAD = 1.0
 
 __all__ = ["METHODS", "MIN_SIZE", "make_tileable", "default_overlap", "seam_scores", "histogram_distance",
            "cut_scores", "tile_grid"]
@@ -106,7 +117,11 @@ def histogram_distance(before: np.ndarray, after: np.ndarray) -> float:
 
 
 def cut_scores(arr: np.ndarray, source: np.ndarray) -> Dict[str, Optional[float]]:
-    """Gradient energy across the cuts of a ``"cut"`` result against its natural neighbour pairs.
+    """Gradient energy across the joins of a tiled map against its natural neighbour pairs (the join score).
+
+    A join is a pair of neighbouring pixels (the wrap's pairs included) whose sources were not neighbours in the
+    input: the cuts of a ``"cut"`` result, or with the identity ``source`` the wrap of the untiled map. This is
+    where a seam can be; 1 means the joins look like any neighbour pair.
 
     Args:
         arr: (H, W, C) tiled map.
@@ -271,39 +286,53 @@ def _blend(packed: np.ndarray) -> np.ndarray:
     return out.astype(np.float32)
 
 
-# -------------------------------------------------------------------------------------------- the split method
+# ------------------------------------------------------------------------------------------- the seam repair
 
-def _box_x(a: np.ndarray, r: int) -> np.ndarray:
-    """Mean over ``2 r + 1`` columns, the borders mirrored (float64)."""
-    p = np.pad(a, ((0, 0), (r + 1, r)) + ((0, 0),) * (a.ndim - 2), mode="reflect")
-    c = np.cumsum(p, axis=1, dtype=np.float64)
-    return (c[:, 2 * r + 1:] - c[:, :-2 * r - 1]) / (2 * r + 1)
+def _guidance(out: np.ndarray, source: np.ndarray, inp: np.ndarray, axis: int) -> np.ndarray:
+    """Forward differences along ``axis`` (1: to the next column, 0: to the row below; periodic) that the repaired
+    maps should have: the cut result's own where the pair is natural (their sources are neighbours in the input),
+    else one natural gradient of the input at the sources: the step from the first pixel's source to its own
+    neighbour, or where that falls outside the input the step into the second pixel's source (0 where neither
+    exists). One sample, not an average of two: the join keeps the texture's own gradient energy."""
+    h, w = inp.shape[:2]
+    step = np.array((0, 1) if axis == 1 else (1, 0))
+    nxt_src = np.roll(source, -1, axis=axis)
+    natural = np.all(nxt_src - source == step, axis=-1)
+    g = np.roll(out, -1, axis=axis) - out
+    result = np.where(natural[..., None], g, 0.0)
+    todo = ~natural
+    for base, ahead in ((nxt_src - step, nxt_src), (source, source + step)):  # the second wins where both exist
+        ok = todo & (base[..., 0] >= 0) & (base[..., 1] >= 0) & (ahead[..., 0] < h) & (ahead[..., 1] < w)
+        b, a = base[ok], ahead[ok]
+        result[ok] = inp[a[:, 0], a[:, 1]] - inp[b[:, 0], b[:, 1]]
+    return result
 
 
-def low_pass(a: np.ndarray, radius: int) -> np.ndarray:
-    """(H, W, C) -> its large-scale part: three box filters of ``2 radius + 1`` px along x and y (close to a
-    Gaussian of sigma ~ radius), mirrored borders."""
-    out = a.astype(np.float64)
-    for _ in range(3):
-        out = _box_x(out, radius)
-        out = np.swapaxes(_box_x(np.swapaxes(out, 0, 1), radius), 0, 1)
-    return out
+def _repair(out: np.ndarray, source: np.ndarray, inp: np.ndarray, o: int) -> np.ndarray:
+    """Remove the steps across the cuts of ``out`` (H, W, C) with a periodic screened Poisson solve.
 
-
-def _split(packed: np.ndarray, n_maps: int, o: int, groups) -> np.ndarray:
-    """Large scale (low pass of radius ``o``) by the blend, detail (the rest) and source coordinates by the cut."""
-    maps = packed[..., :n_maps]
-    low = low_pass(maps, o)
-    detail = np.concatenate([maps - low, packed[..., n_maps:]], axis=-1).astype(np.float32)
-    wd = np.concatenate([_weights(detail[..., :n_maps], groups), np.zeros(packed.shape[-1] - n_maps)])
-    cut = _cut(detail, o, wd)
-    cut[..., :n_maps] += _blend(low)
-    return cut
+    Minimises ``sum |D_x u - G_x|^2 + |D_y u - G_y|^2 + eps |u - out|^2`` over the periodic image (forward
+    differences ``D``, guidance ``G`` from :func:`_guidance`, ``eps = 1 / o^2``): every gradient of the cut result
+    is kept except across the joins, where the input's own gradient is asked for, and the mismatch this frees is
+    spread smoothly over about ``o`` pixels on both sides. Solved exactly with the FFT (the tile is periodic)."""
+    h, w = out.shape[:2]
+    u0 = out.astype(np.float64)
+    inp = inp.astype(np.float64)
+    gx = _guidance(u0, source, inp, 1)
+    gy = _guidance(u0, source, inp, 0)
+    eps = 1.0 / (REPAIR_SPREAD * float(o)) ** 2
+    # D^T G at p: G(p - d) - G(p)
+    rhs = eps * u0 + (np.roll(gx, 1, axis=1) - gx) + (np.roll(gy, 1, axis=0) - gy)
+    wy = 2.0 - 2.0 * np.cos(2.0 * np.pi * np.fft.fftfreq(h))
+    wx = 2.0 - 2.0 * np.cos(2.0 * np.pi * np.fft.rfftfreq(w))
+    denom = (eps + wy[:, None] + wx[None, :])[..., None]
+    spec = np.fft.rfft2(rhs, axes=(0, 1)) / denom
+    return np.fft.irfft2(spec, s=(h, w), axes=(0, 1)).astype(np.float32)
 
 
 # -------------------------------------------------------------------------------------------------- the API
 
-def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None,
+def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None, repair: bool = True,
                   return_source: bool = False):
     """A texture set of the same size whose maps repeat without a seam (see the module docstring).
 
@@ -312,6 +341,8 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
         method: ``"cut"`` (default) or ``"blend"`` (:data:`METHODS`).
         overlap: ``"cut"`` only: the overlap ``o`` in pixels (default :func:`default_overlap`); the copied strip
             is ``4 o`` wide and must fit, ``4 o <= min(H, W) / 2``.
+        repair: ``"cut"`` only: remove the remaining steps across the cuts with the periodic screened Poisson
+            solve (default; False: the raw cut, for comparison).
         return_source: also return the (H, W, 2) int map of the input pixel (row, column) each output pixel
             comes from (``"cut"``; for :func:`cut_scores`).
 
@@ -339,16 +370,16 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
     coords = np.stack([yy, xx], axis=-1).astype(np.float32)  # exact up to 2^24 px
     packed = np.concatenate([a.astype(np.float32) for a in arrays] + [coords], axis=-1)
     o = None
-    if method in ("cut", "split"):
+    if method == "cut":
         o = default_overlap(h, wd) if overlap is None else int(overlap)
         if o < 1 or 8 * o > min(h, wd):
             raise SvbrdfError(f"overlap {o} px does not fit {wd}x{h} maps (need 1 <= 8 x overlap <= "
                               f"{min(h, wd)})")
-        if method == "cut":
-            w = np.concatenate([_weights(packed[..., :start], groups), np.zeros(2)])
-            out = _cut(packed, o, w)
-        else:
-            out = _split(packed, start, o, groups)
+        w = np.concatenate([_weights(packed[..., :start], groups), np.zeros(2)])
+        out = _cut(packed, o, w)
+        if repair:
+            source = np.rint(out[..., start:]).astype(np.int64)
+            out[..., :start] = _repair(out[..., :start], source, packed[..., :start], o)
     else:
         out = np.concatenate([_blend(packed[..., :start]), coords], axis=-1)
     del packed
@@ -357,7 +388,8 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
         arr = out[..., sl].astype(np.float32)
         result[name] = arr
     tiled = maps._with(result).clipped()
-    record = {"method": method, "overlap": o, "seam": {}, "histogram_w1": {}}
+    record = {"method": method, "overlap": o, "repair": bool(repair and method == "cut"), "seam": {},
+              "histogram_w1": {}}
     for name in names:
         before, after = getattr(maps, name), getattr(tiled, name)
         record["seam"][name] = {"before": seam_scores(before), "after": seam_scores(after)}
