@@ -29,18 +29,19 @@ import socket
 import subprocess
 import time
 from pathlib import Path
-from typing import Optional, Sequence
+from typing import Optional
 
 #: Executables tried in order after $SVBRDF_CHROMIUM / $SVBRDF_FIREFOX.
 CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome")
 FIREFOX_NAMES = ("firefox-esr", "firefox")
 
-__all__ = ["CHROMIUM_NAMES", "FIREFOX_NAMES", "find_browser", "find_chromium", "find_firefox", "Chromium",
-           "Firefox"]
+__all__ = ["CHROMIUM_NAMES", "FIREFOX_NAMES", "BROWSERS", "find_browser", "Chromium", "Firefox"]
 
 
-def find_browser(names: Sequence[str], env: str) -> Optional[str]:
-    """Path of the first of ``names`` on $PATH, or None; ``$env`` (a name or a path), when set, is the only one tried."""
+def find_browser(kind: str) -> Optional[str]:
+    """Path of the browser ``kind`` (a key of :data:`BROWSERS`), or None: its environment variable (a name or a
+    path) when set, else the first of its names on $PATH."""
+    names, env, _ = BROWSERS[kind]
     value = os.environ.get(env)
     if value:
         return shutil.which(value) or (value if os.path.isfile(value) else None)
@@ -49,14 +50,6 @@ def find_browser(names: Sequence[str], env: str) -> Optional[str]:
         if path:
             return path
     return None
-
-
-def find_chromium() -> Optional[str]:
-    return find_browser(CHROMIUM_NAMES, "SVBRDF_CHROMIUM")
-
-
-def find_firefox() -> Optional[str]:
-    return find_browser(FIREFOX_NAMES, "SVBRDF_FIREFOX")
 
 
 def _stop(proc: subprocess.Popen, timeout: float = 10.0) -> None:
@@ -293,3 +286,8 @@ class Firefox:
         except OSError:
             pass
         _stop(self.proc)
+
+
+#: kind -> (executable names, environment variable naming the executable, driver class).
+BROWSERS = {"chromium": (CHROMIUM_NAMES, "SVBRDF_CHROMIUM", Chromium),
+            "firefox": (FIREFOX_NAMES, "SVBRDF_FIREFOX", Firefox)}

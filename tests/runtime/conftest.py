@@ -43,11 +43,10 @@ def tiny_model(tmp_path_factory) -> Path:
 
 def _start_browser(kind, profile, **kwargs):
     """The headless browser ``kind`` (``"chromium"`` or ``"firefox"``) in the new profile folder, or skip."""
-    from svbrdf.runtime import browser as b
+    from svbrdf.runtime.browser import BROWSERS, find_browser
 
-    names, env, cls = {"chromium": (b.CHROMIUM_NAMES, "SVBRDF_CHROMIUM", b.Chromium),
-                       "firefox": (b.FIREFOX_NAMES, "SVBRDF_FIREFOX", b.Firefox)}[kind]
-    exe = b.find_browser(names, env)
+    names, env, cls = BROWSERS[kind]
+    exe = find_browser(kind)
     if exe is None:
         pytest.skip(f"no {kind} found (tried ${env}, {', '.join(names)}); e.g. apt-get install {names[0]}")
     try:
