@@ -19,7 +19,15 @@ decoded in the shader with the exact sRGB curve (:mod:`svbrdf.runtime.colour`); 
 16-bit data. The page's output is ``srgb(clip(exposure * L, 0, 1))`` with ``L`` the linear radiance of
 ``render``; the default exposure is the relit panel's (:func:`svbrdf.runtime.texture_set.relit_panel`: the 99th
 percentile of the flash render maps to 1). ``tests/runtime/test_viewer.py`` checks the shader against ``render``
-in headless Chromium.
+in headless Chromium and headless Firefox, from a ``file://`` URL.
+
+The URL's fragment sets the light and the exposure when the page opens (and when it changes), so that a view can
+be shared or scripted: ``<name>_view.html#light=x,y,z&exposure=e`` (scene units as in ``setLight``; either part
+may be left out). The caption under the material view is that link for the current view.
+
+Without WebGL 2 (turned off, or refused for the graphics driver, as headless Firefox does on a machine without a
+GPU unless told otherwise: :mod:`svbrdf.runtime.browser`) the page says so in red above the views and still
+shows the four maps.
 
 Script API of the page (``window.svbrdfViewer``, for tests and automation): ``ready`` (a Promise),
 ``setLight(x, y, z)`` (scene units; renders both views at once), ``getLight()``, ``setExposure(e)``,
@@ -327,6 +335,7 @@ canvas { background: #000; display: block; cursor: crosshair; }
 #maps canvas { width: 150px; cursor: default; }
 .cap { font-size: 12px; color: #aaa; margin: 2px 0 6px; }
 #err { color: #f88; }
+a { color: #aaa; }
 </style></head><body>
 <h2 style="margin:0 0 4px">@TITLE@</h2>
 <div class="cap">@NOTE@. Move the pointer over a view to move the light; the wheel moves it up and down.</div>
@@ -335,7 +344,7 @@ canvas { background: #000; display: block; cursor: crosshair; }
  <div><canvas id="tiled"></canvas><div class="cap">repeated <span id="reps"></span> x <span id="reps2"></span></div></div>
  <div><canvas id="material"></canvas><div class="cap">the material (one tile)</div>
   <div>exposure <input id="exp" type="range" min="-4" max="4" step="0.05" value="0"></div>
-  <div class="cap" id="lightpos"></div></div>
+  <div class="cap"><a id="lightpos" href="#" title="this view's link (light and exposure)"></a></div></div>
  <div id="maps">
   <div><canvas id="m_basecolor"></canvas><div class="cap">base colour (sRGB)</div></div>
   <div><canvas id="m_normal"></canvas><div class="cap">normal</div></div>
@@ -371,7 +380,8 @@ canvas { background: #000; display: block; cursor: crosshair; }
     var canvas = document.getElementById(id);
     canvas.width = width; canvas.height = height;
     var gl = canvas.getContext("webgl2", {antialias: false, preserveDrawingBuffer: true});
-    if (!gl) throw new Error("this browser has no WebGL 2");
+    if (!gl) throw new Error("this browser gives the page no WebGL 2 (turned off, or not offered for this " +
+                             "graphics driver): the relit views cannot be drawn; the maps are shown");
     function compile(type, src) {
       var s = gl.createShader(type); gl.shaderSource(s, src.trim()); gl.compileShader(s);
       if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
@@ -430,8 +440,9 @@ canvas { background: #000; display: block; cursor: crosshair; }
 
   function drawAll() {
     for (var k in views) draw(views[k]);
-    document.getElementById("lightpos").textContent = "light (" + light.map(function (v) { return v.toFixed(3); })
-      .join(", ") + "), exposure " + exposure.toFixed(3);
+    var l = light.map(function (v) { return v.toFixed(3); }), a = document.getElementById("lightpos");
+    a.textContent = "light (" + l.join(", ") + "), exposure " + exposure.toFixed(3);
+    a.href = "#light=" + l.join(",") + "&exposure=" + exposure.toFixed(3);
   }
 
   function showMap(id, rgbaOf) {
@@ -439,6 +450,16 @@ canvas { background: #000; display: block; cursor: crosshair; }
     var ctx = c.getContext("2d"), img = ctx.createImageData(W, H);
     for (var i = 0; i < W * H; i++) { var px = rgbaOf(i); img.data.set(px, 4 * i); }
     ctx.putImageData(img, 0, 0);
+  }
+
+  // #light=x,y,z (scene units) and exposure=e in the URL's fragment, e.g. view.html#light=-1.2,0.8,0.6&exposure=2
+  function fromFragment() {
+    var q = new URLSearchParams(location.hash.replace(/^#/, ""));
+    var l = (q.get("light") || "").split(",").map(Number), e = Number(q.get("exposure"));
+    if (l.length === 3 && l.every(isFinite)) light = l;
+    if (q.has("exposure") && isFinite(e) && e > 0) {
+      exposure = e; document.getElementById("exp").value = Math.log2(exposure);
+    }
   }
 
   function lin2srgb(c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055; }
@@ -454,6 +475,11 @@ canvas { background: #000; display: block; cursor: crosshair; }
       t1[4 * i] = nrm[3 * i] / 65535; t1[4 * i + 1] = nrm[3 * i + 1] / 65535; t1[4 * i + 2] = nrm[3 * i + 2] / 65535;
       t1[4 * i + 3] = rough[i] / 65535;
     }
+    // the maps first: they need no WebGL
+    showMap("m_basecolor", function (i) { return [base[3 * i], base[3 * i + 1], base[3 * i + 2], 255]; });
+    showMap("m_normal", function (i) { return [nrm[3 * i] >> 8, nrm[3 * i + 1] >> 8, nrm[3 * i + 2] >> 8, 255]; });
+    showMap("m_roughness", function (i) { var g = rough[i] >> 8; return [g, g, g, 255]; });
+    showMap("m_specular", function (i) { var g = Math.round(255 * lin2srgb(spec[i] / 65535)); return [g, g, g, 255]; });
     // the tiled view: one canvas pixel per map pixel up to 1200 px, else 1024 px wide
     var tw = S.repeats * W <= 1200 ? S.repeats * W : 1024, th = Math.round(tw * H / W);
     views.material = makeView("material", 1, true, W, H);
@@ -461,10 +487,8 @@ canvas { background: #000; display: block; cursor: crosshair; }
     for (var k in views) { upload(views[k], 0, t0); upload(views[k], 1, t1); }
     document.getElementById("reps").textContent = S.repeats;
     document.getElementById("reps2").textContent = S.repeats;
-    showMap("m_basecolor", function (i) { return [base[3 * i], base[3 * i + 1], base[3 * i + 2], 255]; });
-    showMap("m_normal", function (i) { return [nrm[3 * i] >> 8, nrm[3 * i + 1] >> 8, nrm[3 * i + 2] >> 8, 255]; });
-    showMap("m_roughness", function (i) { var g = rough[i] >> 8; return [g, g, g, 255]; });
-    showMap("m_specular", function (i) { var g = Math.round(255 * lin2srgb(spec[i] / 65535)); return [g, g, g, 255]; });
+    fromFragment();
+    window.addEventListener("hashchange", function () { fromFragment(); drawAll(); });
     var slider = document.getElementById("exp");
     slider.value = Math.log2(exposure);
     slider.addEventListener("input", function () { exposure = Math.pow(2, parseFloat(slider.value)); drawAll(); });

@@ -36,156 +36,47 @@ def tiny_model(tmp_path_factory) -> Path:
     return folder / "tiny.onnx"
 
 
-# ------------------------------------------------------------------------------------------ headless Chromium
-
-#: Browser executables tried in order ($SVBRDF_CHROMIUM first); the browser tests skip when none is found.
-CHROMIUM_NAMES = ("chromium", "chromium-browser", "google-chrome", "google-chrome-stable", "chrome")
-
-
-def find_chromium():
-    """Path of a Chromium-family browser, or None ($SVBRDF_CHROMIUM, then the names above on $PATH)."""
-    import os
-    import shutil
-
-    env = os.environ.get("SVBRDF_CHROMIUM")
-    if env:
-        return env if shutil.which(env) or os.path.isfile(env) else None
-    for name in CHROMIUM_NAMES:
-        path = shutil.which(name)
-        if path:
-            return path
-    return None
+# ---------------------------------------------------------------------------------------- headless browsers
+# The drivers (standard library only) are svbrdf.runtime.browser's; a browser test skips when its browser is absent
+# or cannot start. CI gets them as Debian packages when it can (apt-get install chromium firefox-esr).
 
 
-class Chromium:
-    """Headless Chromium driven over the DevTools protocol through a pipe (``--remote-debugging-pipe``: JSON
-    messages separated by NUL bytes on file descriptors 3 and 4), with the standard library only: no network, no
-    websocket, no driver package. One page (tab); ``call`` sends a command and returns its result."""
+def _start_browser(kind, profile, **kwargs):
+    """The headless browser ``kind`` (``"chromium"`` or ``"firefox"``) in the new profile folder, or skip."""
+    from svbrdf.runtime.browser import BROWSERS, find_browser
 
-    def __init__(self, executable, profile, width=1400, height=900):
-        import os
-        import subprocess
-
-        to_child_r, self._w = os.pipe()
-        self._r, from_child_w = os.pipe()
-
-        def fds():  # in the child: the pipe ends as fds 3 (commands in) and 4 (replies out)
-            a, b = os.dup(to_child_r), os.dup(from_child_w)
-            os.dup2(a, 3)
-            os.dup2(b, 4)
-
-        args = [executable, "--headless", "--remote-debugging-pipe", "--no-sandbox", "--no-first-run",
-                "--no-default-browser-check", "--disable-extensions", "--disable-background-networking",
-                "--use-angle=swiftshader", "--enable-unsafe-swiftshader", "--hide-scrollbars",
-                f"--user-data-dir={profile}", f"--window-size={width},{height}", "about:blank"]
-        self.proc = subprocess.Popen(args, stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL,
-                                     stderr=subprocess.DEVNULL, close_fds=False, preexec_fn=fds)
-        os.close(to_child_r)
-        os.close(from_child_w)
-        self._buf = b""
-        self._id = 0
-        self.events = []
-        target = self.call("Target.createTarget", url="about:blank")["targetId"]
-        self.session = self.call("Target.attachToTarget", targetId=target, flatten=True)["sessionId"]
-        self.call("Page.enable", session=True)
-        self.call("Emulation.setDeviceMetricsOverride", session=True, width=width, height=height,
-                  deviceScaleFactor=1, mobile=False)
-
-    def _read(self, timeout):
-        import json
-        import os
-        import select
-        import time
-
-        end = time.monotonic() + timeout
-        while b"\0" not in self._buf:
-            left = end - time.monotonic()
-            if left <= 0 or not select.select([self._r], [], [], left)[0]:
-                raise TimeoutError("no reply from Chromium")
-            chunk = os.read(self._r, 1 << 20)
-            if not chunk:
-                raise RuntimeError("Chromium closed the pipe")
-            self._buf += chunk
-        msg, self._buf = self._buf.split(b"\0", 1)
-        return json.loads(msg)
-
-    def call(self, method, session=False, timeout=60.0, **params):
-        import json
-        import os
-
-        self._id += 1
-        msg = {"id": self._id, "method": method, "params": params}
-        if session:
-            msg["sessionId"] = self.session
-        os.write(self._w, json.dumps(msg).encode() + b"\0")
-        while True:
-            reply = self._read(timeout)
-            if reply.get("id") == self._id:
-                if "error" in reply:
-                    raise RuntimeError(f"{method}: {reply['error']}")
-                return reply.get("result", {})
-            self.events.append(reply)
-
-    def wait_event(self, method, timeout=60.0):
-        for i, ev in enumerate(self.events):
-            if ev.get("method") == method:
-                return self.events.pop(i)
-        while True:
-            ev = self._read(timeout)
-            if ev.get("method") == method:
-                return ev
-            self.events.append(ev)
-
-    def open(self, url):
-        self.events.clear()
-        self.call("Page.navigate", session=True, url=url)
-        self.wait_event("Page.loadEventFired")
-
-    def evaluate(self, expression, timeout=60.0):
-        """The value of a JavaScript expression in the page (promises awaited); JavaScript errors raise."""
-        result = self.call("Runtime.evaluate", session=True, timeout=timeout, expression=expression,
-                           awaitPromise=True, returnByValue=True)
-        if "exceptionDetails" in result:
-            details = result["exceptionDetails"]
-            raise RuntimeError(details.get("exception", {}).get("description") or details.get("text"))
-        return result["result"].get("value")
-
-    def screenshot(self):
-        """A PNG of the page's viewport (bytes)."""
-        import base64
-
-        return base64.b64decode(self.call("Page.captureScreenshot", session=True, format="png")["data"])
-
-    def close(self):
-        import os
-        import subprocess
-
-        try:
-            self.call("Browser.close", timeout=10)
-        except Exception:
-            pass
-        try:
-            self.proc.wait(timeout=10)
-        except subprocess.TimeoutExpired:
-            self.proc.kill()
-            self.proc.wait()
-        for fd in (self._r, self._w):
-            try:
-                os.close(fd)
-            except OSError:
-                pass
-
-
-@pytest.fixture(scope="module")
-def chromium(tmp_path_factory):
-    """A headless Chromium page (:class:`Chromium`); skips when no browser is found or it cannot start."""
-    exe = find_chromium()
+    names, env, cls = BROWSERS[kind]
+    exe = find_browser(kind)
     if exe is None:
-        pytest.skip(f"no Chromium found (tried $SVBRDF_CHROMIUM, {', '.join(CHROMIUM_NAMES)}); "
-                    "e.g. apt-get install chromium")
+        pytest.skip(f"no {kind} found (tried ${env}, {', '.join(names)}); e.g. apt-get install {names[0]}")
     try:
-        browser = Chromium(exe, tmp_path_factory.mktemp("chromium-profile"))
+        return cls(exe, profile, **kwargs)
     except (OSError, RuntimeError, TimeoutError) as exc:
         pytest.skip(f"{exe} did not start headless ({exc})")
-    yield browser
-    browser.close()
+
+
+@pytest.fixture(scope="module", params=["chromium", "firefox"])
+def browser(request, tmp_path_factory):
+    """Each headless browser in turn, one page (a test using it runs once per browser; each skips on its own, also
+    when the browser gives pages no WebGL 2 here, e.g. without Mesa's EGL and software driver)."""
+    b = _start_browser(request.param, tmp_path_factory.mktemp(f"{request.param}-profile"))
+    if not b.evaluate("!!document.createElement('canvas').getContext('webgl2')"):
+        b.close()
+        pytest.skip(f"{request.param} offers no WebGL 2 here (e.g. apt-get install libegl-mesa0 libgl1-mesa-dri)")
+    yield b
+    b.close()
+
+
+@pytest.fixture
+def start_browser(tmp_path):
+    """``start_browser(kind, **options)``: a browser of the test's own (e.g. Firefox with other ``prefs``), closed
+    after the test."""
+    started = []
+
+    def start(kind, **kwargs):
+        started.append(_start_browser(kind, tmp_path / f"{kind}-profile", **kwargs))
+        return started[-1]
+
+    yield start
+    for b in started:
+        b.close()
