@@ -104,7 +104,7 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                         "diffuse/specular only the diffuse-specular one; no relit panel; --target generic only")
     p.add_argument("--tileable", action="store_true",
                    help="make the maps repeat without a visible seam, at the same size and scale (all four cut "
-                        "the same way; the sidecar records the seam scores)")
+                        "the same way; the sidecar records the join and seam scores)")
     p.add_argument("--view", action="store_true",
                    help="also write <name>_view.html: the maps relit in the browser with the project's renderer, "
                         "one tile and repeated (--target generic, all four maps)")
@@ -245,8 +245,8 @@ def photo_maps(photo: Path, session, config, args, refine=None, name: Optional[s
         from .tileable import make_tileable
 
         maps = make_tileable(maps)
-        worst = [s["after"]["max"] for s in maps.meta["tileable"]["seam"].values() if s["after"]["max"] is not None]
-        detail += f", tileable (seam score {max(worst):.2f})" if worst else ", tileable"
+        worst = [s["after"] for s in maps.meta["tileable"]["join"].values() if s["after"] is not None]
+        detail += f", tileable (join score {max(worst):.2f})" if worst else ", tileable"
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
     return maps, relit, detail
 

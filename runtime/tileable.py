@@ -50,6 +50,8 @@ METHODS = ("cut", "blend")
 MIN_SIZE = 16
 #: The repair spreads a join's step over about this many overlaps (the screened Poisson weight is 1 / (s o)^2).
 REPAIR_SPREAD = 1.0
+#: Border pixels of the input whose steps the repair does not ask of a join (see :func:`_guidance`).
+GUIDE_MARGIN = 2
 
 __all__ = ["METHODS", "MIN_SIZE", "make_tileable", "default_overlap", "seam_scores", "histogram_distance",
            "cut_scores", "tile_grid"]
@@ -293,7 +295,8 @@ def _guidance(out: np.ndarray, source: np.ndarray, inp: np.ndarray, axis: int) -
     maps should have: the cut result's own where the pair is natural (their sources are neighbours in the input),
     else one natural gradient of the input at the sources: the step from the first pixel's source to its own
     neighbour, or where that falls outside the input the step into the second pixel's source (0 where neither
-    exists). One sample, not an average of two: the join keeps the texture's own gradient energy."""
+    exists). Steps that touch the input's outer :data:`GUIDE_MARGIN` pixels are not used: a network's maps are
+    least reliable at their borders (a last row unlike its neighbour asked a join for a 150x step). One sample, not an average of two: the join keeps the texture's own gradient energy."""
     h, w = inp.shape[:2]
     step = np.array((0, 1) if axis == 1 else (1, 0))
     nxt_src = np.roll(source, -1, axis=axis)
@@ -302,7 +305,8 @@ def _guidance(out: np.ndarray, source: np.ndarray, inp: np.ndarray, axis: int) -
     result = np.where(natural[..., None], g, 0.0)
     todo = ~natural
     for base, ahead in ((nxt_src - step, nxt_src), (source, source + step)):  # the second wins where both exist
-        ok = todo & (base[..., 0] >= 0) & (base[..., 1] >= 0) & (ahead[..., 0] < h) & (ahead[..., 1] < w)
+        ok = todo & (base[..., 0] >= GUIDE_MARGIN) & (base[..., 1] >= GUIDE_MARGIN) \
+            & (ahead[..., 0] < h - GUIDE_MARGIN) & (ahead[..., 1] < w - GUIDE_MARGIN)
         b, a = base[ok], ahead[ok]
         result[ok] = inp[a[:, 0], a[:, 1]] - inp[b[:, 0], b[:, 1]]
     return result
@@ -348,8 +352,9 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
 
     Returns:
         :class:`Maps` with the same maps, size, ``render_config`` and meta, plus ``meta["tileable"]``:
-        ``{"method", "overlap", "seam": {map: {"before": seam_scores, "after": seam_scores}},
-        "histogram_w1": {map: histogram_distance(before, after)}}``. Diffuse, specular and roughness stay in
+        ``{"method", "overlap", "repair", "seam": {map: {"before": seam_scores, "after": seam_scores}},
+        "join": {map: {"before": join score of the untiled map (its wrap), "after": join score of the result}}
+        ("cut"; :func:`cut_scores`' ratio), "histogram_w1": {map: histogram_distance(before, after)}}``. Diffuse, specular and roughness stay in
         their ranges; normals stay unit length. With ``return_source``: ``(maps, source)``.
 
     Raises:
@@ -390,13 +395,19 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
     tiled = maps._with(result).clipped()
     record = {"method": method, "overlap": o, "repair": bool(repair and method == "cut"), "seam": {},
               "histogram_w1": {}}
+    source = np.rint(out[..., start:start + 2]).astype(np.int64)
+    if method == "cut":
+        record["join"] = {}
     for name in names:
         before, after = getattr(maps, name), getattr(tiled, name)
         record["seam"][name] = {"before": seam_scores(before), "after": seam_scores(after)}
         record["histogram_w1"][name] = histogram_distance(before, after)
+        if method == "cut":
+            record["join"][name] = {"before": cut_scores(before, np.stack([yy, xx], axis=-1))["ratio"],
+                                    "after": cut_scores(after, source)["ratio"]}
     tiled.meta["tileable"] = record
     if return_source:
-        return tiled, np.rint(out[..., start:start + 2]).astype(np.int64)
+        return tiled, source
     return tiled
 
 
