@@ -3,17 +3,25 @@
 Layout of a library folder::
 
     LIBRARY/library.json        the manifest (MANIFEST_FILE): one record per photo, written only by the driver
-    LIBRARY/<name>/             one texture set per photo, as svbrdf-preview writes it (any --target)
+    LIBRARY/<name>/             one texture set per photo, as svbrdf-preview writes it (any --target; with
+                                --tileable maps that repeat without a seam; with --view its <name>_view.html)
     LIBRARY/thumbs/<name>.png   a strip of small views: photo, four maps, relit (contact_sheet.STRIP_VIEWS)
-    LIBRARY/index.html, index.png   the contact sheet (:mod:`svbrdf.runtime.contact_sheet`)
+    LIBRARY/index.html, index.png   the contact sheet (:mod:`svbrdf.runtime.contact_sheet`; a "view" link per
+                                    material that has a viewer page)
 
 The work of one photo is :func:`run_job`, the same function whichever engine runs it: it gets the photo's bytes
 and the options, runs the per-photo path of ``svbrdf-preview`` (:func:`svbrdf.runtime.cli.photo_maps`), writes
-the texture set into a private temporary folder and returns the files' bytes with the scores. Only the driver
+the texture set (and, with ``--view``, its viewer page, :func:`svbrdf.runtime.viewer.write_viewer`) into a private
+temporary folder and returns the files' bytes with the scores. Only the driver
 (:func:`run_batch`) writes into the library: each set is staged in ``LIBRARY/.staging/`` and renamed into place
 in one step, then the manifest is rewritten atomically (:func:`svbrdf.runtime.files.atomic_write`). So a killed
 run loses at most the photos in flight, never leaves half a set, and never corrupts the manifest; a set renamed
 into place just before the kill is adopted on the next run (its sidecar records the photo's hash and options).
+
+A photo is done when its record and its set's sidecar hold its content hash and the same options
+(:data:`OPTION_KEYS`, :func:`same_options`); an option added to :data:`OPTION_KEYS` later takes its value in
+:data:`OPTION_DEFAULTS` where an older library's records lack it, so a library written before ``--tileable`` and
+``--view`` is not redone by a run without them.
 """
 
 from __future__ import annotations
@@ -49,7 +57,11 @@ LOCK_FILE = ".svbrdf-batch.lock"
 PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".hdr", ".bmp", ".webp")
 #: The options of :func:`svbrdf.runtime.cli.add_texture_options` that change a texture set (recorded per photo;
 #: a done photo is redone only when they or the photo change).
-OPTION_KEYS = ("refine", "quality", "iters", "target", "maps", "normal", "format", "max_size", "tile", "fov")
+OPTION_KEYS = ("refine", "quality", "iters", "target", "maps", "normal", "format", "max_size", "tile", "fov",
+               "tileable", "view")
+#: The options added to :data:`OPTION_KEYS` after libraries were first written, with the value a record that
+#: lacks them was made with (:func:`same_options`).
+OPTION_DEFAULTS = {"tileable": False, "view": False}
 
 
 def collect_photos(items: Iterable[str]) -> List[Path]:
@@ -139,11 +151,19 @@ def library_names(photos: Sequence[Path], known: Mapping[str, str]) -> Dict[Path
 
 
 def library_options(args: argparse.Namespace, model_sha256: str) -> Dict[str, Any]:
-    """What makes a texture set (:data:`OPTION_KEYS` of ``args`` plus the model's sha256), JSON-ready."""
-    opts = {k: getattr(args, k) for k in OPTION_KEYS}
+    """What makes a texture set (:data:`OPTION_KEYS` of ``args`` plus the model's sha256), JSON-ready; ``args``
+    without a key of :data:`OPTION_DEFAULTS` gets its default."""
+    opts = {k: getattr(args, k, OPTION_DEFAULTS[k]) if k in OPTION_DEFAULTS else getattr(args, k)
+            for k in OPTION_KEYS}
     opts["maps"] = list(opts["maps"])
     opts["model_sha256"] = model_sha256
     return opts
+
+
+def same_options(recorded: Any, options: Mapping[str, Any]) -> bool:
+    """Whether the options ``recorded`` for a set (manifest or sidecar; possibly from an older version, without
+    the keys of :data:`OPTION_DEFAULTS`) are ``options`` (:func:`library_options`)."""
+    return isinstance(recorded, dict) and {**OPTION_DEFAULTS, **recorded} == {**OPTION_DEFAULTS, **options}
 
 
 # ----------------------------------------------------------------------------------------------- the worker side
@@ -523,10 +543,12 @@ def run_batch(photos: Sequence[Path], root: Path, args: argparse.Namespace, *, e
     """Make (or complete) the library ``root`` from ``photos`` with the texture options ``args``
     (:func:`svbrdf.runtime.cli.add_texture_options`); see the module docstring for the files.
 
-    Photos already done with the same content hash and options are skipped; failed and new ones run. A done photo
-    whose photo or options changed is redone only with ``args.force`` (else refused, one error line). Progress of
-    the whole batch goes to stderr (:class:`~svbrdf.runtime.progress.Progress`, unless ``args.quiet``); each
-    finished photo is passed to ``report`` (one line), its warnings to ``warn`` and each failure to ``error``.
+    Photos already done with the same content hash and options (:func:`same_options`) are skipped; failed and new
+    ones run. A done photo whose photo or options changed (``--tileable`` or ``--view`` added or dropped included)
+    is redone only with ``args.force`` (else refused, one error line). With ``args.view`` each set holds its viewer
+    page. Progress of the whole batch goes to stderr (:class:`~svbrdf.runtime.progress.Progress`, unless
+    ``args.quiet``); each finished photo is passed to ``report`` (one line), its warnings to ``warn`` and each
+    failure to ``error``.
 
     Args:
         engine: ``"local"`` (a process pool, :func:`plan_workers`) or ``"ray"`` (``ray_address``; ``None`` starts a
@@ -568,9 +590,10 @@ def run_batch(photos: Sequence[Path], root: Path, args: argparse.Namespace, *, e
                 changed = True
                 continue
             on_disk = library.sidecar_batch(name)
-            same = on_disk is not None and on_disk.get("sha256") == sha and on_disk.get("options") == options
+            same = on_disk is not None and on_disk.get("sha256") == sha and same_options(on_disk.get("options"),
+                                                                                          options)
             if record is not None and record.get("status") == "done" and record.get("sha256") == sha \
-                    and record.get("options") == options and same:
+                    and same_options(record.get("options"), options) and same:
                 summary.skipped += 1
                 continue
             if same and (record is None or record.get("status") != "done"):  # renamed in just before a kill
@@ -584,7 +607,7 @@ def run_batch(photos: Sequence[Path], root: Path, args: argparse.Namespace, *, e
             if record is not None and record.get("status") == "done" and not args.force and (root / name).exists():
                 summary.refused += 1
                 error(f"{root / name}: made from {'another photo' if record.get('sha256') != sha else 'the photo'}"
-                      f"{' with other options' if record.get('options') != options else ''}; "
+                      f"{'' if same_options(record.get('options'), options) else ' with other options'}; "
                       f"use --force to redo it")
                 continue
             if record is None and (root / name).exists() and not args.force:
@@ -670,5 +693,6 @@ def _now() -> str:
     return time.strftime("%Y-%m-%dT%H:%M:%S%z")
 
 
-__all__ = ["collect_photos", "library_names", "library_options", "plan_workers", "run_job", "run_batch", "Job",
-           "Library", "BatchSummary", "LocalEngine", "RayEngine", "MANIFEST_FILE", "OPTION_KEYS", "PHOTO_SUFFIXES"]
+__all__ = ["collect_photos", "library_names", "library_options", "same_options", "plan_workers", "run_job",
+           "run_batch", "Job", "Library", "BatchSummary", "LocalEngine", "RayEngine", "MANIFEST_FILE", "OPTION_KEYS",
+           "OPTION_DEFAULTS", "PHOTO_SUFFIXES"]

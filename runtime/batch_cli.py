@@ -1,9 +1,12 @@
 """``svbrdf-batch``: a folder (or list) of flash photos -> a material library, resumable, locally or on Ray.
 
 A thin command over :func:`svbrdf.runtime.batch.run_batch`; the per-photo options are ``svbrdf-preview``'s
-(:func:`svbrdf.runtime.cli.add_texture_options`). Exit codes: 0 every photo done (now or before), 1 a photo failed
-or was refused (one line ``svbrdf-batch: error: ...`` each; the others are done), 2 a usage error, ``--refine``
-without torch or ``--ray`` without Ray, 130 interrupted (what finished is kept; run the command again to go on).
+(:func:`svbrdf.runtime.cli.add_texture_options`), ``--tileable`` (maps that repeat without a seam) and ``--view``
+(``LIBRARY/<name>/<name>_view.html``, the set relit in the browser, linked from the contact sheet) included. Exit
+codes: 0 every photo done (now or before), 1 a photo failed or was refused (one line ``svbrdf-batch: error: ...``
+each; the others are done), 2 a usage error (``--view`` without all four maps and ``--target generic`` included;
+nothing is written), ``--refine`` without torch or ``--ray`` without Ray, 130 interrupted (what finished is kept;
+run the command again to go on).
 """
 
 from __future__ import annotations
@@ -25,10 +28,13 @@ examples:
   {PROG} 'scans/*.jpg' @more.txt -o library/  a glob and a list file (one photo per line)
   {PROG} photos/ -o library/ --refine --quality auto   fine-tune where the preview is not enough (needs torch)
   {PROG} photos/ -o library/ --ray auto --threads 4    on the Ray cluster this machine belongs to
+  {PROG} photos/ -o library/ --tileable --view         seamless maps, and a page to relight each in the browser
 
 Run the same command again to go on after an interruption or a crash: done photos (same content, same options)
-are skipped, failed ones retried. LIBRARY/<name>/ holds each texture set, LIBRARY/library.json the manifest,
-LIBRARY/index.html (open it from disk) and index.png the contact sheet, worst re-render first.
+are skipped, failed ones retried. LIBRARY/<name>/ holds each texture set (with --view also <name>_view.html),
+LIBRARY/library.json the manifest, LIBRARY/index.html (open it from disk; a "view" link per viewer page) and
+index.png the contact sheet, worst re-render first. Adding or dropping --tileable or --view changes the options:
+the done photos are then redone only with --force.
 """
 
 

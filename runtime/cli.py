@@ -215,6 +215,10 @@ def photo_maps(photo: Path, session, config, args, refine=None, name: Optional[s
         ``(maps, relit, detail)``: the :class:`~svbrdf.runtime.maps.Maps` (the requested maps, at the processed
         size, ``render_config`` = ``config``), the relit panel (sRGB (h, 3 w, 3), None without all four maps) and a
         short report (``"model 0.41 s"``, ``"refined 300 it"``, ...).
+
+    Raises:
+        SvbrdfError: the photo cannot be read or processed; with ``args.tileable``, maps smaller than
+            :data:`~svbrdf.runtime.tileable.MIN_SIZE` a side (the message names ``photo``).
     """
     from .session import estimate
     from .texture_set import relit_panel
@@ -244,7 +248,10 @@ def photo_maps(photo: Path, session, config, args, refine=None, name: Optional[s
     if getattr(args, "tileable", False):
         from .tileable import make_tileable
 
-        maps = make_tileable(maps)
+        try:
+            maps = make_tileable(maps)
+        except SvbrdfError as exc:  # a photo too small for it: say which one
+            raise SvbrdfError(f"{photo}: --tileable: {exc}") from None
         worst = [s["after"] for s in maps.meta["tileable"]["join"].values() if s["after"] is not None]
         detail += f", tileable (join score {max(worst):.2f})" if worst else ", tileable"
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps

@@ -3,9 +3,10 @@
 Each material is shown as one strip of small views (:func:`strip`, :data:`STRIP_VIEWS`), saved by the batch as
 ``thumbs/<name>.png``. ``index.html`` is one self-contained page (inline CSS and JavaScript, relative links only,
 so it opens from disk with no server): a table of every photo with its strip, status and scores, sorted worst
-first by the re-render error and sortable by any column with a click. ``index.png`` stacks the same strips with
-each material's name and scores drawn beside it (OpenImageIO; no text where it has no usable font), worst first,
-at most :data:`PNG_ROWS` rows.
+first by the re-render error and sortable by any column with a click; a material whose set holds a viewer page
+(``svbrdf-batch --view``, :data:`svbrdf.runtime.viewer.VIEWER_FILE`) gets a "view" link to it beside its name.
+``index.png`` stacks the same strips with each material's name and scores drawn beside it (OpenImageIO; no text
+where it has no usable font), worst first, at most :data:`PNG_ROWS` rows.
 """
 
 from __future__ import annotations
@@ -87,17 +88,22 @@ def _num(v: Optional[float], fmt: str) -> str:
 
 def render_html(root: Path, records: Mapping[str, Mapping[str, Any]]) -> str:
     """The text of ``index.html`` for the library ``root`` (see the module docstring)."""
+    from .viewer import VIEWER_FILE
+
     rows = _rows(records)
     body = []
     for i, r in enumerate(rows, 1):
         link = quote(r["name"])
+        page = VIEWER_FILE.format(name=r["name"])
+        view = f' <a class="view" href="{link}/{quote(page)}">view</a>' if (root / r["name"] / page).is_file() \
+            else ""
         thumb = f"thumbs/{quote(r['name'])}.png"
         has_thumb = (root / "thumbs" / f"{r['name']}.png").is_file()
         img = f'<a href="{thumb}"><img src="{thumb}" alt="{html.escape(r["name"])}" loading="lazy"></a>' \
             if has_thumb else ""
         body.append(
             f'<tr class="{r["status"]}"><td data-v="{i}">{i}</td>'
-            f'<td data-v="{html.escape(r["name"])}"><a href="{link}/">{html.escape(r["name"])}</a><br>'
+            f'<td data-v="{html.escape(r["name"])}"><a href="{link}/">{html.escape(r["name"])}</a>{view}<br>'
             f'<small>{html.escape(r["source"])}</small></td>'
             f'<td>{img}</td><td data-v="{r["status"]}">{r["status"]}{" (refine)" if r["refine"] else ""}</td>'
             f'<td data-v="{_num(r["rmse"], ".6f") or -1}">{_num(r["rmse"], ".4f")}</td>'

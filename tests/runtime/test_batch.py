@@ -12,7 +12,8 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from svbrdf.runtime.batch import MANIFEST_FILE, collect_photos, library_names, plan_workers
+from svbrdf.runtime.batch import (MANIFEST_FILE, OPTION_DEFAULTS, collect_photos, library_names, plan_workers,
+                                  same_options)
 from svbrdf.runtime.batch_cli import main
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.imageio import write_image
@@ -152,6 +153,97 @@ def test_usage_errors_exit_2(capsys):
     assert code == 2 and "--gpus-per-task needs --ray" in err
     code, _, err = _run(capsys, "x.png")
     assert code == 2 and "-o/--out" in err
+
+
+def test_view_needs_all_maps_and_the_generic_target_and_writes_nothing(tiny_model, tmp_path, capsys):
+    _photos(tmp_path / "in", 1)
+    lib = tmp_path / "lib"
+    for extra in (["--maps", "normal"], ["--target", "gltf"]):
+        code, out, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--view", *extra)
+        assert code == 2 and out == "" and "Traceback" not in err
+        assert "usage: svbrdf-batch" in err
+        assert [line for line in err.splitlines() if line.startswith(ERR)] == [
+            f"{ERR}--view needs all four maps and --target generic (it relights the project's own texture set)"]
+        assert not lib.exists()
+
+
+def test_tileable_and_view_reach_every_set_and_the_index(tiny_model, tmp_path, capsys):
+    photos = _photos(tmp_path / "in", 2)
+    small = _photos(tmp_path / "tiny", 1, size=(12, 20))[0]  # below tileable.MIN_SIZE (16 px) on one side
+    small = small.rename(tmp_path / "in" / "small.png")
+    lib = tmp_path / "lib"
+    argv = [tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1", "--tileable", "--view"]
+    code, out, err = _run(capsys, *argv)
+    assert code == 1 and "Traceback" not in err
+    errors = [line for line in err.splitlines() if line.startswith(ERR)]
+    assert errors == [f"{ERR}{small}: --tileable: maps of 20x12 px are too small to make tileable (at least 16 px "
+                      "a side)"]
+    records = _manifest(lib)
+    assert {n: r["status"] for n, r in records.items()} == {"p00": "done", "p01": "done", "small": "failed"}
+    assert not (lib / "small").exists() and not (lib / "thumbs" / "small.png").exists()
+    index = (lib / "index.html").read_text()
+    for p in photos:
+        name = p.stem
+        page = lib / name / f"{name}_view.html"
+        assert _complete(lib, name) and page.is_file()  # renamed into the library with its set
+        assert "window.svbrdfViewer" in page.read_text(encoding="utf-8")
+        assert f"{name}_view.html" in records[name]["files"]
+        assert records[name]["options"]["tileable"] is True and records[name]["options"]["view"] is True
+        meta = json.loads((lib / name / f"{name}.json").read_text())["meta"]
+        assert meta["tileable"]["method"] and set(meta["tileable"]["seam"]) == {"diffuse", "specular", "roughness",
+                                                                               "normal"}
+        assert meta["batch"]["options"]["tileable"] is True
+        assert f'<a class="view" href="{name}/{name}_view.html">view</a>' in index
+    assert index.count('class="view"') == 2  # none for the failed photo
+    assert not (lib / ".staging").exists() or not any((lib / ".staging").iterdir())
+
+    # The same command again: the two sets are done with these options; the small photo fails again.
+    code, _, err = _run(capsys, *argv)
+    assert code == 1 and "0 done, 1 failed, 2 already done" in err
+
+
+def _strip_new_options(lib: Path) -> None:
+    """Make ``lib`` look written before --tileable and --view: no such keys in the manifest or the sidecars."""
+    doc = json.loads((lib / MANIFEST_FILE).read_text())
+    for name, record in doc["photos"].items():
+        for key in OPTION_DEFAULTS:
+            del record["options"][key]
+        sidecar = lib / name / f"{name}.json"
+        meta = json.loads(sidecar.read_text())
+        for key in OPTION_DEFAULTS:
+            del meta["meta"]["batch"]["options"][key]
+        sidecar.write_text(json.dumps(meta))
+    (lib / MANIFEST_FILE).write_text(json.dumps(doc))
+
+
+def test_same_options_reads_a_missing_new_key_as_its_default():
+    new = {"refine": False, "tileable": False, "view": False, "model_sha256": "ab"}
+    old = {"refine": False, "model_sha256": "ab"}
+    assert same_options(old, new) and same_options(new, new)
+    assert not same_options(old, {**new, "tileable": True}) and not same_options(old, {**new, "view": True})
+    assert not same_options({**old, "refine": True}, new) and not same_options(None, new)
+
+
+def test_a_library_from_before_tileable_and_view_is_not_redone(tiny_model, tmp_path, capsys):
+    photos = _photos(tmp_path / "in", 2)
+    lib = tmp_path / "lib"
+    argv = [tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1"]
+    assert _run(capsys, *argv)[0] == 0
+    _strip_new_options(lib)
+    stamps = {p.stem: (lib / p.stem / f"{p.stem}.json").stat().st_mtime_ns for p in photos}
+
+    code, _, err = _run(capsys, *argv)  # without --tileable and --view: nothing to do
+    assert code == 0 and "0 done, 0 failed, 2 already done" in err
+    assert stamps == {p.stem: (lib / p.stem / f"{p.stem}.json").stat().st_mtime_ns for p in photos}
+
+    code, _, err = _run(capsys, *argv, "--tileable")  # the options changed: redone, with --force only
+    assert code == 1 and err.count("with other options; use --force to redo it") == 2
+    assert stamps == {p.stem: (lib / p.stem / f"{p.stem}.json").stat().st_mtime_ns for p in photos}
+    code, _, err = _run(capsys, *argv, "--tileable", "--force")
+    assert code == 0 and "2 done, 0 failed, 0 already done" in err
+    for p in photos:
+        assert _manifest(lib)[p.stem]["options"]["tileable"] is True
+        assert "tileable" in json.loads((lib / p.stem / f"{p.stem}.json").read_text())["meta"]
 
 
 def test_local_pool_makes_the_same_library(tiny_model, tmp_path, capsys):

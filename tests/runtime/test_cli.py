@@ -130,6 +130,21 @@ def test_batch_with_a_bad_file(photo, tiny_model, tmp_path, capsys):
     assert code == 1 and "Traceback" in err
 
 
+def test_a_photo_too_small_for_tileable_is_one_line_and_writes_nothing(tiny_model, tmp_path, capsys):
+    small = tmp_path / "chip.png"
+    rng = np.random.default_rng(3)
+    write_image(small, rng.uniform(0.1, 0.6, (12, 20, 3)).astype(np.float32), bits=8, srgb_encode=True)
+    out_dir = tmp_path / "out"
+    code, out, err = _run(capsys, small, "--model", tiny_model, "-o", out_dir, "--tileable", "--view")
+    assert code == 1 and out == ""
+    assert err.strip().splitlines() == [f"{ERR}{small}: --tileable: maps of 20x12 px are too small to make tileable "
+                                        "(at least 16 px a side)"]
+    assert not out_dir.exists()  # no half-written set, no page
+    # The same photo is fine without --tileable (the model itself takes it).
+    code, _, err = _run(capsys, small, "--model", tiny_model, "-o", out_dir, "-q")
+    assert code == 0, err
+
+
 def test_same_output_name_twice_in_a_batch(photo, tiny_model, tmp_path, capsys):
     other = tmp_path / "b" / "wood.png"
     other.parent.mkdir()
