@@ -14,8 +14,8 @@ method on its four maps: ``cut`` (the default: minimal-error cuts, then the peri
   reference the same distance between the left and right halves of the map before tiling.
 
 Writes ``results.json``, ``results.md`` and ``repeats_2x2.jpg`` (four photos, one row each, every view repeated
-2 x 2: base colour before, after ``cut-raw``, ``cut`` and ``blend``; roughness before and after ``cut``; normal
-before and after ``cut``) into the folder given by ``--out``.
+2 x 2: base colour before, after ``cut-raw``, ``cut`` and ``blend``; roughness before and after ``cut``; the
+preview's normals are flat and its specular one level, so they are not shown) into the folder given by ``--out``.
 
     OMP_NUM_THREADS=1 python docs/benchmarks/tileable/scripts/tileable_bench.py --out docs/benchmarks/tileable
 
@@ -117,7 +117,7 @@ def main(argv=None):
         print(f"tileable_bench: error: third-party test data not found at {DATA}", file=sys.stderr)
         return 2
     from svbrdf.runtime.colour import linear_to_srgb
-    from svbrdf.runtime.maps import MAP_NAMES, encode_normal
+    from svbrdf.runtime.maps import MAP_NAMES
     from svbrdf.runtime.session import estimate, load_session
     from svbrdf.runtime.tileable import cut_scores, make_tileable, tile_grid
 
@@ -176,8 +176,7 @@ def main(argv=None):
             continue
         s = pics[rel]
         rows.append([tile_grid(linear_to_srgb(s[k].diffuse, clip=True)) for k in ("before", "cut-raw", "cut", "blend")]
-                    + [tile_grid(s[k].roughness[..., [0, 0, 0]]) for k in ("before", "cut")]
-                    + [tile_grid(encode_normal(s[k].normal)) for k in ("before", "cut")])
+                    + [tile_grid(s[k].roughness[..., [0, 0, 0]]) for k in ("before", "cut")])
     if rows:
         save_jpeg(out / "repeats_2x2.jpg", picture(rows))
     print(json.dumps(summary, indent=1))
