@@ -11,8 +11,11 @@ Methods (chosen by measurement, docs/benchmarks/tileable/):
     For the horizontal wrap, a vertical strip ``4 o`` pixels wide is copied from where it best fits
     (``o`` = :func:`default_overlap`) and placed across the wrap: its left half ends at column ``W - 1``, its
     right half starts at column 0, so the wrap falls *inside* the copied strip, between two pixels that were
-    neighbours in the photo. On each side, the ``o`` columns where the strip and the maps overlap are joined
-    along the path of least difference (a dynamic-programming cut, top to bottom, one column per row at most).
+    neighbours in the photo. On each side, the strip and the maps are joined along the path of least difference
+    (a dynamic-programming cut, top to bottom, one column per row at most) anywhere in the strip's half but the
+    :data:`WRAP_MARGIN` columns next to the wrap (``2 o - 4`` columns: nearly twice the room of a cut confined to the
+    outer ``o``, for the same copied area; on 8 held-out procedural materials and the bundled example the raw
+    cuts' join scores fell from 0.98 to 0.87, median).
     Then the same for the vertical wrap with a horizontal strip of the result; that cut runs across the whole
     width and is constrained to close on itself across the horizontal wrap. The difference that decides the
     cuts is summed over every map present, each normalised by its own variance. A cut still leaves a step
@@ -50,6 +53,8 @@ METHODS = ("cut", "blend")
 MIN_SIZE = 16
 #: The repair spreads a join's step over about this many overlaps (the screened Poisson weight is 1 / (s o)^2).
 REPAIR_SPREAD = 1.0
+#: Columns next to the wrap that always stay the copied strip's (the wrap falls between two of them).
+WRAP_MARGIN = 4
 #: Border pixels of the input whose steps the repair does not ask of a join (see :func:`_guidance`).
 GUIDE_MARGIN = 2
 
@@ -228,24 +233,34 @@ def _closed_vertical_cut(err: np.ndarray) -> np.ndarray:
     return path
 
 
+def _zone(o: int) -> int:
+    """Width of the overlap zones in which a cut may run: all of each half of the ``4 o`` strip but the
+    :data:`WRAP_MARGIN` columns next to the wrap (which stay the strip's own)."""
+    return max(1, 2 * o - WRAP_MARGIN)
+
+
 def _best_source(a: np.ndarray, o: int, w: np.ndarray) -> int:
     """Column of the ``4 o``-wide strip of ``a`` that best fits across the horizontal wrap (least summed squared
     difference over both overlap zones; searched on a grid of at most ~256 candidates and rows)."""
     h, wd = a.shape[:2]
-    left_zone = a[:, wd - 2 * o:wd - o]
-    right_zone = a[:, o:2 * o]
+    z = _zone(o)
+    left_zone = a[:, wd - 2 * o:wd - 2 * o + z]
+    right_zone = a[:, 2 * o - z:2 * o]
     step = max(1, wd // 256)
     rows = slice(None, None, max(1, h // 256))
+
+    def error(c):
+        e = _zone_error(a[rows, c:c + z], left_zone[rows], w).sum()
+        return e + _zone_error(a[rows, c + 4 * o - z:c + 4 * o], right_zone[rows], w).sum()
+
     best, best_c = np.inf, 0
     for c in range(0, wd - 4 * o + 1, step):
-        e = _zone_error(a[rows, c:c + o], left_zone[rows], w).sum()
-        e += _zone_error(a[rows, c + 3 * o:c + 4 * o], right_zone[rows], w).sum()
+        e = error(c)
         if e < best:
             best, best_c = e, c
     # refine around the grid's best
     for c in range(max(0, best_c - step + 1), min(wd - 4 * o, best_c + step - 1) + 1):
-        e = _zone_error(a[rows, c:c + o], left_zone[rows], w).sum()
-        e += _zone_error(a[rows, c + 3 * o:c + 4 * o], right_zone[rows], w).sum()
+        e = error(c)
         if e < best:
             best, best_c = e, c
     return best_c
@@ -254,23 +269,26 @@ def _best_source(a: np.ndarray, o: int, w: np.ndarray) -> int:
 def _cut_wrap_x(a: np.ndarray, o: int, w: np.ndarray, closed: bool) -> np.ndarray:
     """Make the horizontal wrap of ``a`` (H, W, C) seamless with a copied strip and two cuts (module docstring)."""
     h, wd = a.shape[:2]
+    z = _zone(o)
     c = _best_source(a, o, w)
     strip = a[:, c:c + 4 * o]
     out = a.copy()
     out[:, wd - 2 * o:] = strip[:, :2 * o]
     out[:, :2 * o] = strip[:, 2 * o:]
     cut = _closed_vertical_cut if closed else _vertical_cut
-    cols = np.arange(o)[None, :]
+    cols = np.arange(z)[None, :]
     # left zone: the maps left of the cut, the strip from it on
-    k = cut(_zone_error(a[:, wd - 2 * o:wd - o], strip[:, :o], w))
+    left = slice(wd - 2 * o, wd - 2 * o + z)
+    k = cut(_zone_error(a[:, left], strip[:, :z], w))
     keep = cols < k[:, None]
-    zone = out[:, wd - 2 * o:wd - o]
-    zone[keep] = a[:, wd - 2 * o:wd - o][keep]
+    zone = out[:, left]
+    zone[keep] = a[:, left][keep]
     # right zone: the strip left of the cut, the maps from it on
-    k = cut(_zone_error(strip[:, 3 * o:], a[:, o:2 * o], w))
+    right = slice(2 * o - z, 2 * o)
+    k = cut(_zone_error(strip[:, 4 * o - z:], a[:, right], w))
     keep = cols >= k[:, None]
-    zone = out[:, o:2 * o]
-    zone[keep] = a[:, o:2 * o][keep]
+    zone = out[:, right]
+    zone[keep] = a[:, right][keep]
     return out
 
 
