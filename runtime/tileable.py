@@ -11,11 +11,8 @@ Methods (chosen by measurement, docs/benchmarks/tileable/):
     For the horizontal wrap, a vertical strip ``4 o`` pixels wide is copied from where it best fits
     (``o`` = :func:`default_overlap`) and placed across the wrap: its left half ends at column ``W - 1``, its
     right half starts at column 0, so the wrap falls *inside* the copied strip, between two pixels that were
-    neighbours in the photo. On each side, the strip and the maps are joined along the path of least difference
-    (a dynamic-programming cut, top to bottom, one column per row at most) anywhere in the strip's half but the
-    :data:`WRAP_MARGIN` columns next to the wrap (``2 o - 4`` columns: nearly twice the room of a cut confined to the
-    outer ``o``, for the same copied area; on 8 held-out procedural materials and the bundled example the raw
-    cuts' join scores fell from 0.98 to 0.87, median).
+    neighbours in the photo. On each side, the ``o`` columns where the strip and the maps overlap are joined
+    along the path of least difference (a dynamic-programming cut, top to bottom, one column per row at most).
     Then the same for the vertical wrap with a horizontal strip of the result; that cut runs across the whole
     width and is constrained to close on itself across the horizontal wrap. The difference that decides the
     cuts is summed over every map present, each normalised by its own variance. A cut still leaves a step
@@ -53,8 +50,6 @@ METHODS = ("cut", "blend")
 MIN_SIZE = 16
 #: The repair spreads a join's step over about this many overlaps (the screened Poisson weight is 1 / (s o)^2).
 REPAIR_SPREAD = 1.0
-#: Columns next to the wrap that always stay the copied strip's (the wrap falls between two of them).
-WRAP_MARGIN = 4
 #: Border pixels of the input whose steps the repair does not ask of a join (see :func:`_guidance`).
 GUIDE_MARGIN = 2
 
@@ -234,9 +229,13 @@ def _closed_vertical_cut(err: np.ndarray) -> np.ndarray:
 
 
 def _zone(o: int) -> int:
-    """Width of the overlap zones in which a cut may run: all of each half of the ``4 o`` strip but the
-    :data:`WRAP_MARGIN` columns next to the wrap (which stay the strip's own)."""
-    return max(1, 2 * o - WRAP_MARGIN)
+    """Width of the overlap zones in which a cut may run: the outer ``o`` columns of each half of the strip.
+
+    Wider zones (``2 o - 4``: the cut allowed up to 4 columns from the wrap) lowered the raw cuts' join scores on
+    held-out procedural maps (0.98 -> 0.87, median; docs/benchmarks/tileable/scripts/zone_check.py) but kept the
+    maps' own pixels next to their borders, where the network's maps are least reliable: on the shared photos
+    three 2048 px Henzler sets got diffuse joins of 3.6-6.9 after the repair. The copied strip keeps them out."""
+    return o
 
 
 def _best_source(a: np.ndarray, o: int, w: np.ndarray) -> int:
