@@ -75,6 +75,15 @@ ARTIST_COLUMNS = (
     ("burn_in_synthetic", "synthetic", "burn_in"), ("burn_in_photos", "photo", "burn_in"),
     ("burn_in_capture", "capture", "burn_in"), ("seconds", "synthetic", "seconds"),
 )
+#: Column headings of the artist table, by key of :data:`ARTIST_COLUMNS`.
+ARTIST_HEADS = {
+    "capture_rmse": "capture relit RMSE ↓", "capture_ssim": "capture SSIM ↑", "grazing_rmse": "grazing RMSE ↓",
+    "grazing_hp_corr": "grazing detail corr ↑", "detail_diffuse": "detail diffuse",
+    "detail_specular": "detail specular", "detail_roughness": "detail roughness", "detail_normal": "detail normal",
+    "normal_slope_corr": "normal slope corr ↑", "normal_angle_deg": "normal °",
+    "burn_in_synthetic": "burn-in synthetic ↓", "burn_in_photos": "burn-in photos ↓",
+    "burn_in_capture": "burn-in capture ↓", "seconds": "seconds",
+}
 TIMES = ("seconds", "train_seconds", "eval_seconds")
 METHOD_ORDER = ("baseline", "preview", "finetune", "scratch")
 BUDGET = "budget"
@@ -387,13 +396,7 @@ def artist_table(records: Sequence[Mapping[str, Any]], cases: Sequence[Mapping[s
 def _artist_markdown(rows: Sequence[Mapping[str, Any]]) -> List[str]:
     if not rows:
         return []
-    heads = [("capture_rmse", "capture relit RMSE ↓"), ("capture_ssim", "capture SSIM ↑"),
-             ("grazing_rmse", "grazing RMSE ↓"), ("grazing_hp_corr", "grazing detail corr ↑"),
-             ("detail_diffuse", "detail diffuse"), ("detail_specular", "detail specular"),
-             ("detail_roughness", "detail roughness"), ("detail_normal", "detail normal"),
-             ("normal_slope_corr", "normal slope corr ↑"), ("burn_in_synthetic", "burn-in synthetic ↓"),
-             ("burn_in_photos", "burn-in photos ↓"), ("burn_in_capture", "burn-in capture ↓"),
-             ("seconds", "seconds")]
+    heads = [(k, h) for k, h in ARTIST_HEADS.items() if k != "normal_angle_deg"]
     out = ["## What an artist sees (read first)", "",
            "| method | " + " | ".join(h for _, h in heads) + " |", "|---" * (len(heads) + 1) + "|"]
     for r in rows:
@@ -706,5 +709,5 @@ def pareto_series(records: Sequence[Mapping[str, Any]]) -> Tuple[List[Dict[str, 
     return list(series.values()), (ylabel, "burn-in (worst of the 4 maps, rings included)")
 
 
-__all__ = ["SCHEMA", "METRICS", "ARTIST_COLUMNS", "artist_table", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",
+__all__ = ["SCHEMA", "METRICS", "ARTIST_COLUMNS", "ARTIST_HEADS", "artist_table", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",
            "text_supported", "write_text", "write_json"]

@@ -10,15 +10,9 @@ table row is :func:`svbrdf.trainer.bench.report.artist_table` over the cases tha
 import json
 import sys
 
-from svbrdf.trainer.bench.report import _fmt, artist_table
+from svbrdf.trainer.bench.report import ARTIST_HEADS, _fmt, artist_table
 
-COLUMNS = [("capture_rmse", "capture relit RMSE ↓"), ("capture_ssim", "capture SSIM ↑"),
-           ("grazing_rmse", "grazing RMSE ↓"), ("grazing_hp_corr", "grazing detail corr ↑"),
-           ("detail_diffuse", "detail diffuse"), ("detail_specular", "detail specular"),
-           ("detail_roughness", "detail roughness"), ("detail_normal", "detail normal"),
-           ("normal_slope_corr", "normal slope corr ↑"), ("normal_angle_deg", "normal °"),
-           ("burn_in_synthetic", "burn-in synthetic ↓"), ("burn_in_photos", "burn-in photos ↓"),
-           ("burn_in_capture", "burn-in capture ↓")]
+COLUMNS = [(k, h) for k, h in ARTIST_HEADS.items() if k != "seconds"]
 
 
 def finetune_records(path):
