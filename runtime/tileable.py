@@ -397,8 +397,8 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
     for arr in arrays:
         groups.append(slice(start, start + arr.shape[-1]))
         start += arr.shape[-1]
-    yy, xx = np.mgrid[0:h, 0:wd]
-    coords = np.stack([yy, xx], axis=-1).astype(np.float32)  # exact up to 2^24 px
+    identity = np.stack(np.mgrid[0:h, 0:wd], axis=-1)  # each pixel's own (row, column)
+    coords = identity.astype(np.float32)  # exact up to 2^24 px
     packed = np.concatenate([a.astype(np.float32) for a in arrays] + [coords], axis=-1)
     o = None
     if method == "cut":
@@ -408,20 +408,16 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
                               f"{min(h, wd)})")
         w = np.concatenate([_weights(packed[..., :start], groups), np.zeros(2)])
         out = _cut(packed, o, w)
+        source = np.rint(out[..., start:]).astype(np.int64)
         if repair:
-            source = np.rint(out[..., start:]).astype(np.int64)
             out[..., :start] = _repair(out[..., :start], source, packed[..., :start], o)
     else:
-        out = np.concatenate([_blend(packed[..., :start]), coords], axis=-1)
+        out = _blend(packed[..., :start])
+        source = identity
     del packed
-    result = {}
-    for name, sl in zip(names, groups):
-        arr = out[..., sl].astype(np.float32)
-        result[name] = arr
-    tiled = maps._with(result).clipped()
+    tiled = maps._with({name: out[..., sl].astype(np.float32) for name, sl in zip(names, groups)}).clipped()
     record = {"method": method, "overlap": o, "repair": bool(repair and method == "cut"), "seam": {},
               "histogram_w1": {}}
-    source = np.rint(out[..., start:start + 2]).astype(np.int64)
     if method == "cut":
         record["join"] = {}
     for name in names:
@@ -429,7 +425,7 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
         record["seam"][name] = {"before": seam_scores(before), "after": seam_scores(after)}
         record["histogram_w1"][name] = histogram_distance(before, after)
         if method == "cut":
-            record["join"][name] = {"before": cut_scores(before, np.stack([yy, xx], axis=-1))["ratio"],
+            record["join"][name] = {"before": cut_scores(before, identity)["ratio"],
                                     "after": cut_scores(after, source)["ratio"]}
     tiled.meta["tileable"] = record
     if return_source:
