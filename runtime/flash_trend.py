@@ -34,6 +34,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from .burn_in import highlight_centre, photo_burn_in
+from .highlight_fill import fill_highlight
 from .tiling import block_mean
 from .maps import MAP_RANGES, Maps
 
@@ -169,27 +170,36 @@ def uniform_specular(maps: Maps) -> Maps:
     return out
 
 
-def postprocess(maps: Maps, photo: np.ndarray, *, flash_trend: bool = True, specular_level: bool = True) -> Maps:
+def postprocess(maps: Maps, photo: np.ndarray, *, flash_trend: bool = True, specular_level: bool = True,
+                highlight_fill: bool = False) -> Maps:
     """What the runtime does to a network's maps before returning them (the preview's
-    :func:`svbrdf.runtime.session.estimate` and the refine's :meth:`svbrdf.trainer.train.Trainer.predict_maps`):
-    :func:`remove_flash_trend` around the photo's highlight and :func:`uniform_specular`, each when asked.
+    :func:`svbrdf.runtime.session.estimate` and the refine's :meth:`svbrdf.trainer.train.Trainer.predict_maps`),
+    each step when asked, in this order: :func:`svbrdf.runtime.highlight_fill.fill_highlight` (the region of a
+    clipped highlight copied from the material elsewhere; first, so the trend fit does not compensate a hole that
+    is then filled), :func:`remove_flash_trend` around the photo's highlight and :func:`uniform_specular`.
 
     Args:
         maps: the network's texture set (H, W).
         photo: (H, W, 3) linear photo the maps were estimated from.
-        flash_trend, specular_level: run :func:`remove_flash_trend`, :func:`uniform_specular`.
+        flash_trend, specular_level, highlight_fill: run :func:`remove_flash_trend`, :func:`uniform_specular`,
+            :func:`~svbrdf.runtime.highlight_fill.fill_highlight`.
 
     Returns:
         The maps with ``meta["burn_in_model"]``: the label-free burn-in of the network's maps
-        (:func:`svbrdf.runtime.burn_in.photo_burn_in`), and ``meta["burn_in"]``: that of the maps returned.
+        (:func:`svbrdf.runtime.burn_in.photo_burn_in`), and ``meta["burn_in"]``: that of the maps returned
+        (and ``meta["highlight_fill"]`` with ``highlight_fill``).
     """
     model_burn_in = photo_burn_in(maps, photo)
     out = maps._with(dict(maps.items()))  # a new meta dict, the arrays shared
+    centre = model_burn_in["centre"]
+    if highlight_fill:
+        out = fill_highlight(out, photo, centre=None if centre is None else tuple(centre))
     if flash_trend:
-        out = remove_flash_trend(out, centre=model_burn_in["centre"])
+        out = remove_flash_trend(out, centre=centre)
     if specular_level:
         out = uniform_specular(out)
-    out.meta["burn_in"] = photo_burn_in(out, photo) if (flash_trend or specular_level) else model_burn_in
+    changed = flash_trend or specular_level or highlight_fill
+    out.meta["burn_in"] = photo_burn_in(out, photo) if changed else model_burn_in
     out.meta["burn_in_model"] = model_burn_in
     return out
 

@@ -267,6 +267,9 @@ FLASH_TREND = True
 #: The preview's specular map is one level per photo, its median (:func:`svbrdf.runtime.flash_trend.uniform_specular`):
 #: its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Now").
 UNIFORM_SPECULAR = True
+#: The region of a clipped flash highlight is filled with the material's own maps from elsewhere
+#: (:func:`svbrdf.runtime.highlight_fill.fill_highlight`): no disc, no blob (docs/benchmarks/highlight-fill/).
+HIGHLIGHT_FILL = True
 #: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;
 #: at 1024 px the full-size quantile alone cost 0.1 s).
 COLOUR_MAX_SIDE = 256
@@ -443,7 +446,8 @@ def estimate(
     out = Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped()
     if COLOUR_FROM_PHOTO and out.diffuse is not None:
         out = out._with({**dict(out.items()), "diffuse": photo_colour(out.diffuse, image)})
-    out = postprocess(out, image, flash_trend=FLASH_TREND, specular_level=UNIFORM_SPECULAR)
+    out = postprocess(out, image, flash_trend=FLASH_TREND, specular_level=UNIFORM_SPECULAR,
+                      highlight_fill=HIGHLIGHT_FILL)
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings
     return out

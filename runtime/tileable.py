@@ -54,7 +54,7 @@ REPAIR_SPREAD = 1.0
 GUIDE_MARGIN = 2
 
 __all__ = ["METHODS", "MIN_SIZE", "make_tileable", "default_overlap", "seam_scores", "histogram_distance",
-           "cut_scores", "tile_grid"]
+           "cut_scores", "tile_grid", "screened_poisson", "map_weights"]
 
 
 def default_overlap(height: int, width: int) -> int:
@@ -166,8 +166,9 @@ def cut_scores(arr: np.ndarray, source: np.ndarray) -> Dict[str, Optional[float]
 
 # ---------------------------------------------------------------------------------------------- the cut method
 
-def _weights(packed: np.ndarray, groups) -> np.ndarray:
-    """Per-channel cost weights: each map counts once, normalised by its variance (constant maps: 0)."""
+def map_weights(packed: np.ndarray, groups) -> np.ndarray:
+    """Per-channel weights of a difference summed over several maps packed along the last axis (``groups``: one
+    channel slice per map): each map counts once, normalised by its variance (constant maps: 0). (C,) float64."""
     w = np.zeros(packed.shape[-1], dtype=np.float64)
     for sl in groups:
         var = float(np.mean(np.var(packed[..., sl].astype(np.float64), axis=(0, 1))))
@@ -345,12 +346,19 @@ def _repair(out: np.ndarray, source: np.ndarray, inp: np.ndarray, o: int) -> np.
     differences ``D``, guidance ``G`` from :func:`_guidance`, ``eps = 1 / o^2``): every gradient of the cut result
     is kept except across the joins, where the input's own gradient is asked for, and the mismatch this frees is
     spread smoothly over about ``o`` pixels on both sides. Solved exactly with the FFT (the tile is periodic)."""
-    h, w = out.shape[:2]
     u0 = out.astype(np.float32)
     inp = inp.astype(np.float32)
     gx = _guidance(u0, source, inp, 1)
     gy = _guidance(u0, source, inp, 0)
-    eps = 1.0 / (REPAIR_SPREAD * float(o)) ** 2
+    return screened_poisson(u0, gx, gy, 1.0 / (REPAIR_SPREAD * float(o)) ** 2)
+
+
+def screened_poisson(u0: np.ndarray, gx: np.ndarray, gy: np.ndarray, eps: float) -> np.ndarray:
+    """The periodic image ``u`` (H, W, C) closest to the gradients ``gx, gy`` and, with weight ``eps``, to ``u0``:
+    minimises ``sum |D_x u - gx|^2 + |D_y u - gy|^2 + eps |u - u0|^2`` (``D``: periodic forward differences, to
+    the next column and to the row below). A step that the guidance does not ask for is spread smoothly over
+    about ``1 / sqrt(eps)`` pixels. Solved exactly with the FFT. float32, the arrays' units."""
+    h, w = u0.shape[:2]
     # D^T G at p: G(p - d) - G(p)
     rhs = eps * u0 + (np.roll(gx, 1, axis=1) - gx) + (np.roll(gy, 1, axis=0) - gy)
     wy = 2.0 - 2.0 * np.cos(2.0 * np.pi * np.fft.fftfreq(h))
@@ -406,7 +414,7 @@ def make_tileable(maps: Maps, method: str = "cut", overlap: Optional[int] = None
         if o < 1 or 8 * o > min(h, wd):
             raise SvbrdfError(f"overlap {o} px does not fit {wd}x{h} maps (need 1 <= 8 x overlap <= "
                               f"{min(h, wd)})")
-        w = np.concatenate([_weights(packed[..., :start], groups), np.zeros(2)])
+        w = np.concatenate([map_weights(packed[..., :start], groups), np.zeros(2)])
         out = _cut(packed, o, w)
         source = np.rint(out[..., start:]).astype(np.int64)
         if repair:

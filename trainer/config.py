@@ -78,6 +78,9 @@ class TrainConfig:
             generator predicts them, as in the paper).
         uniform_specular: make the final specular map one level, its median
             (:func:`svbrdf.runtime.flash_trend.uniform_specular`, as the preview does; False: as predicted).
+        highlight_fill: fill the region of a clipped flash highlight in the final maps with the material's own
+            maps from elsewhere (:func:`svbrdf.runtime.highlight_fill.fill_highlight`, before the trend removal;
+            False: as predicted).
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
             (False: the paper's unclipped renderings).
@@ -134,6 +137,7 @@ class TrainConfig:
     camera_lr: float = 5e-3
     flash_trend: bool = False
     uniform_specular: bool = False
+    highlight_fill: bool = False
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
@@ -285,8 +289,10 @@ _HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=Tru
 #: 600; with it 0.0850 / 0.0875 / 0.0924), the capture relighting and the burn-in keep improving; on held-out
 #: procedural materials 600 iterations are still worse than 150 (0.180 vs 0.164; with the GAN 0.218):
 #: docs/benchmarks/refine-detail/README.md. A default run (150) is unchanged.
+#: The region of a clipped highlight is filled from the material elsewhere in the final maps (``highlight_fill``):
+#: the synthetic cases' burn-in 0.484 -> 0.36 at 150 iterations (docs/benchmarks/highlight-fill/).
 _FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "iters_finetune": 150, "lambda_anchor": 3.0, "anchor_maps": ("normal",),
-         "gan_steps": 150}
+         "gan_steps": 150, "highlight_fill": True}
 
 
 def _presets() -> Dict[str, TrainConfig]:

@@ -566,8 +566,9 @@ class Trainer:
         maps = to_maps(self.predict(), meta)
         cfg = self.config
         photo = self.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
-        if cfg.flash_trend or cfg.uniform_specular:
-            return postprocess(maps, photo, flash_trend=cfg.flash_trend, specular_level=cfg.uniform_specular)
+        if cfg.flash_trend or cfg.uniform_specular or cfg.highlight_fill:
+            return postprocess(maps, photo, flash_trend=cfg.flash_trend, specular_level=cfg.uniform_specular,
+                               highlight_fill=cfg.highlight_fill)
         maps.meta["burn_in"] = photo_burn_in(maps, photo)
         return maps
 

@@ -137,11 +137,13 @@ def test_estimate_array_in_one_pass(session):
     raw = session.run(photo)
     from svbrdf.runtime.burn_in import photo_burn_in
     from svbrdf.runtime.flash_trend import remove_flash_trend, uniform_specular
+    from svbrdf.runtime.highlight_fill import fill_highlight
     from svbrdf.runtime.session import photo_colour
 
     model = Maps.unpack(raw).clipped()
     model = model._with({**dict(model.items()), "diffuse": photo_colour(model.diffuse, photo)})
-    want = uniform_specular(remove_flash_trend(model, photo=photo))
+    want = uniform_specular(remove_flash_trend(fill_highlight(model, photo), photo=photo))
+    assert meta["highlight_fill"] == want.meta["highlight_fill"]
     for name in ("diffuse", "specular", "roughness", "normal"):
         np.testing.assert_allclose(getattr(maps, name), getattr(want, name), atol=1e-6)
     assert meta["flash_trend"] == want.meta["flash_trend"]

@@ -79,7 +79,7 @@ def test_paper_and_zhao_presets_are_the_published_schedule():
     assert f.lambda_fourier == 0  # no longer needed once the flash term is in (docs/benchmarks/accuracy/)
     new = ("render", "saturate", "learn_vignetting", "learn_offsets", "lambda_render", "lambda_flash",
            "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "flash_trend",
-           "uniform_specular", "lambda_anchor", "anchor_maps", "gan_steps")
+           "uniform_specular", "lambda_anchor", "anchor_maps", "gan_steps", "highlight_fill")
     assert f.gan_steps == f.iters_finetune and p.gan_steps == z.gan_steps == 0  # refine-detail: the GAN drifts
     assert f.lambda_anchor > 0 and f.anchor_maps == ("normal",)  # docs/benchmarks/accuracy/, "Normals from ..."
     assert f.iters_finetune == 150 and resolve("fast-v1").iters_finetune == 600  # docs/benchmarks/prior/
@@ -420,7 +420,7 @@ def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
     from svbrdf.runtime.burn_in import photo_burn_in
     from svbrdf.runtime.flash_trend import uniform_specular
 
-    for key in ("flash_trend", "uniform_specular"):
+    for key in ("flash_trend", "uniform_specular", "highlight_fill"):
         assert getattr(resolve("fast"), key) and not getattr(resolve("paper"), key)
         assert not getattr(resolve("fast-v1"), key)
     photo = random_photo(40, 56)
@@ -436,6 +436,24 @@ def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
             assert (abs(getattr(maps, name) - getattr(want, name)).max()) < 1e-6, name
         # The burn-in of the maps returned, whatever ran (callers read it instead of scoring again).
         assert maps.meta["burn_in"] == photo_burn_in(maps, photo[0].permute(1, 2, 0).numpy())
+
+
+def test_predict_maps_fills_a_clipped_highlight_where_the_preset_asks():
+    from svbrdf.runtime.highlight_fill import fill_highlight
+
+    photo = random_photo(64, 128)
+    photo[:, :, 28:34, 30:36] = 1.0  # a clipped highlight
+    for fill in (False, True):
+        trainer = Trainer(photo, resolve("tiny", highlight_fill=fill), threads=1)
+        raw = train_mod.to_maps(trainer.predict())
+        maps = trainer.predict_maps()
+        assert ("highlight_fill" in maps.meta) == fill
+        want = fill_highlight(raw, photo[0].permute(1, 2, 0).numpy()) if fill else raw
+        if fill:
+            assert want.meta["highlight_fill"]["filled"] and maps.meta["highlight_fill"]["filled"]
+            assert abs(maps.diffuse - raw.diffuse).max() > 1e-3  # something was filled
+        for name in ("diffuse", "specular", "roughness", "normal"):
+            assert (abs(getattr(maps, name) - getattr(want, name)).max()) < 1e-6, name
 
 
 def test_bf16_switch_runs_or_falls_back():

@@ -1,0 +1,299 @@
+"""Highlight fill: replace what the maps say under a clipped flash highlight with the material's own texture
+from elsewhere in the set (pure numpy).
+
+Where a flash photo clipped, it holds no information about the material: every map there is the estimator's
+guess, and the guess shows (a dark or texture-less disc in the base colour, a roughness blob or a ring at the
+disc's edge: docs/benchmarks/highlight-fill/). A flat material is stationary, so what belongs there looks like the
+rest of it. :func:`fill_highlight` does what an artist would do with a clone brush:
+
+1. **The region** (:func:`highlight_mask`): the photo's clipped pixels (any channel at or above
+   :data:`CLIP_LEVEL`, linear) within :data:`SEARCH_RADIUS` of the highlight centre
+   (:func:`svbrdf.runtime.burn_in.highlight_centre`; clipped pixels further away are the material, e.g. a white
+   fleck), grown by :data:`GROW` times their equivalent radius ``sqrt(area / pi)`` (at least :data:`MIN_GROW_PX`):
+   the pixels next to a clipped highlight are near-clipped and specular-dominated, and the estimators' discs are
+   that much wider than the clipped area.
+2. **The source**: one offset for the whole region, the one whose copy best continues the maps around it: the
+   sum of squared differences over a band around the region (each map weighted by its inverse variance,
+   :func:`svbrdf.runtime.tileable.map_weights`), for every offset at once by FFT correlation on a copy no longer
+   than :data:`SEARCH_MAX_SIDE`, refined at full size. The copied region and its band must lie inside the maps
+   and miss the band around the region (the two comparisons see different pixels).
+3. **The join**: the copy is pasted, and the step left at the region's edge is removed by a screened Poisson
+   solve (:func:`svbrdf.runtime.tileable.screened_poisson`): every gradient is kept except across the edge, where
+   the copy's own gradient is asked for, and the level difference is spread over about one region radius on both
+   sides. Every detail in the region is a pixel of the material; only a smooth correction is added.
+
+The base colour, roughness and normals (:data:`FILL_MAPS`) are filled with the same offset (they stay registered);
+normals are renormalised and every map is clipped to its range. The specular map is kept: the highlight is where
+the photo shows the specular level best, and the runtime's single specular level (the median,
+:func:`svbrdf.runtime.flash_trend.uniform_specular`) loses that evidence when the region is filled from elsewhere
+(the preview's specular RMSE on the shared synthetic cases rose 0.0592 -> 0.0623 when it was filled). Nothing is filled (``meta["highlight_fill"]["filled"]`` False, with the reason) when the photo
+has no clipped highlight, when the region covers more than :data:`MAX_SHARE` of the maps, or when no source fits.
+Thresholds were set on held-out procedural materials, not on the benchmark's data
+(docs/benchmarks/highlight-fill/README.md).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any, Dict, Optional, Tuple
+
+import numpy as np
+
+from .burn_in import highlight_centre
+from .maps import Maps
+from .tileable import map_weights, screened_poisson
+from .tiling import block_mean
+
+#: A photo pixel is clipped when any linear channel reaches this (8-bit sRGB 254.5/255 and above: 0.99).
+CLIP_LEVEL = 0.98
+#: Clipped pixels further than this fraction of the width from the highlight centre are not the highlight.
+SEARCH_RADIUS = 0.2
+#: The region is the clipped highlight grown by this times its equivalent radius ...
+GROW = 1.0
+#: ... and by at least this many pixels.
+MIN_GROW_PX = 2
+#: The maps that are filled (the specular is kept: see the module docstring).
+FILL_MAPS = ("diffuse", "roughness", "normal")
+#: Nothing is filled when the region covers more than this share of the maps (no room to copy from).
+MAX_SHARE = 0.2
+#: The offset search runs on a block-averaged copy no longer than this.
+SEARCH_MAX_SIDE = 256
+#: Width of the band compared around the region, as a fraction of its radius (at least 2 px of the search grid).
+BAND = 0.35
+#: The Poisson solve runs on a window around the region, this many spreads wider on each side (the correction
+#: has fallen to exp(-3) = 5 % of the step there).
+WINDOW_SPREADS = 3
+#: The full-size refinement of the offset compares at most about this many band pixels (evenly strided).
+REFINE_SAMPLES = 20000
+
+__all__ = ["fill_highlight", "highlight_mask", "FILL_MAPS", "CLIP_LEVEL", "SEARCH_RADIUS", "GROW", "MIN_GROW_PX", "MAX_SHARE"]
+
+
+def _disc_dilate(mask: np.ndarray, radius: float) -> np.ndarray:
+    """``mask`` (H, W) bool grown by a disc of ``radius`` pixels (FFT convolution; outside the image is empty)."""
+    if radius <= 0 or not mask.any():
+        return mask.copy()
+    r = int(math.ceil(radius))
+    h, w = mask.shape
+    yy, xx = np.mgrid[-r:r + 1, -r:r + 1]
+    disc = (yy * yy + xx * xx <= radius * radius + 1e-9).astype(np.float32)
+    H, W = h + 2 * r, w + 2 * r  # padded: no wrap-around
+    a = np.zeros((H, W), np.float32)
+    a[:h, :w] = mask
+    k = np.zeros((H, W), np.float32)
+    k[:2 * r + 1, :2 * r + 1] = disc
+    conv = np.fft.irfft2(np.fft.rfft2(a) * np.fft.rfft2(k), s=(H, W))
+    return conv[r:r + h, r:r + w] > 0.5
+
+
+def _component(mask: np.ndarray, seed: Tuple[int, int]) -> np.ndarray:
+    """The 8-connected component of ``mask`` (h, w) bool that holds ``seed`` (row, column)."""
+    comp = np.zeros_like(mask)
+    comp[seed] = True
+    while True:
+        grown = comp.copy()
+        grown[1:] |= comp[:-1]
+        grown[:-1] |= comp[1:]
+        g = grown.copy()
+        grown[:, 1:] |= g[:, :-1]
+        grown[:, :-1] |= g[:, 1:]
+        grown &= mask
+        if np.array_equal(grown, comp):
+            return comp
+        comp = grown
+
+
+def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = None) -> np.ndarray:
+    """The region of the maps that a clipped flash highlight leaves unknown (see the module docstring, step 1).
+
+    The highlight is the connected patch of clipped pixels nearest the highlight centre (within
+    :data:`SEARCH_RADIUS`), found on a copy no longer than :data:`SEARCH_MAX_SIDE` where clipped pixels one
+    block apart count as connected (a speckled highlight is one patch); other clipped pixels are the material's
+    own glints and stay.
+
+    Args:
+        photo: (H, W, 3) linear photo, [0, 1].
+        centre: (row, column) of the highlight in pixels (default :func:`highlight_centre` of the small copy).
+
+    Returns:
+        (H, W) bool, True where the maps should be filled (all False without a clipped highlight).
+    """
+    photo = np.asarray(photo, dtype=np.float32)
+    h, w = photo.shape[:2]
+    k = max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
+    if centre is None:
+        cy, cx = highlight_centre(block_mean(photo, k))
+        centre = (cy * k, cx * k)
+    clipped = photo.max(axis=-1) >= CLIP_LEVEL
+    small = block_mean(clipped[..., None].astype(np.float32), k, partial=True)[..., 0] > 0
+    near = _disc_dilate(small, 1.5)  # gaps of one block closed
+    hs, ws = small.shape
+    r = np.hypot((np.arange(hs)[:, None] + 0.5) * k - centre[0], (np.arange(ws)[None, :] + 0.5) * k - centre[1])
+    r = np.where(small, r, np.inf)
+    i = int(np.argmin(r))
+    if not np.isfinite(r.flat[i]) or r.flat[i] > SEARCH_RADIUS * w:
+        return np.zeros((h, w), bool)
+    comp = _component(near, np.unravel_index(i, r.shape))
+    core = clipped & np.repeat(np.repeat(comp, k, axis=0), k, axis=1)[:h, :w]
+    n = int(core.sum())
+    return _disc_dilate(core, max(float(MIN_GROW_PX), GROW * math.sqrt(n / math.pi)))
+
+
+def _correlate(f: np.ndarray, g: np.ndarray) -> np.ndarray:
+    """``c[o] = sum_p f(p) g(p + o)`` for every offset ``o`` (periodic; (H, W) float64)."""
+    return np.fft.irfft2(np.conj(np.fft.rfft2(f)) * np.fft.rfft2(g), s=f.shape)
+
+
+def _band_ssd(x: np.ndarray, band: np.ndarray, wts: np.ndarray) -> np.ndarray:
+    """Weighted SSD between ``x`` on ``band`` and ``x`` shifted by every offset (periodic), (H, W)."""
+    b = band.astype(np.float64)
+    ssd = np.zeros(band.shape, np.float64)
+    for c in np.flatnonzero(wts):
+        xc = x[..., c].astype(np.float64)
+        ssd += wts[c] * (float((b * xc * xc).sum()) - 2.0 * _correlate(b * xc, xc) + _correlate(b, xc * xc))
+    return ssd
+
+
+def _valid_offsets(region: np.ndarray, keep_out: np.ndarray, margin: int) -> np.ndarray:
+    """(H, W) bool over periodic offsets ``o`` (index ``o mod (H, W)``): ``region + o`` stays ``margin`` px
+    inside the grid and misses ``keep_out``."""
+    h, w = region.shape
+    ys, xs = np.nonzero(region)
+    oy = np.arange(h)
+    oy = np.where(oy > h // 2, oy - h, oy)
+    ox = np.arange(w)
+    ox = np.where(ox > w // 2, ox - w, ox)
+    inside = (((ys.min() + oy >= margin) & (ys.max() + oy < h - margin))[:, None]
+              & ((xs.min() + ox >= margin) & (xs.max() + ox < w - margin))[None, :])
+    hits = _correlate(region.astype(np.float64), keep_out.astype(np.float64))  # sum region(p) keep_out(p + o)
+    return inside & (hits < 0.5)
+
+
+def _best_offset(x: np.ndarray, mask: np.ndarray, wts: np.ndarray, radius: float) -> Optional[Tuple[int, int]]:
+    """The offset (dy, dx) of the copy that fills ``mask`` (step 2 of the module docstring), or None."""
+    h, w = mask.shape
+    k = max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
+    xs = block_mean(x, k, partial=True)
+    ms = block_mean(mask[..., None].astype(np.float32), k, partial=True)[..., 0] > 0
+    rs = radius / k
+    band_w = max(2.0, BAND * rs)
+    grown = _disc_dilate(ms, band_w)
+    band = grown & ~ms
+    keep_out = _disc_dilate(ms, 2.0 * band_w)  # the copied region and its band miss the region's band
+    valid = _valid_offsets(grown, keep_out, 1)
+    if not valid.any():
+        return None
+    ssd = np.where(valid, _band_ssd(xs, band, wts), np.inf)
+    iy, ix = np.unravel_index(int(np.argmin(ssd)), ssd.shape)
+    hs, ws = ms.shape
+    oy = iy - hs if iy > hs // 2 else iy
+    ox = ix - ws if ix > ws // 2 else ix
+    if k == 1:
+        return int(oy), int(ox)
+    # Refine at full size within one block of the coarse offset, on the full-size band.
+    grown_f = _disc_dilate(mask, band_w * k)
+    band_f = grown_f & ~mask
+    by, bx = np.nonzero(band_f)
+    stride = max(1, by.size // REFINE_SAMPLES)
+    by, bx = by[::stride], bx[::stride]
+    gy, gx = np.nonzero(grown_f)
+    best, best_o = np.inf, None
+    for dy in range(-k + 1, k):
+        for dx in range(-k + 1, k):
+            o = (oy * k + dy, ox * k + dx)
+            if gy.min() + o[0] < 1 or gy.max() + o[0] >= h - 1 or gx.min() + o[1] < 1 or gx.max() + o[1] >= w - 1:
+                continue
+            d = x[by, bx].astype(np.float64) - x[by + o[0], bx + o[1]].astype(np.float64)
+            e = float(np.einsum("nc,c->", d * d, wts))
+            if e < best:
+                best, best_o = e, o
+    return best_o
+
+
+def _paste(x: np.ndarray, mask: np.ndarray, offset: Tuple[int, int], spread: float) -> np.ndarray:
+    """``x`` with the region ``mask`` copied from ``offset`` away and joined (step 3 of the module docstring)."""
+    h, w = mask.shape
+    oy, ox = offset
+    ys, xs = np.nonzero(mask)
+    pad = int(math.ceil(WINDOW_SPREADS * spread)) + 1
+    y0, y1 = max(0, ys.min() - pad), min(h, ys.max() + 1 + pad)
+    x0, x1 = max(0, xs.min() - pad), min(w, xs.max() + 1 + pad)
+    win = x[y0:y1, x0:x1].astype(np.float32)
+    m = mask[y0:y1, x0:x1]
+    # The copy field over the window (indices clamped: only the region and its 1-px rim are used, which fit).
+    ry = np.clip(np.arange(y0, y1) + oy, 0, h - 1)
+    rx = np.clip(np.arange(x0, x1) + ox, 0, w - 1)
+    copy = x[ry[:, None], rx[None, :]].astype(np.float32)
+    u0 = np.where(m[..., None], copy, win)
+    grads = []
+    for axis in (1, 0):
+        g = np.roll(u0, -1, axis=axis) - u0
+        cross = m != np.roll(m, -1, axis=axis)
+        g_copy = np.roll(copy, -1, axis=axis) - copy
+        grads.append(np.where(cross[..., None], g_copy, g))
+    u = screened_poisson(u0, grads[0], grads[1], 1.0 / spread ** 2)
+    out = x.astype(np.float32, copy=True)
+    out[y0:y1, x0:x1] = u
+    return out
+
+
+def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optional[np.ndarray] = None,
+                   centre: Optional[Tuple[float, float]] = None) -> Maps:
+    """The maps with the region of a clipped flash highlight filled from the material elsewhere (module docstring).
+
+    Args:
+        maps: a texture set (H, W), any subset of the four maps.
+        photo: (H, W, 3) linear photo the maps were estimated from (for the region; not needed with ``mask``).
+        mask: (H, W) bool region to fill (default :func:`highlight_mask` of ``photo``).
+        centre: (row, column) of the highlight, for :func:`highlight_mask`.
+
+    Returns:
+        A new :class:`Maps` (:data:`FILL_MAPS` filled, the specular as it was) with ``meta["highlight_fill"]``: ``{"filled": bool, "pixels": region size, "share":
+        of the maps, "radius": equivalent radius in px, "offset": [dy, dx] of the copy or None, "reason": why
+        nothing was filled or None}``. Ranges as :meth:`Maps.clipped`; normals unit length.
+
+    Raises:
+        ValueError: neither ``photo`` nor ``mask``, or a mask of another size than the maps.
+    """
+    h, w = maps.shape
+    if mask is None:
+        if photo is None:
+            raise ValueError("fill_highlight needs the photo or a mask")
+        mask = highlight_mask(photo, centre)
+    mask = np.asarray(mask, dtype=bool)
+    if mask.shape != (h, w):
+        raise ValueError(f"mask of {mask.shape[1]}x{mask.shape[0]} px for maps of {w}x{h} px")
+    n = int(mask.sum())
+    radius = math.sqrt(n / math.pi)
+    record: Dict[str, Any] = {"filled": False, "pixels": n, "share": n / float(h * w), "radius": radius,
+                              "offset": None, "reason": None}
+    out = maps._with(dict(maps.items()))
+    out.meta["highlight_fill"] = record
+    if n == 0:
+        record["reason"] = "no clipped highlight"
+        return out
+    if n > MAX_SHARE * h * w:
+        record["reason"] = f"the highlight covers {n / (h * w):.0%} of the maps (more than {MAX_SHARE:.0%})"
+        return out
+    names = [nm for nm in maps.names if nm in FILL_MAPS]
+    if not names:
+        record["reason"] = "no map to fill"
+        return out
+    arrays = [np.asarray(getattr(maps, nm), dtype=np.float32) for nm in names]
+    groups, start = [], 0
+    for a in arrays:
+        groups.append(slice(start, start + a.shape[-1]))
+        start += a.shape[-1]
+    x = np.concatenate(arrays, axis=-1)
+    wts = map_weights(x, groups)
+    if not wts.any():
+        record["reason"] = "constant maps"
+        return out
+    offset = _best_offset(x, mask, wts, radius)
+    if offset is None:
+        record["reason"] = "no source region fits beside the highlight"
+        return out
+    filled = _paste(x, mask, offset, max(2.0, radius))
+    result = maps._with({**dict(maps.items()), **{nm: filled[..., sl] for nm, sl in zip(names, groups)}}).clipped()
+    result.meta["highlight_fill"] = {**record, "filled": True, "offset": [int(offset[0]), int(offset[1])]}
+    return result
