@@ -135,3 +135,48 @@ def test_postprocess_fills_before_the_trend_removal():
     assert out.meta["burn_in"]["burn_in"] < out.meta["burn_in_model"]["burn_in"]
     plain = postprocess(burnt, photo, flash_trend=True, specular_level=False)
     assert "highlight_fill" not in plain.meta
+
+
+@pytest.mark.parametrize("h,w", [(8, 8), (9, 13), (31, 200), (300, 17)])
+@pytest.mark.parametrize("clip", ["pixel", "corner", "border", "all", "two"])
+def test_odd_sizes_and_highlights_give_valid_maps_or_nothing(h, w, clip):
+    rng = np.random.default_rng(h * w)
+    normal = np.concatenate([rng.uniform(-0.2, 0.2, (h, w, 2)), np.ones((h, w, 1))], -1)
+    maps = Maps(diffuse=rng.uniform(0, 1, (h, w, 3)).astype(np.float32),
+                specular=rng.uniform(0, 0.1, (h, w, 1)).astype(np.float32),
+                roughness=rng.uniform(0, 1, (h, w, 1)).astype(np.float32),
+                normal=(normal / np.linalg.norm(normal, axis=-1, keepdims=True)).astype(np.float32))
+    photo = np.full((h, w, 3), 0.3, np.float32)
+    if clip == "pixel":
+        photo[h // 2, w // 2] = 1
+    elif clip == "corner":
+        photo[:3, :3] = 1
+    elif clip == "border":
+        photo[:, :2] = 1
+    elif clip == "all":
+        photo[:] = 1
+    else:
+        photo[h // 2, w // 4] = photo[h // 2, 3 * w // 4] = 1
+    out = hf.fill_highlight(maps, photo)
+    rec = out.meta["highlight_fill"]
+    assert rec["filled"] == (rec["reason"] is None)
+    for name, arr in out.items():
+        assert arr.shape == getattr(maps, name).shape and np.isfinite(arr).all()
+    np.testing.assert_allclose(np.linalg.norm(out.normal, axis=-1), 1, atol=1e-5)
+    if not rec["filled"]:
+        for name, arr in out.items():
+            np.testing.assert_array_equal(arr, getattr(maps, name))
+    if clip == "all":
+        assert not rec["filled"] and "covers" in rec["reason"]
+
+
+def test_a_subset_of_maps():
+    truth = _periodic()
+    centre = (60.0, 70.0)
+    photo = _photo(N, _disc(N, centre, 5))
+    burnt = _burnt(truth, hf.highlight_mask(photo, centre))
+    rough = hf.fill_highlight(burnt.subset("roughness"), photo, centre=centre)
+    assert rough.names == ("roughness",) and rough.meta["highlight_fill"]["filled"]
+    assert np.abs(rough.roughness - truth.roughness).max() < 1e-3
+    spec = hf.fill_highlight(burnt.subset("specular"), photo, centre=centre)
+    assert not spec.meta["highlight_fill"]["filled"] and spec.meta["highlight_fill"]["reason"] == "no map to fill"
