@@ -294,8 +294,10 @@ def _process(photo: Path, session, config, args, out_dir: Path, refine=None) -> 
     write_maps(maps, relit, out_dir, name, args, {"tool": f"{PROG} {__version__}"})
     h, w = maps.shape
     burn = f"burn-in {maps.meta['burn_in']['burn_in']:.2f}"
-    if "burn_in_model" in maps.meta:  # the network's maps before the flash trend was removed
-        burn += f", {maps.meta['burn_in_model']['burn_in']:.2f} before flash-trend removal"
+    if "burn_in_model" in maps.meta:  # the network's maps before the post-processing
+        fill = maps.meta.get("highlight_fill") or {}
+        steps = "highlight fill and flash-trend removal" if fill.get("filled") else "flash-trend removal"
+        burn += f", {maps.meta['burn_in_model']['burn_in']:.2f} before {steps}"
     return f"{photo} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail}; {burn})"
 
 

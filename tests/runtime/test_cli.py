@@ -50,6 +50,19 @@ def test_one_photo_writes_a_texture_set(photo, tiny_model, capsys):
     assert sidecar["brdf"]["render_config"]["fov_deg"] == 50.0  # the model's training FOV
 
 
+def test_a_clipped_highlight_is_filled_and_said(tiny_model, tmp_path, capsys):
+    photo = tmp_path / "tile.png"
+    rng = np.random.default_rng(2)
+    img = rng.uniform(0.1, 0.6, (96, 128, 3)).astype(np.float32)
+    img[40:50, 55:65] = 1.0  # a clipped flash highlight
+    write_image(photo, img, bits=8, srgb_encode=True)
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "o")
+    assert code == 0, err
+    assert "before highlight fill and flash-trend removal" in out
+    fill = json.loads((tmp_path / "o" / "tile.json").read_text())["meta"]["highlight_fill"]
+    assert fill["filled"] and fill["pixels"] > 100 and len(fill["offset"]) == 2
+
+
 def test_options_reach_the_texture_set(tiny_model, tmp_path, capsys):
     photo = tmp_path / "wood.png"
     rng = np.random.default_rng(1)
