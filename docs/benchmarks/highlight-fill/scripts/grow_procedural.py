@@ -4,7 +4,10 @@ photo (svbrdf.trainer.prior.simulate_photos) without the fill and with it at eac
 with the benchmark's metrics (svbrdf.trainer.bench.metrics.evaluate); means over the materials whose photo has a
 clipped highlight that was filled.
 
-    OMP_NUM_THREADS=1 python docs/benchmarks/highlight-fill/scripts/grow_procedural.py N OUT.json
+    OMP_NUM_THREADS=1 python docs/benchmarks/highlight-fill/scripts/grow_procedural.py N OUT.json [clip]
+
+With ``clip`` the variants are the clip level (svbrdf.runtime.highlight_fill.CLIP_LEVEL: 0.98, 0.9, 0.8, 0.6) at
+the shipped GROW instead.
 """
 import json
 import sys
@@ -22,7 +25,8 @@ from svbrdf.trainer.procedural import sample_materials
 
 warnings.simplefilter("ignore")
 n, out = int(sys.argv[1]), sys.argv[2]
-GROWS = [0.25, 0.5, 1.0, 1.5]
+PARAM, VALUES = ("CLIP_LEVEL", [0.98, 0.9, 0.8, 0.6]) if sys.argv[3:] == ["clip"] else ("GROW", [0.25, 0.5, 1.0, 1.5])
+GROWS = VALUES
 KEYS = ["rerender_rmse", "diffuse_rmse", "roughness_rmse", "grazing_hp_corr", "grazing_rmse", "burn_in",
         "ring_diffuse", "ring_roughness", "burn_diffuse", "burn_roughness", "detail_diffuse", "detail_roughness"]
 rng = torch.Generator().manual_seed(987654)
@@ -37,7 +41,7 @@ for i in range(n):
     for label, grow in [("none", None)] + [(f"grow{g}", g) for g in GROWS]:
         S.HIGHLIGHT_FILL = grow is not None
         if grow is not None:
-            F.GROW = grow
+            setattr(F, PARAM, grow)
         m = S.estimate(photo, sess)
         centre = tuple(m.meta["burn_in"]["centre"])
         e = evaluate(m, gt=gt, centre=centre)
@@ -51,9 +55,9 @@ filled = [r for r in records if all(r[f"grow{g}"]["filled"] for g in GROWS)]
 table = {}
 for label in ["none"] + [f"grow{g}" for g in GROWS]:
     table[label] = {k: float(np.mean([r[label][k] for r in filled if r[label][k] is not None])) for k in KEYS}
-print(f"{len(filled)} of {n} materials filled at every GROW")
+print(f"{len(filled)} of {n} materials filled at every {PARAM} (labels grow<value>)")
 for label, t in table.items():
     print(label, {k: round(v, 4) for k, v in t.items()})
 with open(out, "w") as f:
-    json.dump({"command": "python " + " ".join(sys.argv), "n_filled": len(filled), "table": table,
+    json.dump({"command": "python " + " ".join(sys.argv), "param": PARAM, "n_filled": len(filled), "table": table,
                "records": records}, f, indent=1)
