@@ -66,6 +66,13 @@ WINDOW_SPREADS = 3
 #: The step at the region's edge is spread over about the region's radius, at most this many pixels (a wider
 #: spread looks the same at 1024-2048 px and would make the solve's window the whole photo: 4.8 s at 2048 x 1536).
 SPREAD_MAX_PX = 64
+#: Regions whose box (with the band) is wider than this on the search grid are filled patch by patch (the
+#: patches this wide, overlapping by a quarter), each copied from where it best continues what is around it and
+#: what the patches before it put down; smaller ones with one copy. False: always one copy.
+PATCH_SIDE = 24
+PATCHES = True
+#: Weight of a patch source's distance from the material's typical level against its fit to the known pixels.
+UNTYPICAL_WEIGHT = 1.0
 #: The full-size refinement of the offset compares at most about this many band pixels (evenly strided).
 REFINE_SAMPLES = 20000
 
@@ -142,6 +149,14 @@ def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = No
     return _disc_dilate(core, max(float(MIN_GROW_PX), GROW * math.sqrt(n / math.pi)))
 
 
+def _box_mean(x: np.ndarray, r: int) -> np.ndarray:
+    """Mean of ``x`` (h, w, C) over the (2r + 1)^2 window around each pixel (edges repeated), float64."""
+    a = np.pad(x.astype(np.float64), ((r + 1, r), (r + 1, r), (0, 0)), mode="edge")
+    c = a.cumsum(0).cumsum(1)
+    n = 2 * r + 1
+    return (c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]) / (n * n)
+
+
 def _correlate(f: np.ndarray, g: np.ndarray) -> np.ndarray:
     """``c[o] = sum_p f(p) g(p + o)`` for every offset ``o`` (periodic; (H, W) float64)."""
     return np.fft.irfft2(np.conj(np.fft.rfft2(f)) * np.fft.rfft2(g), s=f.shape)
@@ -213,27 +228,104 @@ def _best_offset(x: np.ndarray, mask: np.ndarray, wts: np.ndarray, radius: float
     return best_o
 
 
-def _paste(x: np.ndarray, mask: np.ndarray, offset: Tuple[int, int], spread: float) -> np.ndarray:
-    """``x`` with the region ``mask`` copied from ``offset`` away and joined (step 3 of the module docstring)."""
+def _patch_offsets(x: np.ndarray, mask: np.ndarray, wts: np.ndarray, radius: float) -> Optional[np.ndarray]:
+    """Per-pixel offsets (H, W, 2) int of a patch-by-patch copy that fills ``mask`` (0 elsewhere), or None when a
+    patch finds no source. Planned on the search grid in raster order: each patch of :data:`PATCH_SIDE` px,
+    overlapping its neighbours by a quarter, is copied from the offset whose window best matches the pixels of
+    the window already known (outside the region, or put down by earlier patches); its source window must lie
+    inside the grid and miss the region grown by twice the band."""
     h, w = mask.shape
-    oy, ox = offset
+    k = max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
+    xs = block_mean(x, k, partial=True).astype(np.float64)
+    ms = block_mean(mask[..., None].astype(np.float32), k, partial=True)[..., 0] > 0
+    hs, ws = ms.shape
+    band_w = max(2.0, BAND * radius / k)
+    keep_out = _disc_dilate(ms, 2.0 * band_w).astype(np.float64)
+    chans = np.flatnonzero(wts)
+    spec_x = {c: np.fft.rfft2(xs[..., c]) for c in chans}
+    spec_x2 = {c: np.fft.rfft2(xs[..., c] ** 2) for c in chans}
+    spec_keep = np.fft.rfft2(keep_out)
+    # How unlike the material a source pixel is: its local mean's squared distance from the median level of the
+    # maps outside the region, in variance units (a stain or a piece of a ring around the flash is far from it).
+    local = _box_mean(xs, max(1, PATCH_SIDE // 4))
+    level = np.median(local[~ms], axis=0)
+    spec_untypical = np.fft.rfft2(np.einsum("hwc,c->hw", (local - level) ** 2, wts))
+
+    def corr(f, spec_g):  # sum_p f(p) g(p + o), every o
+        return np.fft.irfft2(np.conj(np.fft.rfft2(f)) * spec_g, s=(hs, ws))
+
+    oy_all = np.arange(hs)
+    oy_all = np.where(oy_all > hs // 2, oy_all - hs, oy_all)
+    ox_all = np.arange(ws)
+    ox_all = np.where(ox_all > ws // 2, ox_all - ws, ox_all)
+    comp = xs.copy()
+    known = ~ms
+    off = np.zeros((hs, ws, 2), np.int64)
+    p = PATCH_SIDE
+    step = max(1, p - p // 4)
+    ys, xs_ = np.nonzero(ms)
+    for y in range(ys.min(), ys.max() + 1, step):
+        for x0 in range(xs_.min(), xs_.max() + 1, step):
+            y1, x1 = min(hs, y + p), min(ws, x0 + p)
+            todo = ms[y:y1, x0:x1] & ~known[y:y1, x0:x1]
+            if not todo.any():
+                continue
+            window = np.zeros((hs, ws))
+            window[y:y1, x0:x1] = 1.0
+            b = np.zeros((hs, ws))
+            b[y:y1, x0:x1] = known[y:y1, x0:x1]
+            inside = (((y + oy_all >= 1) & (y1 - 1 + oy_all < hs - 1))[:, None]
+                      & ((x0 + ox_all >= 1) & (x1 - 1 + ox_all < ws - 1))[None, :])
+            valid = inside & (corr(window, spec_keep) < 0.5)
+            if not valid.any():
+                return None
+            cost = UNTYPICAL_WEIGHT * corr(window, spec_untypical) / window.sum()
+            if b.any():
+                fit = sum(wts[c] * (float((b * comp[..., c] ** 2).sum()) - 2.0 * corr(b * comp[..., c], spec_x[c])
+                                    + corr(b, spec_x2[c])) for c in chans)
+                cost = cost + fit / b.sum()
+            i = int(np.argmin(np.where(valid, cost, np.inf)))
+            o = (int(oy_all[i // ws]), int(ox_all[i % ws]))
+            sel = np.zeros((hs, ws), bool)
+            sel[y:y1, x0:x1] = todo
+            py, px = np.nonzero(sel)
+            comp[py, px] = xs[py + o[0], px + o[1]]
+            off[py, px] = o
+            known |= sel
+    # Full size: every pixel of the region takes its block's offset, times the block size.
+    full = np.zeros((h, w, 2), np.int64)
+    blk = off[np.minimum(np.arange(h) // k, hs - 1)[:, None], np.minimum(np.arange(w) // k, ws - 1)[None, :]]
+    full[mask] = blk[mask] * k
+    return full
+
+
+def _paste(x: np.ndarray, mask: np.ndarray, offsets: np.ndarray, spread: float) -> np.ndarray:
+    """``x`` with each pixel of ``mask`` copied from its offset (``offsets`` (H, W, 2) int) and the joins removed
+    (step 3 of the module docstring): the gradient between two pixels copied with the same offset (or both
+    outside the region) is kept; across any other pair, the gradient into the source of the pixel inside the
+    region is asked for."""
+    h, w = mask.shape
     ys, xs = np.nonzero(mask)
     pad = int(math.ceil(WINDOW_SPREADS * spread)) + 1
     y0, y1 = max(0, ys.min() - pad), min(h, ys.max() + 1 + pad)
     x0, x1 = max(0, xs.min() - pad), min(w, xs.max() + 1 + pad)
-    win = x[y0:y1, x0:x1].astype(np.float32)
     m = mask[y0:y1, x0:x1]
-    # The copy field over the window (indices clamped: only the region and its 1-px rim are used, which fit).
-    ry = np.clip(np.arange(y0, y1) + oy, 0, h - 1)
-    rx = np.clip(np.arange(x0, x1) + ox, 0, w - 1)
-    copy = x[ry[:, None], rx[None, :]].astype(np.float32)
-    u0 = np.where(m[..., None], copy, win)
+    off = offsets[y0:y1, x0:x1]
+    gy, gx = np.mgrid[y0:y1, x0:x1]
+    sy, sx = np.clip(gy + off[..., 0], 0, h - 1), np.clip(gx + off[..., 1], 0, w - 1)  # each pixel's source
+    u0 = x[sy, sx].astype(np.float32)
     grads = []
-    for axis in (1, 0):
+    for axis, (dy, dx) in ((1, (0, 1)), (0, (1, 0))):
         g = np.roll(u0, -1, axis=axis) - u0
-        cross = m != np.roll(m, -1, axis=axis)
-        g_copy = np.roll(copy, -1, axis=axis) - copy
-        grads.append(np.where(cross[..., None], g_copy, g))
+        same = np.all(np.roll(off, -1, axis=axis) == off, axis=-1)
+        m_next = np.roll(m, -1, axis=axis)
+        # The pixel whose source gives the gradient: the next one where it is in the region, else this one.
+        qy = np.where(m_next, np.roll(sy, -1, axis=axis), sy + dy)
+        qx = np.where(m_next, np.roll(sx, -1, axis=axis), sx + dx)
+        qy, qx = np.clip(qy, 0, h - 1), np.clip(qx, 0, w - 1)
+        py, px = np.clip(qy - dy, 0, h - 1), np.clip(qx - dx, 0, w - 1)
+        g_src = x[qy, qx].astype(np.float32) - x[py, px].astype(np.float32)
+        grads.append(np.where(same[..., None], g, g_src))
     u = screened_poisson(u0, grads[0], grads[1], 1.0 / spread ** 2)
     out = x.astype(np.float32, copy=True)
     out[y0:y1, x0:x1] = u
@@ -293,11 +385,24 @@ def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optiona
     if not wts.any():
         record["reason"] = "constant maps"
         return out
-    offset = _best_offset(x, mask, wts, radius)
-    if offset is None:
+    ys, xs = np.nonzero(mask)
+    box = (max(ys.max() - ys.min(), xs.max() - xs.min()) + 1) / k + 2 * max(2.0, BAND * radius / k)
+    offset = offsets = None
+    if not PATCHES or box <= PATCH_SIDE:
+        offset = _best_offset(x, mask, wts, radius)
+        if offset is not None:
+            offsets = np.zeros((h, w, 2), np.int64)
+            offsets[mask] = offset
+        spread = radius
+    if offsets is None and PATCHES:
+        offsets = _patch_offsets(x, mask, wts, radius)
+        spread = min(radius, PATCH_SIDE * k / 2.0)
+    if offsets is None:
         record["reason"] = "no source region fits beside the highlight"
         return out
-    filled = _paste(x, mask, offset, min(max(2.0, radius), float(SPREAD_MAX_PX)))
+    filled = _paste(x, mask, offsets, min(max(2.0, spread), float(SPREAD_MAX_PX)))
     result = maps._with({**dict(maps.items()), **{nm: filled[..., sl] for nm, sl in zip(names, groups)}}).clipped()
-    result.meta["highlight_fill"] = {**record, "filled": True, "offset": [int(offset[0]), int(offset[1])]}
+    patches = len({tuple(o) for o in offsets[mask].tolist()})
+    result.meta["highlight_fill"] = {**record, "filled": True, "patches": patches,
+                                     "offset": None if offset is None else [int(offset[0]), int(offset[1])]}
     return result

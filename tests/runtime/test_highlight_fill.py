@@ -50,7 +50,9 @@ def _burnt(maps, region):
     return maps._with({**dict(maps.items()), "diffuse": d, "roughness": r})
 
 
-def test_a_burnt_disc_in_a_periodic_texture_is_restored():
+@pytest.mark.parametrize("patches", [False, True])
+def test_a_burnt_disc_in_a_periodic_texture_is_restored(monkeypatch, patches):
+    monkeypatch.setattr(hf, "PATCHES", patches)
     truth = _periodic()
     centre = (60.0, 70.0)
     clipped = _disc(N, centre, 5)
@@ -59,7 +61,8 @@ def test_a_burnt_disc_in_a_periodic_texture_is_restored():
     filled = hf.fill_highlight(burnt, _photo(N, clipped), centre=centre)
     rec = filled.meta["highlight_fill"]
     assert rec["filled"] and rec["reason"] is None
-    assert rec["offset"][0] % PERIOD == 0 and rec["offset"][1] % PERIOD == 0, rec["offset"]
+    if rec["offset"] is not None:  # one copy (else patches, each from a whole number of periods away)
+        assert rec["offset"][0] % PERIOD == 0 and rec["offset"][1] % PERIOD == 0, rec["offset"]
     for name in hf.FILL_MAPS:
         err = np.abs(getattr(filled, name) - getattr(truth, name)).max()
         assert err < 1e-3, (name, err)
@@ -180,3 +183,17 @@ def test_a_subset_of_maps():
     assert np.abs(rough.roughness - truth.roughness).max() < 1e-3
     spec = hf.fill_highlight(burnt.subset("specular"), photo, centre=centre)
     assert not spec.meta["highlight_fill"]["filled"] and spec.meta["highlight_fill"]["reason"] == "no map to fill"
+
+
+def test_a_large_region_is_filled_patch_by_patch_from_whole_periods():
+    n = 256
+    truth = _periodic(n)
+    centre = (100.0, 120.0)
+    photo = _photo(n, _disc(n, centre, 14))
+    mask = hf.highlight_mask(photo, centre)
+    burnt = _burnt(truth, mask)
+    filled = hf.fill_highlight(burnt, photo, centre=centre)
+    rec = filled.meta["highlight_fill"]
+    assert rec["filled"] and rec["offset"] is None and rec["patches"] > 1, rec
+    for name in hf.FILL_MAPS:  # every patch from a whole number of periods away: the truth itself
+        assert np.abs(getattr(filled, name) - getattr(truth, name)).max() < 1e-3, name

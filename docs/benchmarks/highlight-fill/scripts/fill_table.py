@@ -28,8 +28,10 @@ print()
 print("| method | variant | " + " | ".join(RMSE) + " |")
 print("|---" * (len(RMSE) + 2) + "|")
 for method in ("preview", "finetune"):
-    for label in ("no fill", "fill"):
+    for label in ("no fill", "one copy", "fill"):
         rs = [r for r in records if r["method"] == method and r["preset"] == label and r.get("diffuse_rmse") is not None]
+        if not rs:
+            continue
         fs = [r for r in rs if r["case"] in filled]
         cells = [f"{np.mean([r[k] for r in rs]):.4f} ({np.mean([r[k] for r in fs]):.4f})" for k in RMSE]
         print(f"| {method} | {label} | " + " | ".join(cells) + f" |")

@@ -1,7 +1,8 @@
 """The highlight fill judged by the artist measures on the shared sets: every case of the benchmark's selection,
-the preview and (with REFINE_ITERS > 0) the default refine, each without and with the fill, side by side in one
-run. The refine is trained once per case; its final maps are post-processed both ways (the trainer's
-``postprocess`` wrapped, so both variants see the same network output).
+the preview and (with REFINE_ITERS > 0) the default refine, each without the fill, with the fill as one copy
+(svbrdf.runtime.highlight_fill.PATCHES False) and as shipped, side by side in one run. The refine is trained once
+per case; its final maps are post-processed each way (the trainer's ``postprocess`` wrapped, so every variant
+sees the same network output).
 
     OMP_NUM_THREADS=1 python docs/benchmarks/highlight-fill/scripts/fill_variants.py 'PATTERNS' REFINE_ITERS OUT.json
 
@@ -16,6 +17,7 @@ import warnings
 
 import numpy as np
 
+import svbrdf.runtime.highlight_fill as F
 import svbrdf.runtime.session as S
 import svbrdf.trainer.train as T
 from svbrdf.trainer.bench import report
@@ -34,8 +36,11 @@ _post = T.postprocess
 
 
 def both(maps, photo, **kw):
-    """The trainer's post-processing without the fill (stashed) and as configured (returned)."""
-    stash["nofill"] = _post(maps, photo, **{**kw, "highlight_fill": False})
+    """The trainer's post-processing without the fill and with one copy (stashed), and as configured (returned)."""
+    stash["no fill"] = _post(maps, photo, **{**kw, "highlight_fill": False})
+    F.PATCHES = False
+    stash["one copy"] = _post(maps, photo, **kw)
+    F.PATCHES = True
     return _post(maps, photo, **kw)
 
 
@@ -53,17 +58,19 @@ for c in cases:
     if c.name in done:
         continue
     new = []
-    for fill in (False, True):
-        S.HIGHLIGHT_FILL = fill
+    for label, fill, patches in (("no fill", False, True), ("one copy", True, False), ("fill", True, True)):
+        S.HIGHLIGHT_FILL, F.PATCHES = fill, patches
         pts = []
         METHODS["preview"].run(c, BenchOptions(threads=1, repeats=1), None, pts.append)
-        new.append(record(c, "preview", "fill" if fill else "no fill", pts[0].maps, pts[0].eval_seconds))
+        new.append(record(c, "preview", label, pts[0].maps, pts[0].eval_seconds))
+    F.PATCHES = True
     if iters > 0:
         pts = []
         opts = BenchOptions(iters=[iters], threads=1, repeats=1, train_overrides={"highlight_fill": True})
         METHODS["finetune"].run(c, opts, "fast", pts.append)
         p = pts[-1]
-        new.append(record(c, "finetune", "no fill", stash["nofill"], p.train_seconds, p.iterations))
+        for label in ("no fill", "one copy"):
+            new.append(record(c, "finetune", label, stash[label], p.train_seconds, p.iterations))
         new.append(record(c, "finetune", "fill", p.maps, p.train_seconds, p.iterations))
     records += new
     with open(out + ".tmp", "w") as f:

@@ -4,10 +4,11 @@ photo (svbrdf.trainer.prior.simulate_photos) without the fill and with it at eac
 with the benchmark's metrics (svbrdf.trainer.bench.metrics.evaluate); means over the materials whose photo has a
 clipped highlight that was filled.
 
-    OMP_NUM_THREADS=1 python docs/benchmarks/highlight-fill/scripts/grow_procedural.py N OUT.json [clip]
+    OMP_NUM_THREADS=1 python docs/benchmarks/highlight-fill/scripts/grow_procedural.py N OUT.json [grow|clip|patches]
 
 With ``clip`` the variants are the clip level (svbrdf.runtime.highlight_fill.CLIP_LEVEL: 0.98, 0.9, 0.8, 0.6) at
-the shipped GROW instead.
+the shipped GROW instead; with ``patches`` one copy against the patch-by-patch fill (PATCHES False / True).
+Labels: ``grow<value>`` whatever the parameter.
 """
 import json
 import sys
@@ -25,7 +26,9 @@ from svbrdf.trainer.procedural import sample_materials
 
 warnings.simplefilter("ignore")
 n, out = int(sys.argv[1]), sys.argv[2]
-PARAM, VALUES = ("CLIP_LEVEL", [0.98, 0.9, 0.8, 0.6]) if sys.argv[3:] == ["clip"] else ("GROW", [0.25, 0.5, 1.0, 1.5])
+MODES = {"grow": ("GROW", [0.25, 0.5, 1.0, 1.5]), "clip": ("CLIP_LEVEL", [0.98, 0.9, 0.8, 0.6]),
+         "patches": ("PATCHES", [False, True])}
+PARAM, VALUES = MODES[sys.argv[3] if len(sys.argv) > 3 else "grow"]
 GROWS = VALUES
 KEYS = ["rerender_rmse", "diffuse_rmse", "roughness_rmse", "grazing_hp_corr", "grazing_rmse", "burn_in",
         "ring_diffuse", "ring_roughness", "burn_diffuse", "burn_roughness", "detail_diffuse", "detail_roughness"]
