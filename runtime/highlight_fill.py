@@ -12,17 +12,24 @@ rest of it. :func:`fill_highlight` does what an artist would do with a clone bru
    fleck), grown by :data:`GROW` times their equivalent radius ``sqrt(area / pi)`` (at least :data:`MIN_GROW_PX`):
    the pixels next to a clipped highlight are near-clipped and specular-dominated, and the estimators' discs are
    that much wider than the clipped area.
-2. **The source**: one offset for the whole region, the one whose copy best continues the maps around it: the
-   sum of squared differences over a band around the region (each map weighted by its inverse variance,
-   :func:`svbrdf.runtime.tileable.map_weights`), for every offset at once by FFT correlation on a copy no longer
-   than :data:`SEARCH_MAX_SIDE`, refined at full size. The copied region and its band must lie inside the maps
-   and miss the band around the region (the two comparisons see different pixels).
-3. **The join**: the copy is pasted, and the step left at the region's edge is removed by a screened Poisson
-   solve (:func:`svbrdf.runtime.tileable.screened_poisson`): every gradient is kept except across the edge, where
-   the copy's own gradient is asked for, and the level difference is spread over about one region radius (at most
-   :data:`SPREAD_MAX_PX`) on both sides. Every detail in the region is a pixel of the material; only a smooth correction is added.
+2. **The source**: for a small region (its box with the band at most :data:`PATCH_SIDE` px on a copy no longer
+   than :data:`SEARCH_MAX_SIDE`), one offset for the whole region, the one whose copy best continues the maps
+   around it: the sum of squared differences over a band around the region (each map weighted by its inverse
+   variance, :func:`svbrdf.runtime.tileable.map_weights`), for every offset at once by FFT correlation on the
+   small copy, refined at full size. A larger region is filled patch by patch (:data:`PATCH_SIDE` px, a quarter
+   overlap, in raster order): each patch from the offset whose window best matches the pixels already known
+   there (outside the region, or put down by earlier patches), plus :data:`UNTYPICAL_WEIGHT` times how far the
+   source's local mean lies from the maps' median level (around a large highlight the maps often carry a ring,
+   and one copy or an unpenalised patch would bring a piece of it). Sources lie inside the maps and miss the
+   region grown by twice the band. :data:`PATCHES` False: always one copy.
+3. **The join**: the copy is pasted, and the steps left at the region's edge and between patches are removed by
+   a screened Poisson solve (:func:`svbrdf.runtime.tileable.screened_poisson`): every gradient between two
+   pixels copied together is kept; across any other pair, the gradient into the source of the pixel inside the
+   region is asked for; the level difference is spread over about one region radius (half a patch with patches;
+   at most :data:`SPREAD_MAX_PX`) on both sides. Every detail in the region is a pixel of the material; only a
+   smooth correction is added.
 
-The base colour, roughness and normals (:data:`FILL_MAPS`) are filled with the same offset (they stay registered);
+The base colour, roughness and normals (:data:`FILL_MAPS`) are filled with the same offsets (they stay registered);
 normals are renormalised and every map is clipped to its range. The specular map is kept: the highlight is where
 the photo shows the specular level best, and the runtime's single specular level (the median,
 :func:`svbrdf.runtime.flash_trend.uniform_specular`) loses that evidence when the region is filled from elsewhere
@@ -344,8 +351,8 @@ def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optiona
 
     Returns:
         A new :class:`Maps` (:data:`FILL_MAPS` filled, the specular as it was) with ``meta["highlight_fill"]``: ``{"filled": bool, "pixels": region size, "share":
-        of the maps, "radius": equivalent radius in px, "offset": [dy, dx] of the copy or None, "reason": why
-        nothing was filled or None}``. Ranges as :meth:`Maps.clipped`; normals unit length.
+        of the maps, "radius": equivalent radius in px, "offset": [dy, dx] of the one copy or None (patches),
+        "patches": the number of distinct offsets (filled only), "reason": why nothing was filled or None}``. Ranges as :meth:`Maps.clipped`; normals unit length.
 
     Raises:
         ValueError: neither ``photo`` nor ``mask``, or a mask of another size than the maps.
