@@ -137,7 +137,7 @@ def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = No
     """
     photo = np.asarray(photo, dtype=np.float32)
     h, w = photo.shape[:2]
-    k = max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
+    k = _search_step(h, w)
     if centre is None:
         cy, cx = highlight_centre(block_mean(photo, k))
         centre = (cy * k, cx * k)
@@ -164,55 +164,75 @@ def _box_mean(x: np.ndarray, r: int) -> np.ndarray:
     return (c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]) / (n * n)
 
 
-def _correlate(f: np.ndarray, g: np.ndarray) -> np.ndarray:
-    """``c[o] = sum_p f(p) g(p + o)`` for every offset ``o`` (periodic; (H, W) float64)."""
-    return np.fft.irfft2(np.conj(np.fft.rfft2(f)) * np.fft.rfft2(g), s=f.shape)
+def _search_step(h: int, w: int) -> int:
+    """Block size of the search grid: maps (h, w) averaged over k x k blocks are at most SEARCH_MAX_SIDE long."""
+    return max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
 
 
-def _band_ssd(x: np.ndarray, band: np.ndarray, wts: np.ndarray) -> np.ndarray:
-    """Weighted SSD between ``x`` on ``band`` and ``x`` shifted by every offset (periodic), (H, W)."""
-    b = band.astype(np.float64)
-    ssd = np.zeros(band.shape, np.float64)
-    for c in np.flatnonzero(wts):
-        xc = x[..., c].astype(np.float64)
-        ssd += wts[c] * (float((b * xc * xc).sum()) - 2.0 * _correlate(b * xc, xc) + _correlate(b, xc * xc))
-    return ssd
+def _signed(n: int) -> np.ndarray:
+    """The offsets 0 .. n-1 of a periodic axis as signed shifts (those above n // 2 are negative), (n,) int."""
+    o = np.arange(n)
+    return np.where(o > n // 2, o - n, o)
 
 
-def _valid_offsets(region: np.ndarray, keep_out: np.ndarray, margin: int) -> np.ndarray:
-    """(H, W) bool over periodic offsets ``o`` (index ``o mod (H, W)``): ``region + o`` stays ``margin`` px
-    inside the grid and misses ``keep_out``."""
-    h, w = region.shape
-    ys, xs = np.nonzero(region)
-    oy = np.arange(h)
-    oy = np.where(oy > h // 2, oy - h, oy)
-    ox = np.arange(w)
-    ox = np.where(ox > w // 2, ox - w, ox)
-    inside = (((ys.min() + oy >= margin) & (ys.max() + oy < h - margin))[:, None]
-              & ((xs.min() + ox >= margin) & (xs.max() + ox < w - margin))[None, :])
-    hits = _correlate(region.astype(np.float64), keep_out.astype(np.float64))  # sum region(p) keep_out(p + o)
-    return inside & (hits < 0.5)
+def _corr(f: np.ndarray, spec_g: np.ndarray) -> np.ndarray:
+    """``c[o] = sum_p f(p) g(p + o)`` for every periodic offset ``o``, ``g`` given by its ``rfft2``; (h, w) float64."""
+    return np.fft.irfft2(np.conj(np.fft.rfft2(f)) * spec_g, s=f.shape)
+
+
+class _Source:
+    """The search-grid maps ``xs`` (h, w, C) a copy may come from, with the spectra every offset search needs."""
+
+    def __init__(self, xs: np.ndarray, wts: np.ndarray, keep_out: np.ndarray):
+        self.xs = xs.astype(np.float64)
+        self.wts = wts
+        self.chans = np.flatnonzero(wts)
+        self.spec = {c: np.fft.rfft2(self.xs[..., c]) for c in self.chans}
+        self.spec2 = {c: np.fft.rfft2(self.xs[..., c] ** 2) for c in self.chans}
+        self.spec_keep = np.fft.rfft2(keep_out.astype(np.float64))
+
+    def ssd(self, b: np.ndarray, target: np.ndarray) -> np.ndarray:
+        """Weighted SSD between ``target`` (h, w, C) on the pixels weighted by ``b`` (h, w) and the source
+        shifted by every offset: ``sum_p b(p) |target(p) - xs(p + o)|^2``, (h, w)."""
+        out = np.zeros(b.shape, np.float64)
+        for c in self.chans:
+            t = target[..., c].astype(np.float64)
+            out += self.wts[c] * (float((b * t * t).sum()) - 2.0 * _corr(b * t, self.spec[c])
+                                  + _corr(b, self.spec2[c]))
+        return out
+
+    def valid(self, region: np.ndarray, margin: int) -> np.ndarray:
+        """(h, w) bool over periodic offsets ``o``: ``region + o`` stays ``margin`` px inside the grid and misses
+        the keep-out area."""
+        h, w = region.shape
+        ys, xs = np.nonzero(region)
+        oy, ox = _signed(h), _signed(w)
+        inside = (((ys.min() + oy >= margin) & (ys.max() + oy < h - margin))[:, None]
+                  & ((xs.min() + ox >= margin) & (xs.max() + ox < w - margin))[None, :])
+        return inside & (_corr(region.astype(np.float64), self.spec_keep) < 0.5)
+
+    def best(self, cost: np.ndarray, valid: np.ndarray) -> Tuple[int, int]:
+        """The valid offset (dy, dx) of least ``cost``."""
+        i = int(np.argmin(np.where(valid, cost, np.inf)))
+        h, w = cost.shape
+        return int(_signed(h)[i // w]), int(_signed(w)[i % w])
 
 
 def _best_offset(x: np.ndarray, mask: np.ndarray, wts: np.ndarray, radius: float) -> Optional[Tuple[int, int]]:
     """The offset (dy, dx) of the copy that fills ``mask`` (step 2 of the module docstring), or None."""
     h, w = mask.shape
-    k = max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
+    k = _search_step(h, w)
     xs = block_mean(x, k, partial=True)
     ms = block_mean(mask[..., None].astype(np.float32), k, partial=True)[..., 0] > 0
     rs = radius / k
     band_w = max(2.0, BAND * rs)
     grown = _disc_dilate(ms, band_w)
     band = grown & ~ms
-    keep_out = _disc_dilate(ms, 2.0 * band_w)  # the copied region and its band miss the region's band
-    valid = _valid_offsets(grown, keep_out, 1)
+    src = _Source(xs, wts, _disc_dilate(ms, 2.0 * band_w))  # the copied region and its band miss the region's band
+    valid = src.valid(grown, 1)
     if not valid.any():
         return None
-    ssd = np.where(valid, _band_ssd(xs, band, wts), np.inf)
-    iy, ix = np.unravel_index(int(np.argmin(ssd)), ssd.shape)
-    hs, ws = ms.shape
-    oy = iy - hs if iy > hs // 2 else iy
-    ox = ix - ws if ix > ws // 2 else ix
+    oy, ox = src.best(src.ssd(band.astype(np.float64), xs), valid)
     if k == 1:
         return int(oy), int(ox)
     # Refine at full size within one block of the coarse offset, on the full-size band.
@@ -242,57 +262,39 @@ def _patch_offsets(x: np.ndarray, mask: np.ndarray, wts: np.ndarray, radius: flo
     the window already known (outside the region, or put down by earlier patches); its source window must lie
     inside the grid and miss the region grown by twice the band."""
     h, w = mask.shape
-    k = max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
-    xs = block_mean(x, k, partial=True).astype(np.float64)
+    k = _search_step(h, w)
     ms = block_mean(mask[..., None].astype(np.float32), k, partial=True)[..., 0] > 0
     hs, ws = ms.shape
-    band_w = max(2.0, BAND * radius / k)
-    keep_out = _disc_dilate(ms, 2.0 * band_w).astype(np.float64)
-    chans = np.flatnonzero(wts)
-    spec_x = {c: np.fft.rfft2(xs[..., c]) for c in chans}
-    spec_x2 = {c: np.fft.rfft2(xs[..., c] ** 2) for c in chans}
-    spec_keep = np.fft.rfft2(keep_out)
+    src = _Source(block_mean(x, k, partial=True), wts, _disc_dilate(ms, 2.0 * max(2.0, BAND * radius / k)))
+    xs = src.xs
     # How unlike the material a source pixel is: its local mean's squared distance from the median level of the
     # maps outside the region, in variance units (a stain or a piece of a ring around the flash is far from it).
     local = _box_mean(xs, max(1, PATCH_SIDE // 4))
     level = np.median(local[~ms], axis=0)
     spec_untypical = np.fft.rfft2(np.einsum("hwc,c->hw", (local - level) ** 2, wts))
-
-    def corr(f, spec_g):  # sum_p f(p) g(p + o), every o
-        return np.fft.irfft2(np.conj(np.fft.rfft2(f)) * spec_g, s=(hs, ws))
-
-    oy_all = np.arange(hs)
-    oy_all = np.where(oy_all > hs // 2, oy_all - hs, oy_all)
-    ox_all = np.arange(ws)
-    ox_all = np.where(ox_all > ws // 2, ox_all - ws, ox_all)
     comp = xs.copy()
     known = ~ms
     off = np.zeros((hs, ws, 2), np.int64)
     p = PATCH_SIDE
     step = max(1, p - p // 4)
-    ys, xs_ = np.nonzero(ms)
-    for y in range(ys.min(), ys.max() + 1, step):
-        for x0 in range(xs_.min(), xs_.max() + 1, step):
+    rows, cols = np.nonzero(ms)
+    for y in range(rows.min(), rows.max() + 1, step):
+        for x0 in range(cols.min(), cols.max() + 1, step):
             y1, x1 = min(hs, y + p), min(ws, x0 + p)
             todo = ms[y:y1, x0:x1] & ~known[y:y1, x0:x1]
             if not todo.any():
                 continue
             window = np.zeros((hs, ws))
             window[y:y1, x0:x1] = 1.0
-            b = np.zeros((hs, ws))
-            b[y:y1, x0:x1] = known[y:y1, x0:x1]
-            inside = (((y + oy_all >= 1) & (y1 - 1 + oy_all < hs - 1))[:, None]
-                      & ((x0 + ox_all >= 1) & (x1 - 1 + ox_all < ws - 1))[None, :])
-            valid = inside & (corr(window, spec_keep) < 0.5)
+            valid = src.valid(window, 1)
             if not valid.any():
                 return None
-            cost = UNTYPICAL_WEIGHT * corr(window, spec_untypical) / window.sum()
+            cost = UNTYPICAL_WEIGHT * _corr(window, spec_untypical) / window.sum()
+            b = np.zeros((hs, ws))
+            b[y:y1, x0:x1] = known[y:y1, x0:x1]
             if b.any():
-                fit = sum(wts[c] * (float((b * comp[..., c] ** 2).sum()) - 2.0 * corr(b * comp[..., c], spec_x[c])
-                                    + corr(b, spec_x2[c])) for c in chans)
-                cost = cost + fit / b.sum()
-            i = int(np.argmin(np.where(valid, cost, np.inf)))
-            o = (int(oy_all[i // ws]), int(ox_all[i % ws]))
+                cost = cost + src.ssd(b, comp) / b.sum()
+            o = src.best(cost, valid)
             sel = np.zeros((hs, ws), bool)
             sel[y:y1, x0:x1] = todo
             py, px = np.nonzero(sel)
@@ -387,7 +389,7 @@ def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optiona
         groups.append(slice(start, start + a.shape[-1]))
         start += a.shape[-1]
     x = np.concatenate(arrays, axis=-1)
-    k = max(1, math.ceil(max(h, w) / SEARCH_MAX_SIDE))
+    k = _search_step(h, w)
     wts = map_weights(x[::k, ::k], groups)  # variances of a strided copy: 0.3 s less at 2048 px
     if not wts.any():
         record["reason"] = "constant maps"
