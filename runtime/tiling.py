@@ -1,11 +1,17 @@
 """Overlapping tiles with smooth blending, to run a fully convolutional model on images of any size.
 
-An image axis of length ``L`` is cut into windows of ``tile`` pixels that overlap by at least ``overlap``
-pixels; the last window is aligned to the far border (so it may overlap its neighbour by more). Each tile's
-output is weighted by a separable raised-cosine ramp over ``overlap`` pixels on every side that touches
-another tile (never on an image border) and the weighted sum is normalised. Where exactly two tiles overlap
-by ``overlap`` pixels the two ramps sum to one (cos^2 + sin^2), so the blend is a partition of unity; the
-weights are strictly positive inside each tile, so every pixel has a non-zero total weight.
+An image axis of length ``L`` is cut into the fewest windows of ``tile`` pixels that overlap by at least
+``overlap`` pixels, spread evenly: the first starts at 0, the last ends at ``L``, and neighbours overlap by the
+same amount (to a pixel), often much more than ``overlap`` (at 2048 px with 1024 px tiles: three windows, 512 px
+apart). Each tile's output is weighted by a separable raised-cosine ramp over the whole of its overlap with each
+neighbour (never on an image border; a tile with neighbours on both sides ramps over at most half its length on
+each) and the weighted sum is normalised. Where two neighbours' ramps cover the same pixels they sum to one
+(cos^2 + sin^2), so the blend is a partition of unity; the weights are strictly positive inside each tile, so every
+pixel has a non-zero total weight.
+
+Why the whole overlap: a network with per-image normalisation gives each tile its own levels, and a ramp only
+``overlap`` pixels wide turns that difference into a visible line (a 2048 px preview's roughness showed one at
+column ~1000, 64 px ramps before 2026-11-25); spread over the overlap it is a gradual change.
 
 Pure numpy (part of the light runtime).
 """
@@ -18,8 +24,12 @@ import numpy as np
 
 #: Overlap in pixels of neighbouring tiles (each side), the default of the preview's tiled inference.
 DEFAULT_OVERLAP = 64
+#: Inner tiles start on multiples of this many pixels: the generators downsample by up to 16 (the U-Net's four
+#: stride-2 levels; v1: 4), and a tile that starts off that grid is sampled differently from the whole image (a
+#: tiny generator's tiles 75 px apart disagreed with its one pass by 15 deg of normal, aligned by 4 deg).
+TILE_ALIGN = 32
 
-__all__ = ["DEFAULT_OVERLAP", "tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply", "block_mean"]
+__all__ = ["DEFAULT_OVERLAP", "TILE_ALIGN", "tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply", "block_mean"]
 
 
 def _check(tile: int, overlap: int) -> None:
@@ -29,18 +39,26 @@ def _check(tile: int, overlap: int) -> None:
         raise ValueError(f"overlap must be in [0, tile/2], got overlap={overlap} for tile={tile}")
 
 
-def tile_starts(length: int, tile: int, overlap: int) -> List[int]:
+def tile_starts(length: int, tile: int, overlap: int, align: int = TILE_ALIGN) -> List[int]:
     """Start offsets of the windows covering ``[0, length)``.
 
-    Windows are ``min(tile, length)`` long, step ``tile - overlap``, and the last one ends at ``length``.
+    Windows are ``min(tile, length)`` long; there are as few as keep every two neighbours overlapping by at least
+    ``overlap`` pixels, spread evenly, each inner start rounded to a multiple of ``align`` (so that a strided
+    network samples a tile on the same grid as the whole image; of ``align / 2``, ``align / 4``, ... where that
+    would take another window); the first starts at 0 and the last ends at ``length``.
     """
     _check(tile, overlap)
+    if align < 1:
+        raise ValueError(f"align must be >= 1, got {align}")
     if length <= tile:
         return [0]
-    step = tile - overlap
-    starts = list(range(0, length - tile, step))
-    starts.append(length - tile)
-    return starts
+    gaps = -(-(length - tile) // (tile - overlap))  # windows - 1: the fewest with steps of at most tile - overlap
+    grid = align
+    while True:  # the coarsest grid, align halved down to 1, that keeps the fewest windows (1 always fits)
+        starts = [0] + [grid * round(k * (length - tile) / gaps / grid) for k in range(1, gaps)] + [length - tile]
+        if grid == 1 or all(0 < q - p <= tile - overlap for p, q in zip(starts, starts[1:])):
+            return starts
+        grid = max(1, grid // 2)
 
 
 def tile_boxes(height: int, width: int, tile: int, overlap: int) -> List[Tuple[int, int, int, int]]:
@@ -52,32 +70,47 @@ def tile_boxes(height: int, width: int, tile: int, overlap: int) -> List[Tuple[i
     ]
 
 
-def ramp_weights(n: int, overlap: int, ramp_start: bool, ramp_end: bool) -> np.ndarray:
+def ramp_weights(n: int, start: int, end: int) -> np.ndarray:
     """1-D blend weights of a window of ``n`` pixels, in ``(0, 1]``, float32.
 
     Args:
         n: window length.
-        overlap: ramp length in pixels (``2 * overlap <= n``).
-        ramp_start: ramp up over the first ``overlap`` pixels (a neighbour lies before this window).
-        ramp_end: ramp down over the last ``overlap`` pixels (a neighbour lies after it).
+        start: length of the ramp up over the first pixels (the overlap with a neighbour before this window; 0: an
+            image border, no ramp).
+        end: length of the ramp down over the last pixels (the overlap with a neighbour after it; 0: none).
+            ``start + end <= n``.
     """
+    if start < 0 or end < 0 or start + end > n:
+        raise ValueError(f"ramps of {start} and {end} pixels do not fit a window of {n}")
     w = np.ones(n, dtype=np.float64)
-    if overlap > 0:
-        # Raised cosine sampled at pixel centres: strictly inside (0, 1), and the up and down ramps of two
-        # neighbours that overlap by exactly `overlap` pixels sum to 1.
-        up = 0.5 - 0.5 * np.cos(np.pi * (np.arange(overlap) + 0.5) / overlap)
-        if ramp_start:
-            w[:overlap] *= up
-        if ramp_end:
-            w[n - overlap :] *= up[::-1]
+    # Raised cosine sampled at pixel centres: strictly inside (0, 1), and the up and down ramps of two neighbours
+    # over the same pixels sum to 1.
+    if start:
+        w[:start] *= 0.5 - 0.5 * np.cos(np.pi * (np.arange(start) + 0.5) / start)
+    if end:
+        w[n - end:] *= (0.5 - 0.5 * np.cos(np.pi * (np.arange(end) + 0.5) / end))[::-1]
     return w.astype(np.float32)
 
 
+def _ramps(origin: int, n: int, length: int, overlap: int) -> Tuple[int, int]:
+    """Ramp lengths (start, end) of the window at ``origin`` of :func:`tile_starts` (``length``, tile ``n``)."""
+    if n >= length:
+        return 0, 0
+    starts = tile_starts(length, n, overlap)
+    k = starts.index(origin)
+    start = starts[k - 1] + n - origin if k > 0 else 0
+    end = origin + n - starts[k + 1] if k + 1 < len(starts) else 0
+    if start and end:  # neighbours on both sides: each ramp over at most half the window
+        start, end = min(start, n // 2), min(end, n - n // 2)
+    return start, end
+
+
 def tile_weights(box: Tuple[int, int, int, int], height: int, width: int, overlap: int) -> np.ndarray:
-    """Separable ``(h, w)`` blend weights of one tile of :func:`tile_boxes` (ramps only on inner sides)."""
+    """Separable ``(h, w)`` blend weights of one tile of :func:`tile_boxes`: ramps over its overlaps with its
+    neighbours (none on the image's borders)."""
     y0, x0, h, w = box
-    wy = ramp_weights(h, overlap, y0 > 0, y0 + h < height)
-    wx = ramp_weights(w, overlap, x0 > 0, x0 + w < width)
+    wy = ramp_weights(h, *_ramps(y0, h, height, overlap))
+    wx = ramp_weights(w, *_ramps(x0, w, width, overlap))
     return wy[:, None] * wx[None, :]
 
 

@@ -49,11 +49,39 @@ def test_weights_are_positive_and_identity_is_exact(layout, width):
 
 def test_ramps_are_a_partition_of_unity_over_an_exact_overlap():
     overlap = 8
-    up = ramp_weights(20, overlap, True, False)[:overlap]
-    down = ramp_weights(20, overlap, False, True)[-overlap:]
+    up = ramp_weights(20, overlap, 0)[:overlap]
+    down = ramp_weights(20, 0, overlap)[-overlap:]
     np.testing.assert_allclose(up + down, 1.0, atol=1e-6)
     assert np.all(np.diff(up) > 0) and up[0] > 0
-    np.testing.assert_array_equal(ramp_weights(20, overlap, False, False), 1.0)  # image borders: no ramp
+    np.testing.assert_array_equal(ramp_weights(20, 0, 0), 1.0)  # image borders: no ramp
+    with pytest.raises(ValueError, match="do not fit"):
+        ramp_weights(20, 12, 10)
+
+
+@pytest.mark.parametrize("length,tile,overlap,starts", [(2048, 1024, 64, [0, 512, 1024]), (1536, 1024, 64, [0, 512]),
+                                                        (3000, 1024, 64, [0, 672, 1312, 1976]), (100, 40, 8, [0, 32, 60]), (100, 24, 4, [0, 20, 40, 56, 76]), (160, 64, 16, [0, 48, 96])])
+def test_windows_are_spread_evenly(length, tile, overlap, starts):
+    assert tile_starts(length, tile, overlap) == starts
+
+
+@pytest.mark.parametrize("length,tile", [(2048, 1024), (1536, 1024), (1100, 1024), (3000, 1024), (95, 32)])
+def test_the_blend_ramps_over_the_whole_overlap(length, tile):
+    """Each pixel's weights sum to one before normalisation wherever at most two windows overlap, and the ramp
+    spans the overlap: a jump between two tiles' levels is spread over the overlap, not over ``overlap`` pixels."""
+    overlap = 8
+    boxes = tile_boxes(1, length, tile, overlap)
+    total = np.zeros(length)
+    for box in boxes:
+        total[box[1]:box[1] + box[3]] += tile_weights(box, 1, length, overlap)[0]
+    starts = [b[1] for b in boxes]
+    if all(starts[k] + tile - starts[k + 1] <= tile // 2 for k in range(len(starts) - 1)):
+        np.testing.assert_allclose(total, 1.0, atol=1e-6)
+    levels = iter(range(len(boxes)))
+    out = tiled_apply(lambda t: np.full(t.shape[:2] + (1,), float(next(levels)), np.float32),
+                      np.zeros((1, length, 1), np.float32), tile, overlap)[0, :, 0]
+    step = np.abs(np.diff(out)).max()
+    narrowest = min(starts[k] + tile - starts[k + 1] for k in range(len(starts) - 1))
+    assert step <= np.pi / 2 / min(narrowest, tile // 2) + 1e-6  # a raised cosine's steepest step for a jump of 1
 
 
 def test_boxes_are_row_major_and_clipped():
