@@ -1,9 +1,9 @@
 """Overlapping tiles with smooth blending, to run a fully convolutional model on images of any size.
 
 An image axis of length ``L`` is cut into the fewest windows of ``tile`` pixels that overlap by at least
-``overlap`` pixels, spread evenly: the first starts at 0, the last ends at ``L``, and neighbours overlap by the
-same amount (to a pixel), often much more than ``overlap`` (at 2048 px with 1024 px tiles: three windows, 512 px
-apart). Each tile's output is weighted by a separable raised-cosine ramp over the whole of its overlap with each
+``overlap`` pixels, spread evenly (inner starts on a ``TILE_ALIGN`` grid): the first starts at 0, the last ends at
+``L``, and neighbours overlap by about the same amount, often much more than ``overlap`` (at 2048 px with 1024 px
+tiles: three windows, 512 px apart). Each tile's output is weighted by a separable raised-cosine ramp over the whole of its overlap with each
 neighbour (never on an image border; a tile with neighbours on both sides ramps over at most half its length on
 each) and the weighted sum is normalised. Where two neighbours' ramps cover the same pixels they sum to one
 (cos^2 + sin^2), so the blend is a partition of unity; the weights are strictly positive inside each tile, so every
@@ -25,8 +25,9 @@ import numpy as np
 #: Overlap in pixels of neighbouring tiles (each side), the default of the preview's tiled inference.
 DEFAULT_OVERLAP = 64
 #: Inner tiles start on multiples of this many pixels: the generators downsample by up to 16 (the U-Net's four
-#: stride-2 levels; v1: 4), and a tile that starts off that grid is sampled differently from the whole image (a
-#: tiny generator's tiles 75 px apart disagreed with its one pass by 15 deg of normal, aligned by 4 deg).
+#: stride-2 levels; v1: 4), and a tile that starts off that grid is sampled differently from the whole image (the
+#: test generator's tiles starting at columns 75 and 149 disagreed with its one pass by 15 deg of normal where one
+#: tile covers a pixel; on the grid, at 64 and 160, by 4 deg: tests/runtime/test_session.py).
 TILE_ALIGN = 32
 
 __all__ = ["DEFAULT_OVERLAP", "TILE_ALIGN", "tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply", "block_mean"]
