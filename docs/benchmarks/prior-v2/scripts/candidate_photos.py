@@ -14,6 +14,7 @@ import OpenImageIO as oiio
 from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.runtime.render import ZHAO, render
 from svbrdf.runtime.session import estimate, load_session
+from svbrdf.runtime.tiling import block_mean
 
 out_json, out_jpg, photos = sys.argv[1], sys.argv[2], sys.argv[3].split(",")
 models = dict(a.split("=", 1) for a in sys.argv[4:])
@@ -22,9 +23,7 @@ PICTURE = 2  # the first photos go into the picture
 
 
 def small(a, width=384):
-    k = max(1, a.shape[1] // width)
-    h, w = (a.shape[0] // k) * k, (a.shape[1] // k) * k
-    return a[:h, :w].reshape(h // k, k, w // k, k, -1).mean((1, 3))
+    return block_mean(a, max(1, a.shape[1] // width))
 
 
 records, rows = [], []

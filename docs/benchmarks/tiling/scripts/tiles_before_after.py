@@ -15,22 +15,8 @@ import time
 
 import numpy as np
 
-import svbrdf.runtime.tiling as T
+from old_layout import NEW, old_starts, use
 from svbrdf.runtime.session import DEFAULT_OVERLAP, DEFAULT_TILE, estimate, load_session
-
-NEW_STARTS, NEW_WEIGHTS = T.tile_starts, T.tile_weights
-
-
-def old_starts(length, tile, overlap, align=None):
-    if length <= tile:
-        return [0]
-    return list(range(0, length - tile, tile - overlap)) + [length - tile]
-
-
-def old_weights(box, height, width, overlap):
-    y0, x0, h, w = box
-    return (T.ramp_weights(h, overlap if y0 > 0 else 0, overlap if y0 + h < height else 0)[:, None]
-            * T.ramp_weights(w, overlap if x0 > 0 else 0, overlap if x0 + w < width else 0)[None, :])
 
 
 def edges(starts, tile, overlap, ramps_whole):
@@ -64,18 +50,18 @@ records = []
 for photo in photos:
     row = {"photo": photo}
     for label in ("before", "after"):
-        T.tile_starts, T.tile_weights = (old_starts, old_weights) if label == "before" else (NEW_STARTS, NEW_WEIGHTS)
+        use(label == "before")
         t = time.perf_counter()
         m = estimate(photo, sess)
         sec = time.perf_counter() - t
         h, w = m.shape
         row[label] = {"burn_in": m.meta["burn_in"]["burn_in"], "burn_in_model": m.meta["burn_in_model"]["burn_in"],
                       "seconds": sec, "infer_s": m.meta["timings"]["infer"], "tiles": m.meta["tiles"]}
-        for lay, (sf, whole) in {"old_edges": (old_starts, False), "new_edges": (NEW_STARTS, True)}.items():
+        for lay, (sf, whole) in {"old_edges": (old_starts, False), "new_edges": (NEW[0], True)}.items():
             cols = edges(sf(w, DEFAULT_TILE, DEFAULT_OVERLAP), DEFAULT_TILE, DEFAULT_OVERLAP, whole) if w > DEFAULT_TILE else []
             rows = edges(sf(h, DEFAULT_TILE, DEFAULT_OVERLAP), DEFAULT_TILE, DEFAULT_OVERLAP, whole) if h > DEFAULT_TILE else []
             row[label][lay] = {n: edge_jump(getattr(m, n), cols, rows) for n in ("diffuse", "roughness", "normal")}
-    T.tile_starts, T.tile_weights = NEW_STARTS, NEW_WEIGHTS
+    use(False)
     records.append(row)
     print(photo, {lb: (round(row[lb]["burn_in"], 3), round(row[lb]["infer_s"], 1),
                        {n: round(row[lb]["old_edges"][n]["x"] or 0, 2) for n in ("diffuse", "roughness")})

@@ -8,35 +8,22 @@ import sys
 import numpy as np
 import OpenImageIO as oiio
 
-import svbrdf.runtime.tiling as T
+from old_layout import use
 from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.runtime.session import estimate, load_session
-
-NEW = T.tile_starts, T.tile_weights
-
-
-def old_starts(length, tile, overlap, align=None):
-    return [0] if length <= tile else list(range(0, length - tile, tile - overlap)) + [length - tile]
-
-
-def old_weights(box, height, width, overlap):
-    y0, x0, h, w = box
-    return (T.ramp_weights(h, overlap if y0 > 0 else 0, overlap if y0 + h < height else 0)[:, None]
-            * T.ramp_weights(w, overlap if x0 > 0 else 0, overlap if x0 + w < width else 0)[None, :])
+from svbrdf.runtime.tiling import block_mean
 
 
 def small(a, width=512):
-    k = a.shape[1] // width
-    h, w = (a.shape[0] // k) * k, (a.shape[1] // k) * k
-    return a[:h, :w].reshape(h // k, k, w // k, k, -1).mean((1, 3))
+    return block_mean(a, a.shape[1] // width)
 
 
 out, photos = sys.argv[1], sys.argv[2:]
 sess = load_session(threads=1)
 rows = []
 for photo in photos:
-    for layout in ((old_starts, old_weights), NEW):
-        T.tile_starts, T.tile_weights = layout
+    for old in (True, False):
+        use(old)
         m = estimate(photo, sess)
         r = m.roughness[..., 0]
         lo, hi = np.percentile(r, [0.5, 99.5])
@@ -44,7 +31,7 @@ for photo in photos:
         base = np.clip(linear_to_srgb(m.diffuse), 0, 1)
         rows.append(np.concatenate([small(base), np.ones((small(base).shape[0], 4, 3)), small(rough)], 1))
         rows.append(np.ones((4, rows[-1].shape[1], 3)))
-T.tile_starts, T.tile_weights = NEW
+use(False)
 img = np.concatenate(rows[:-1], 0).astype(np.float32)
 buf = oiio.ImageBuf(np.ascontiguousarray(img))
 buf.write(out)
