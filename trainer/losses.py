@@ -559,11 +559,59 @@ class GradientLoss(nn.Module):
         return gradient_loss(pred, target, self.maps)
 
 
+#: Sides of the square windows, px, whose spread :func:`detail_amount_loss` compares (clamped to the image side).
+DETAIL_WINDOWS = (16, 64)
+
+
+def _window_std(x: torch.Tensor, side: int) -> torch.Tensor:
+    """Standard deviation of ``x`` (B, C, H, W) in non-overlapping ``side`` x ``side`` windows: (B, C, H/s, W/s)."""
+    side = max(1, min(side, x.shape[-2], x.shape[-1]))
+    mean = F.avg_pool2d(x, side)
+    return (F.avg_pool2d(x * x, side) - mean * mean).clamp_min(0.0).add(1e-6).sqrt()
+
+
+def detail_amount_loss(pred: torch.Tensor, target: torch.Tensor, maps: Sequence[str] = GRADIENT_MAPS,
+                       windows: Sequence[int] = DETAIL_WINDOWS) -> torch.Tensor:
+    """Amount-of-detail term: mean absolute difference of the maps' standard deviations in local windows.
+
+    Per-pixel L1 and :func:`gradient_loss` both cost less for a flat map than for detail in slightly the wrong
+    place, so a network unsure where the detail lies predicts none (a constant roughness, flat normals). This term
+    asks for as much variation as the truth has in each window, wherever it lies inside the window; the other terms
+    then place it. It is zero for a map whose windows vary as much as the truth's, and largest for a constant one
+    (which alone gets no gradient from it: a network's output is never exactly constant).
+
+    Args:
+        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.maps`).
+        maps: names of :data:`svbrdf.runtime.maps.SLICES` to compare (default: normal and roughness).
+        windows: window sides, px (each clamped to the image's shorter side; H and W multiples of it where it
+            fits, or the border rows are left out).
+
+    Returns:
+        scalar: the mean over window sizes of the mean absolute difference of the per-window, per-channel
+        standard deviations.
+    """
+    with torch.autocast(device_type=pred.device.type, enabled=False):
+        p = torch.cat([_f32(pred[:, SLICES[n]]) for n in maps], dim=1)
+        t = torch.cat([_f32(target[:, SLICES[n]]) for n in maps], dim=1)
+        return torch.stack([(_window_std(p, s) - _window_std(t, s)).abs().mean() for s in windows]).mean()
+
+
+class DetailAmountLoss(nn.Module):
+    """Module form of :func:`detail_amount_loss`."""
+
+    def __init__(self, maps: Sequence[str] = GRADIENT_MAPS, windows: Sequence[int] = DETAIL_WINDOWS):
+        super().__init__()
+        self.maps, self.windows = tuple(maps), tuple(windows)
+
+    def forward(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
+        return detail_amount_loss(pred, target, self.maps, self.windows)
+
+
 __all__ = [
     "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
     "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
     "SUPERVISED_WEIGHTS", "supervised_maps_loss", "SupervisedMapsLoss", "RELIT_LOG_EPS", "relit_loss", "RelitLoss",
-    "GRADIENT_MAPS", "gradient_loss", "GradientLoss",
+    "GRADIENT_MAPS", "gradient_loss", "GradientLoss", "DETAIL_WINDOWS", "detail_amount_loss", "DetailAmountLoss",
 ]

@@ -18,7 +18,8 @@ Loss: :func:`~svbrdf.trainer.losses.supervised_maps_loss` (per-map L1) + ``lambd
 :func:`~svbrdf.trainer.losses.relit_loss` (log radiance under the flash and ``render_lights`` random point
 lights, rendered with the fine-tune's renderer settings; with ``render_views``, also under random distant views and
 lights, grazing ones included) + ``lambda_grad`` times :func:`~svbrdf.trainer.losses.gradient_loss` (detail of the
-normal and roughness maps). Adam with a cosine learning-rate decay.
+normal and roughness maps) + ``lambda_amount`` times :func:`~svbrdf.trainer.losses.detail_amount_loss` (their
+amount of local variation). Adam with a cosine learning-rate decay.
 
 GPU scale (issue 26): with ``batched`` the materials, photos and relighting geometry of a batch are built with torch
 on the training device (:func:`simulate_photos_batched`, :func:`svbrdf.trainer.camera.expose_batch`), ``bf16``
@@ -54,7 +55,7 @@ from svbrdf.trainer.config import resolve
 from svbrdf.runtime.render import camera_position
 from svbrdf.trainer.camera import expose_batch
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
-from svbrdf.trainer.losses import gradient_loss, relit_loss, supervised_maps_loss
+from svbrdf.trainer.losses import detail_amount_loss, gradient_loss, relit_loss, supervised_maps_loss
 from svbrdf.trainer.models import Generator, GeneratorConfig
 from svbrdf.trainer.procedural import FAMILIES, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
@@ -92,6 +93,8 @@ class PriorConfig:
         grazing_share: fraction of those views and lights drawn at ``grazing_deg`` from the normal.
         grazing_deg: polar-angle range of a grazing view or light, degrees; the others are drawn up to its start.
         lambda_grad: weight of :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps.
+        lambda_amount: weight of :func:`~svbrdf.trainer.losses.detail_amount_loss` on the normal and roughness maps
+            (asks for as much local variation as the truth has; 0 = off, the v1 and first v2 loss).
         families: procedural families to draw from (None = all).
         checkpoint_every: iterations between checkpoints (0 = only at the end).
         eval_every: iterations between evaluations on a fixed validation batch (0 = never).
@@ -134,6 +137,7 @@ class PriorConfig:
     grazing_share: float = 0.5
     grazing_deg: Tuple[float, float] = (60.0, 75.0)
     lambda_grad: float = 0.0
+    lambda_amount: float = 0.0
     batched: bool = False
     bf16: bool = False
     log_every: int = 1
@@ -166,7 +170,8 @@ class PriorConfig:
         need(self.light_offset >= 0 and self.render_lights >= 0 and self.lambda_render >= 0,
              "light_offset, render_lights and lambda_render must be >= 0")
         need(set(self.camera) == set(REALISTIC), f"camera ranges need exactly the keys {sorted(REALISTIC)}")
-        need(self.render_views >= 0 and self.lambda_grad >= 0, "render_views and lambda_grad must be >= 0")
+        need(self.render_views >= 0 and self.lambda_grad >= 0 and self.lambda_amount >= 0,
+             "render_views, lambda_grad and lambda_amount must be >= 0")
         need(0.0 <= self.grazing_share <= 1.0, f"grazing_share must be in [0, 1], got {self.grazing_share}")
         need(0.0 < self.grazing_deg[0] <= self.grazing_deg[1] < 90.0, f"bad grazing_deg range {self.grazing_deg}")
         need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
@@ -363,7 +368,8 @@ def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, fa
 
 def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rng: torch.Generator
                ) -> Dict[str, torch.Tensor]:
-    """The prior's loss terms: per-map L1 (``maps/*``), relighting (``render``), detail (``grad``) and ``total``.
+    """The prior's loss terms: per-map L1 (``maps/*``), relighting (``render``), detail (``grad``), amount of detail
+    (``amount``, with ``config.lambda_amount > 0``: :func:`~svbrdf.trainer.losses.detail_amount_loss`) and ``total``.
 
     Relighting renders both map sets with the fine-tune's renderer settings under the flash and
     ``config.render_lights`` random lights (:func:`lights_for`), on the training image as a whole photo, and
@@ -402,6 +408,9 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
     if config.lambda_grad > 0:
         out["grad"] = gradient_loss(pred, target)
         total = total + config.lambda_grad * out["grad"]
+    if config.lambda_amount > 0:
+        out["amount"] = detail_amount_loss(pred, target)
+        total = total + config.lambda_amount * out["amount"]
     out["total"] = total
     return out
 

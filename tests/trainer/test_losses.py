@@ -397,3 +397,42 @@ def test_gradient_loss_measures_detail_not_level():
     assert float(gradient_loss(other, target)) == 0.0
     assert float(GradientLoss()(blurred, target)) == pytest.approx(float(gradient_loss(blurred, target)))
     assert float(gradient_loss(other, target, maps=("diffuse",))) > 0
+
+
+def test_detail_amount_loss_asks_for_variation_wherever_it_lies_in_the_window():
+    from svbrdf.trainer.losses import DetailAmountLoss, detail_amount_loss, gradient_loss
+
+    g = torch.Generator().manual_seed(0)
+    target = torch.rand(2, 8, 32, 32, generator=g)
+    assert float(detail_amount_loss(target, target)) == pytest.approx(0.0, abs=1e-6)
+    flat = target.clone()
+    flat[:, SLICES["roughness"]] = target[:, SLICES["roughness"]].mean((2, 3), keepdim=True)
+    # The same roughness, shuffled inside each 16 px window: as much detail, in the wrong places.
+    shuffled = target.clone()
+    r = target[:, SLICES["roughness"]].unfold(2, 16, 16).unfold(3, 16, 16)  # (B, 1, 2, 2, 16, 16)
+    perm = torch.randperm(256, generator=g)
+    r = r.reshape(*r.shape[:4], 256)[..., perm].reshape(*r.shape)
+    shuffled[:, SLICES["roughness"]] = r.permute(0, 1, 2, 4, 3, 5).reshape(2, 1, 32, 32)
+    one = dict(windows=(16,))
+    assert float(detail_amount_loss(shuffled, target, **one)) == pytest.approx(0.0, abs=1e-5)
+    assert float(detail_amount_loss(flat, target, **one)) > 0.06  # noise std 0.29 on one of the four channels
+    # gradient_loss and the per-pixel error prefer the flat map to the shuffled one; this term does not.
+    assert float(gradient_loss(flat, target)) < float(gradient_loss(shuffled, target))
+    half = target.clone()
+    half[:, SLICES["roughness"]] = 0.5 + 0.5 * (target[:, SLICES["roughness"]] - 0.5)
+    assert 0 < float(detail_amount_loss(half, target)) < float(detail_amount_loss(flat, target))
+    other = target.clone()
+    other[:, SLICES["diffuse"]] = 0.0  # maps outside the term do not count
+    assert float(detail_amount_loss(other, target)) == pytest.approx(0.0, abs=1e-6)
+    assert float(DetailAmountLoss(windows=(16,))(flat, target)) == pytest.approx(
+        float(detail_amount_loss(flat, target, **one)))
+    big = detail_amount_loss(flat[..., :8, :8], target[..., :8, :8], windows=(64,))  # window clamped to 8 px
+    assert torch.isfinite(big) and float(big) > 0
+    # A nearly flat map is pushed to vary more: a step down the gradient lowers the term.
+    x = flat.clone()
+    x[:, SLICES["roughness"]] += 0.01 * (torch.rand(2, 1, 32, 32, generator=g) - 0.5)
+    x.requires_grad_(True)
+    before = detail_amount_loss(x, target)
+    before.backward()
+    assert torch.isfinite(x.grad).all()
+    assert float(detail_amount_loss(x.detach() - 10.0 * x.grad, target)) < float(before.detach())

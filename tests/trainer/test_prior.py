@@ -223,6 +223,12 @@ def test_v2_loss_has_the_detail_term_and_more_renderings():
     assert "grad" not in v1_terms
     terms = prior_loss(other, maps, cfg, torch.Generator().manual_seed(1))
     assert float(terms["grad"]) > 0 and float(terms["total"]) > float(v1_terms["total"])
+    assert "amount" not in terms  # off unless asked for
+    amount = prior_loss(other, maps, dataclasses.replace(cfg, lambda_amount=2.0), torch.Generator().manual_seed(1))
+    assert float(amount["amount"]) >= 0
+    assert float(amount["total"]) == pytest.approx(float(terms["total"]) + 2.0 * float(amount["amount"]), rel=1e-5)
+    with pytest.raises(ValueError, match="lambda_amount"):
+        tiny_v2(lambda_amount=-1.0)
 
 
 def test_batched_photos_follow_the_same_photo_model():
