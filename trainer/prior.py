@@ -93,8 +93,9 @@ class PriorConfig:
         grazing_share: fraction of those views and lights drawn at ``grazing_deg`` from the normal.
         grazing_deg: polar-angle range of a grazing view or light, degrees; the others are drawn up to its start.
         lambda_grad: weight of :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps.
-        lambda_amount: weight of :func:`~svbrdf.trainer.losses.detail_amount_loss` on the normal and roughness maps
-            (asks for as much local variation as the truth has; 0 = off, the v1 and first v2 loss).
+        lambda_amount: weight of :func:`~svbrdf.trainer.losses.detail_amount_loss` on the ``amount_maps`` (asks
+            for as much local variation as the truth has; 0 = off, the v1 and first v2 loss).
+        amount_maps: the maps of that term (names of :data:`svbrdf.runtime.maps.SLICES`).
         families: procedural families to draw from (None = all).
         checkpoint_every: iterations between checkpoints (0 = only at the end).
         eval_every: iterations between evaluations on a fixed validation batch (0 = never).
@@ -138,6 +139,7 @@ class PriorConfig:
     grazing_deg: Tuple[float, float] = (60.0, 75.0)
     lambda_grad: float = 0.0
     lambda_amount: float = 0.0
+    amount_maps: Tuple[str, ...] = ("normal", "roughness")
     batched: bool = False
     bf16: bool = False
     log_every: int = 1
@@ -148,6 +150,7 @@ class PriorConfig:
         self.betas = tuple(float(b) for b in self.betas)
         self.fov_deg = tuple(float(f) for f in self.fov_deg)
         self.grazing_deg = tuple(float(f) for f in self.grazing_deg)
+        self.amount_maps = tuple(self.amount_maps)
         self.camera = {k: tuple(float(x) for x in v) for k, v in self.camera.items()}
         if self.families is not None:
             self.families = tuple(self.families)
@@ -172,6 +175,8 @@ class PriorConfig:
         need(set(self.camera) == set(REALISTIC), f"camera ranges need exactly the keys {sorted(REALISTIC)}")
         need(self.render_views >= 0 and self.lambda_grad >= 0 and self.lambda_amount >= 0,
              "render_views, lambda_grad and lambda_amount must be >= 0")
+        need(bool(self.amount_maps) and set(self.amount_maps) <= set(SLICES),
+             f"amount_maps must be some of {', '.join(SLICES)}, got {self.amount_maps}")
         need(0.0 <= self.grazing_share <= 1.0, f"grazing_share must be in [0, 1], got {self.grazing_share}")
         need(0.0 < self.grazing_deg[0] <= self.grazing_deg[1] < 90.0, f"bad grazing_deg range {self.grazing_deg}")
         need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
@@ -189,6 +194,7 @@ class PriorConfig:
         d["betas"], d["fov_deg"], d["grazing_deg"] = list(self.betas), list(self.fov_deg), list(self.grazing_deg)
         d["camera"] = {k: list(v) for k, v in self.camera.items()}
         d["families"] = None if self.families is None else list(self.families)
+        d["amount_maps"] = list(self.amount_maps)
         return d
 
     @classmethod
@@ -409,7 +415,7 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
         out["grad"] = gradient_loss(pred, target)
         total = total + config.lambda_grad * out["grad"]
     if config.lambda_amount > 0:
-        out["amount"] = detail_amount_loss(pred, target)
+        out["amount"] = detail_amount_loss(pred, target, config.amount_maps)
         total = total + config.lambda_amount * out["amount"]
     out["total"] = total
     return out

@@ -227,8 +227,15 @@ def test_v2_loss_has_the_detail_term_and_more_renderings():
     amount = prior_loss(other, maps, dataclasses.replace(cfg, lambda_amount=2.0), torch.Generator().manual_seed(1))
     assert float(amount["amount"]) >= 0
     assert float(amount["total"]) == pytest.approx(float(terms["total"]) + 2.0 * float(amount["amount"]), rel=1e-5)
+    rough = prior_loss(other, maps, dataclasses.replace(cfg, lambda_amount=2.0, amount_maps=("roughness",)),
+                       torch.Generator().manual_seed(1))
+    assert float(rough["amount"]) != pytest.approx(float(amount["amount"]))  # its own maps only
     with pytest.raises(ValueError, match="lambda_amount"):
         tiny_v2(lambda_amount=-1.0)
+    with pytest.raises(ValueError, match="amount_maps"):
+        tiny_v2(amount_maps=("bumps",))
+    v2 = tiny_v2(lambda_amount=1.0, amount_maps=["roughness"])
+    assert v2.amount_maps == ("roughness",) and PriorConfig.from_dict(json.loads(json.dumps(v2.to_dict()))) == v2
 
 
 def test_batched_photos_follow_the_same_photo_model():
