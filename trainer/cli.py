@@ -10,8 +10,8 @@ Progress on stderr (:mod:`svbrdf.runtime.progress`): a bar with the iteration, l
 plain line every few iterations otherwise, nothing with ``--quiet``.
 
 Exit codes: 0 done, 1 failure (one line ``svbrdf-train: error: ...``), 2 usage or the training side (torch) not
-installed (one line naming the pip command), 130 interrupted (Ctrl-C: the checkpoint is saved after the current
-iteration; ``--resume`` continues exactly from it).
+installed (one line naming the pip command), 130 interrupted (Ctrl-C or SIGTERM: the checkpoint is saved after
+the current iteration; ``--resume`` continues exactly from it).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import time
 import traceback
 import warnings
 from pathlib import Path
-from typing import Any, Dict, List, Optional, Tuple
+from typing import Any, Callable, Dict, List, Optional, Tuple
 
 from svbrdf.runtime.errors import cli_message, parse_command_line
 from svbrdf.runtime.install import missing_train_module, train_hint
@@ -310,11 +310,11 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     trainer.callback = progress
     resume_cmd = f"{PROG} prior --out {out} --resume"
 
-    def on_sigint(signum, frame):
+    def on_stop():
         state["stop"] = True
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+        trainer.stop_requested = True  # honoured after the current iteration, not only at the next log record
 
-    old = signal.signal(signal.SIGINT, on_sigint)
+    restore = _stop_on_signals(on_stop)
     try:
         trainer.run(max_seconds=None if args.minutes is None else 60.0 * args.minutes)
     except KeyboardInterrupt:
@@ -322,7 +322,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         print(f"{PROG}: interrupted; the last checkpoint is {ckpt_path}; resume with: {resume_cmd}", file=sys.stderr)
         return 130
     finally:
-        signal.signal(signal.SIGINT, old)
+        restore()
     bar.close()
     if trainer.interrupted:
         print(f"{PROG}: interrupted at iteration {trainer.step}/{c.iters}; checkpoint saved to {ckpt_path}; "
@@ -425,11 +425,10 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
     trainer.callback = progress
     resume_cmd = f"{PROG} {args.stage} {photo_path} --out {out} --resume"
 
-    def on_sigint(signum, frame):
+    def on_stop():
         progress.stop = True
-        signal.signal(signal.SIGINT, signal.default_int_handler)  # a second Ctrl-C stops at once
 
-    old = signal.signal(signal.SIGINT, on_sigint)
+    restore = _stop_on_signals(on_stop)
     t0 = time.perf_counter()
     try:
         trainer.run()
@@ -439,7 +438,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
               file=sys.stderr)
         return 130
     finally:
-        signal.signal(signal.SIGINT, old)
+        restore()
     progress.progress.close()
     seconds = time.perf_counter() - t0
     if trainer.interrupted:
@@ -458,6 +457,26 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         f"({names[0]}, ... {len(names)} files); burn-in {burn:.2f}; "
         f"checkpoint {ckpt_path}")
     return 0
+
+
+def _stop_on_signals(on_stop: Callable[[], None]) -> Callable[[], None]:
+    """Route Ctrl-C (SIGINT) and SIGTERM (``kill``, a job scheduler, a container stop) to ``on_stop``: the run
+    saves its checkpoint after the current iteration and exits 130. A second Ctrl-C raises KeyboardInterrupt at
+    once (a second SIGTERM ends the process). Returns the function that restores the caller's handlers."""
+    olds = {sig: signal.getsignal(sig) for sig in (signal.SIGINT, signal.SIGTERM)}
+
+    def handler(signum, frame):
+        on_stop()
+        signal.signal(signum, signal.default_int_handler if signum == signal.SIGINT else signal.SIG_DFL)
+
+    for sig in olds:
+        signal.signal(sig, handler)
+
+    def restore() -> None:
+        for sig, old in olds.items():
+            signal.signal(sig, old)
+
+    return restore
 
 
 def _missing(exc: BaseException) -> Optional[int]:

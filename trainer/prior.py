@@ -464,6 +464,9 @@ class PriorTrainer:
         self.evals: List[Dict[str, Any]] = []
         self.seconds = 0.0
         self.interrupted = False
+        #: Set (by a signal handler, another thread) to end :meth:`run` after the current iteration: it writes the
+        #: (possibly short) log record and the checkpoint, sets ``interrupted`` and returns; resume continues.
+        self.stop_requested = False
         #: True when the last :meth:`run` stopped at its wall-clock limit (checkpoint saved, resumable).
         self.timed_out = False
         self.bf16, self.bf16_note = (bf16_support(self.device) if config.bf16 else (False, None))
@@ -584,7 +587,8 @@ class PriorTrainer:
                            or (max_seconds is not None and self.step % c.material_reuse == 0
                                and time.perf_counter() - start >= max_seconds)
                            or (c.eval_every and self.step % c.eval_every == 0)
-                           or (c.checkpoint_every and self.step % c.checkpoint_every == 0))
+                           or (c.checkpoint_every and self.step % c.checkpoint_every == 0)
+                           or self.stop_requested)
                     if not due:
                         continue
                     rec = self._record(window, time.perf_counter() - window_start)
@@ -600,7 +604,7 @@ class PriorTrainer:
 
                     log.write(json.dumps(rec) + "\n")
                     log.flush()
-                stop = bool(self.callback(self, rec)) if self.callback else False
+                stop = (bool(self.callback(self, rec)) if self.callback else False) or self.stop_requested
                 at_end = self.step == c.iters
                 late = (max_seconds is not None and time.perf_counter() - start >= max_seconds and not at_end
                         and self.step % c.material_reuse == 0)

@@ -149,23 +149,26 @@ def test_resume_continues_and_checks_the_stage(tmp_path, photo, capsys):
     assert "'fit' run" in error_lines(capsys)[0]
 
 
-def test_ctrl_c_saves_and_exits_130(tmp_path, photo, monkeypatch, capsys):
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_ctrl_c_or_sigterm_saves_and_exits_130(tmp_path, photo, monkeypatch, capsys, sig):
     real = train_mod.Trainer.iteration
 
     def interrupted_at_2(self):
         rec = real(self)
         if self.step == 2:
-            os.kill(os.getpid(), signal.SIGINT)  # handled by the CLI: finish this iteration, save, stop
+            os.kill(os.getpid(), getattr(signal, sig))  # handled by the CLI: finish this iteration, save, stop
         return rec
 
     monkeypatch.setattr(train_mod.Trainer, "iteration", interrupted_at_2)
     out = tmp_path / "out"
     before = signal.getsignal(signal.SIGINT)  # SIG_IGN when the suite runs in the background (nohup, CI)
+    before_term = signal.getsignal(signal.SIGTERM)
     assert cli.main(["fit", str(photo), *TINY, "--iters", "10", "--out", str(out)]) == 130
     err = capsys.readouterr().err
     assert "--resume" in err and "interrupted at iteration 2/10" in err
     assert torch.load(out / "checkpoint.pt", weights_only=True)["step"] == 2
-    assert signal.getsignal(signal.SIGINT) is before  # the caller's handler is restored
+    assert signal.getsignal(signal.SIGINT) is before  # the caller's handlers are restored
+    assert signal.getsignal(signal.SIGTERM) is before_term
 
 
 def test_target_preset_for_the_final_texture_set(tmp_path, photo, capsys):

@@ -176,6 +176,35 @@ def test_cli_trains_refuses_a_used_folder_and_resumes(tmp_path, capsys):
     assert cli.main(["prior", "--out", str(tmp_path / "x"), "--size", "30"]) == 2
 
 
+
+@pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
+def test_cli_stops_after_the_current_iteration_on_ctrl_c_or_sigterm(tmp_path, capsys, monkeypatch, sig):
+    """With a log record every 50 iterations, a signal at iteration 3 still stops at 3: checkpoint, exit 130,
+    the caller's handlers back; resuming continues from 3."""
+    import os
+    import signal
+
+    real = PriorTrainer._step
+
+    def signalled_at_3(self):
+        rec = real(self)
+        if self.step == 3:
+            os.kill(os.getpid(), getattr(signal, sig))
+        return rec
+
+    monkeypatch.setattr(PriorTrainer, "_step", signalled_at_3)
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    out = tmp_path / "v2"
+    args = ["prior", "--preset", "v2", "--out", str(out), "--size", "32", "--photo-size", "64", "--batch", "1",
+            "--threads", "1", "--iters", "100", "--log-every", "50", "--eval-every", "0"]
+    assert cli.main(args) == 130
+    assert "interrupted at iteration 3/100" in capsys.readouterr().err
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["step"] == 3
+    assert {s: signal.getsignal(s) for s in before} == before
+    monkeypatch.setattr(PriorTrainer, "_step", real)
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "4", "--threads", "1"]) == 0
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["step"] == 4
+
 # ------------------------------------------------------------------------------------------- GPU scale (issue 26)
 
 def tiny_v2(**kw) -> PriorConfig:
