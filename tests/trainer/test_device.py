@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 import torch
 
+from svbrdf.trainer import device as device_mod
 from svbrdf.trainer.device import pick_device, to_device
 
 
@@ -31,3 +32,15 @@ def test_to_cuda_does_not_synchronise():
     finally:
         torch.cuda.set_sync_debug_mode("default")
     assert got.is_cuda and float(got.sum()) == 16.0
+
+
+@pytest.mark.parametrize("bf16_insns,amx,fast", [(True, False, True), (False, True, True), (False, False, False)])
+def test_cpu_bf16_only_where_the_instructions_make_it_fast(monkeypatch, bf16_insns, amx, fast):
+    """Plain AVX-512 emulates bf16 (oneDNN says 'supported'), slower than fp32: the trainer must run fp32 there."""
+    monkeypatch.setattr(torch.cpu, "_is_avx512_bf16_supported", lambda: bf16_insns, raising=False)
+    monkeypatch.setattr(torch.cpu, "_is_amx_tile_supported", lambda: amx, raising=False)
+    monkeypatch.setattr(torch.ops.mkldnn, "_is_mkldnn_bf16_supported", lambda: True, raising=False)
+    ok, note = device_mod.bf16_support(torch.device("cpu"))
+    assert ok == fast and (note is None) == fast
+    if not fast:
+        assert "running fp32" in note
