@@ -55,7 +55,7 @@ from svbrdf.trainer.config import resolve
 from svbrdf.runtime.render import camera_position
 from svbrdf.trainer.camera import expose_batch
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
-from svbrdf.trainer.losses import detail_amount_loss, gradient_loss, relit_loss, supervised_maps_loss
+from svbrdf.trainer.losses import DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, supervised_maps_loss
 from svbrdf.trainer.models import Generator, GeneratorConfig
 from svbrdf.trainer.procedural import FAMILIES, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
@@ -96,6 +96,8 @@ class PriorConfig:
         lambda_amount: weight of :func:`~svbrdf.trainer.losses.detail_amount_loss` on the ``amount_maps`` (asks
             for as much local variation as the truth has; 0 = off, the v1 and first v2 loss).
         amount_maps: the maps of that term (names of :data:`svbrdf.runtime.maps.SLICES`).
+        amount_windows: its window sides, px (:data:`~svbrdf.trainer.losses.DETAIL_WINDOWS` by default; a window
+            the image's size or more lets blobs stand in for detail).
         families: procedural families to draw from (None = all).
         checkpoint_every: iterations between checkpoints (0 = only at the end).
         eval_every: iterations between evaluations on a fixed validation batch (0 = never).
@@ -140,6 +142,7 @@ class PriorConfig:
     lambda_grad: float = 0.0
     lambda_amount: float = 0.0
     amount_maps: Tuple[str, ...] = ("normal", "roughness")
+    amount_windows: Tuple[int, ...] = DETAIL_WINDOWS
     batched: bool = False
     bf16: bool = False
     log_every: int = 1
@@ -151,6 +154,7 @@ class PriorConfig:
         self.fov_deg = tuple(float(f) for f in self.fov_deg)
         self.grazing_deg = tuple(float(f) for f in self.grazing_deg)
         self.amount_maps = tuple(self.amount_maps)
+        self.amount_windows = tuple(int(w) for w in self.amount_windows)
         self.camera = {k: tuple(float(x) for x in v) for k, v in self.camera.items()}
         if self.families is not None:
             self.families = tuple(self.families)
@@ -177,6 +181,8 @@ class PriorConfig:
              "render_views, lambda_grad and lambda_amount must be >= 0")
         need(bool(self.amount_maps) and set(self.amount_maps) <= set(SLICES),
              f"amount_maps must be some of {', '.join(SLICES)}, got {self.amount_maps}")
+        need(bool(self.amount_windows) and min(self.amount_windows) >= 2,
+             f"amount_windows must be sides >= 2 px, got {self.amount_windows}")
         need(0.0 <= self.grazing_share <= 1.0, f"grazing_share must be in [0, 1], got {self.grazing_share}")
         need(0.0 < self.grazing_deg[0] <= self.grazing_deg[1] < 90.0, f"bad grazing_deg range {self.grazing_deg}")
         need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
@@ -194,7 +200,7 @@ class PriorConfig:
         d["betas"], d["fov_deg"], d["grazing_deg"] = list(self.betas), list(self.fov_deg), list(self.grazing_deg)
         d["camera"] = {k: list(v) for k, v in self.camera.items()}
         d["families"] = None if self.families is None else list(self.families)
-        d["amount_maps"] = list(self.amount_maps)
+        d["amount_maps"], d["amount_windows"] = list(self.amount_maps), list(self.amount_windows)
         return d
 
     @classmethod
@@ -415,7 +421,7 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
         out["grad"] = gradient_loss(pred, target)
         total = total + config.lambda_grad * out["grad"]
     if config.lambda_amount > 0:
-        out["amount"] = detail_amount_loss(pred, target, config.amount_maps)
+        out["amount"] = detail_amount_loss(pred, target, config.amount_maps, config.amount_windows)
         total = total + config.lambda_amount * out["amount"]
     out["total"] = total
     return out

@@ -263,8 +263,14 @@ def test_v2_loss_has_the_detail_term_and_more_renderings():
         tiny_v2(lambda_amount=-1.0)
     with pytest.raises(ValueError, match="amount_maps"):
         tiny_v2(amount_maps=("bumps",))
-    v2 = tiny_v2(lambda_amount=1.0, amount_maps=["roughness"])
-    assert v2.amount_maps == ("roughness",) and PriorConfig.from_dict(json.loads(json.dumps(v2.to_dict()))) == v2
+    small = prior_loss(other, maps, dataclasses.replace(cfg, lambda_amount=2.0, amount_windows=(4,)),
+                       torch.Generator().manual_seed(1))
+    assert float(small["amount"]) != pytest.approx(float(amount["amount"]))  # its own windows
+    with pytest.raises(ValueError, match="amount_windows"):
+        tiny_v2(amount_windows=(1,))
+    v2 = tiny_v2(lambda_amount=1.0, amount_maps=["roughness"], amount_windows=[16])
+    assert v2.amount_maps == ("roughness",) and v2.amount_windows == (16,)
+    assert PriorConfig.from_dict(json.loads(json.dumps(v2.to_dict()))) == v2
 
 
 def test_batched_photos_follow_the_same_photo_model():
