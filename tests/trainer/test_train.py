@@ -216,18 +216,27 @@ def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch,
             torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-7)
 
 
-def test_learned_vignetting_recovers_a_darkened_border():
-    """A photo rendered with a known vignetting: the learned camera moves towards it; a fine-tune starts it at 0."""
+def test_learned_vignetting_follows_a_darkened_border():
+    """With the networks held still, the learned camera darkens its border for a photo with a known vignetting
+    and lightens it for the same photo without; the strength is saved; a fine-tune starts it anew (0.05).
+
+    With the networks training too, one photo does not tell a darker border from a darker base colour: at this
+    test's scale a fit of 60 iterations ended at 0.08 for a 0.4 vignetting and at 0.22 for none (Intel Xeon,
+    AVX-512; an EPYC passed the former ``> 0.1`` check), so the mechanism is what is tested here."""
     from svbrdf.runtime.camera import vignette
 
     photo, _ = synthetic_scene(size=48)
-    dark = photo * torch.from_numpy(vignette(48, 48, 0.4)).permute(2, 0, 1)[None]
-    cfg = resolve("tiny", iters_fit=60, learn_vignetting=True, lambda_render=1.0, camera_lr=2e-2, eval_every=0)
-    trainer = Trainer(dark, cfg, threads=1)
-    trainer.run()
-    assert trainer.history[-1]["camera/vignetting"] > 0.1
+    cfg = resolve("tiny", iters_fit=30, learn_vignetting=True, lambda_render=1.0, camera_lr=2e-2, eval_every=0,
+                  lr=1e-12)  # the generator held still: only the camera learns
+    final = {}
+    for strength in (0.0, 0.4):
+        seen = photo * torch.from_numpy(vignette(48, 48, strength)).permute(2, 0, 1)[None]
+        trainer = Trainer(seen, cfg, threads=1)
+        trainer.run()
+        final[strength] = trainer.history[-1]["camera/vignetting"]
+    assert final[0.4] > 0.055 and final[0.0] < 0.045, final  # from the start, 0.05, each its own way
     ckpt = trainer.checkpoint()
-    assert float(ckpt["camera"]["vignetting"]) == pytest.approx(trainer.history[-1]["camera/vignetting"])
+    assert float(ckpt["camera"]["vignetting"]) == pytest.approx(final[0.4])
     again = Trainer(photo, cfg, stage="finetune", iters=1, threads=1)
     again.load_init(ckpt)
     assert float(again.vignetting().detach()) == pytest.approx(0.05)  # per photo: not inherited
