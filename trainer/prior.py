@@ -716,13 +716,18 @@ def resume_prior(checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optio
 #: of 32 built on the device, 256 px photos (crops of 512 px ones), bf16, relighting under 3 point lights and 6
 #: random views and lights (half of them grazing), the detail term, one log record per 50 iterations, compact
 #: checkpoints (about 4.3 MB). ``iters`` is the length of its cosine schedule (extend it with ``--iters`` on resume).
+#: The detail-amount term on the roughness (weight 2, 32 px windows at 256 px): without it the recipe's roughness
+#: collapsed to its mean (detail 0.05 on held-out procedural materials); continued on one CPU core at 128 px with
+#: 16 px windows it placed the roughness pattern (detail 0.46); with 64 px windows too it made blobs and rings at
+#: the highlight (docs/benchmarks/prior-v2/cpu-continued/).
 PRIOR_PRESETS: Dict[str, Callable[[], PriorConfig]] = {
     "v1": PriorConfig,
     "v2": lambda: PriorConfig(
         generator=GeneratorConfig(width=0.25, decoder_blocks=4, train_encoder=True, arch="unet"),
         size=256, photo_size=512, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3, render_views=6,
-        grazing_share=0.5, lambda_grad=1.0, batched=True, bf16=True, log_every=50, compact_checkpoint=True,
-        checkpoint_every=2000, eval_every=500, eval_batch=32),
+        grazing_share=0.5, lambda_grad=1.0, lambda_amount=2.0, amount_maps=("roughness",), amount_windows=(32,),
+        batched=True, bf16=True, log_every=50, compact_checkpoint=True, checkpoint_every=2000, eval_every=500,
+        eval_batch=32),
 }
 
 

@@ -252,7 +252,10 @@ def test_v2_loss_has_the_detail_term_and_more_renderings():
     assert "grad" not in v1_terms
     terms = prior_loss(other, maps, cfg, torch.Generator().manual_seed(1))
     assert float(terms["grad"]) > 0 and float(terms["total"]) > float(v1_terms["total"])
-    assert "amount" not in terms  # off unless asked for
+    assert cfg.lambda_amount == 2.0 and cfg.amount_maps == ("roughness",) and cfg.amount_windows == (32,)
+    cfg = dataclasses.replace(cfg, lambda_amount=0.0, amount_maps=("normal", "roughness"), amount_windows=(16, 64))
+    terms = prior_loss(other, maps, cfg, torch.Generator().manual_seed(1))
+    assert "amount" not in terms  # off at weight 0 (v1, the first v2)
     amount = prior_loss(other, maps, dataclasses.replace(cfg, lambda_amount=2.0), torch.Generator().manual_seed(1))
     assert float(amount["amount"]) >= 0
     assert float(amount["total"]) == pytest.approx(float(terms["total"]) + 2.0 * float(amount["amount"]), rel=1e-5)
