@@ -1,9 +1,10 @@
 """Roughness and normals of stage-one candidates beside the truth, on held-out procedural materials (seed 987654,
 the same photos as ``../../scripts/candidate_procedural.py``; never the shared sets), through the product's
 preview path (:func:`svbrdf.runtime.session.estimate`). One row per material: the photo, then per model (truth
-first) its roughness (grey) and normals ((n + 1) / 2), each 128 px. Written as an 8-bit image.
+first) its roughness (grey) and normals ((n + 1) / 2), each 128 px. Written as an 8-bit PNG (the committed JPEG
+is a conversion with OpenImageIO).
 
-    OMP_NUM_THREADS=1 python docs/benchmarks/prior-v2/cpu-continued/scripts/procedural_sheet.py OUT.jpg I,J,... A=runs/a.onnx C=default
+    OMP_NUM_THREADS=1 python docs/benchmarks/prior-v2/cpu-continued/scripts/procedural_sheet.py OUT.png I,J,... A=runs/a.onnx C=default
 """
 import sys
 import warnings
