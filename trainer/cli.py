@@ -291,7 +291,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         + ("" if args.minutes is None else f", stopping after {args.minutes:g} min"))
     if trainer.bf16_note:
         log(f"note: {trainer.bf16_note}")
-    state = {"stop": False, "said": time.perf_counter()}
+    state = {"said": time.perf_counter()}
     bar = Progress(c.iters, "prior", quiet=args.quiet, initial=trainer.step)
 
     def progress(tr, rec) -> bool:
@@ -305,13 +305,12 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             ev = rec["eval"]
             log(f"it {rec['step']}: held-out RMSE diffuse {ev['diffuse']:.3f} specular {ev['specular']:.3f} "
                 f"roughness {ev['roughness']:.3f} normal {ev['normal_deg']:.1f} deg")
-        return state["stop"]
+        return False  # a stop comes through trainer.stop_requested (on_stop)
 
     trainer.callback = progress
     resume_cmd = f"{PROG} prior --out {out} --resume"
 
     def on_stop():
-        state["stop"] = True
         trainer.stop_requested = True  # honoured after the current iteration, not only at the next log record
 
     restore = _stop_on_signals(on_stop)

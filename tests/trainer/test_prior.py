@@ -2,6 +2,8 @@
 
 import dataclasses
 import json
+import os
+import signal
 
 import numpy as np
 import pytest
@@ -176,14 +178,10 @@ def test_cli_trains_refuses_a_used_folder_and_resumes(tmp_path, capsys):
     assert cli.main(["prior", "--out", str(tmp_path / "x"), "--size", "30"]) == 2
 
 
-
 @pytest.mark.parametrize("sig", ["SIGINT", "SIGTERM"])
 def test_cli_stops_after_the_current_iteration_on_ctrl_c_or_sigterm(tmp_path, capsys, monkeypatch, sig):
     """With a log record every 50 iterations, a signal at iteration 3 still stops at 3: checkpoint, exit 130,
     the caller's handlers back; resuming continues from 3."""
-    import os
-    import signal
-
     real = PriorTrainer._step
 
     def signalled_at_3(self):
@@ -204,6 +202,7 @@ def test_cli_stops_after_the_current_iteration_on_ctrl_c_or_sigterm(tmp_path, ca
     monkeypatch.setattr(PriorTrainer, "_step", real)
     assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "4", "--threads", "1"]) == 0
     assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["step"] == 4
+
 
 # ------------------------------------------------------------------------------------------- GPU scale (issue 26)
 
