@@ -6,9 +6,11 @@ of the benchmark's measures (svbrdf.trainer.bench.metrics.evaluate) per variant 
 
 ITERS: the counts evaluated, comma-separated (default 0,150; 0 alone: the preview only). A variant's JSON may hold
 "_oracle_fov": true: the fine-tune's renderer then takes each photo's true field of view (an oracle, to measure what
-the fixed field of view of the preset costs).
+the fixed field of view of the preset costs). With LEVELS set (``LEVELS=1``), one more line per material and
+variant: the photo's exposure (stops) and renderer, then the median specular, mean base colour and median roughness
+of the truth and of the maps at each count.
 """
-import json, sys, time, warnings
+import json, os, sys, time, warnings
 import numpy as np, torch
 from svbrdf.runtime.maps import Maps
 from svbrdf.trainer.bench.cases import BenchCase
@@ -29,6 +31,13 @@ photos, gts, draws = simulate_photos(maps, PriorConfig(), rng)
 K = ["rerender_rmse", "input_rmse", "diffuse_rmse", "specular_rmse", "roughness_rmse", "normal_angle_deg", "normal_slope_corr",
      "burn_in", "grazing_rmse", "grazing_hp_corr", "detail_diffuse", "detail_roughness", "detail_normal"]
 res = {}
+
+
+def levels(mp):
+    return [round(float(np.median(mp.specular)), 3), round(float(mp.diffuse.mean()), 3),
+            round(float(np.median(mp.roughness)), 3)]
+
+
 for i in range(n):
     photo = photos[i].permute(1, 2, 0).numpy().copy(); gt = Maps.unpack(gts[i].permute(1, 2, 0).numpy())
     case = BenchCase(f"proc{i}", "", "synthetic", "procedural", photo, gt, (128.0, 128.0), None)
@@ -42,6 +51,11 @@ for i in range(n):
         for p in pts:
             m = evaluate(p.maps, gt=gt, centre=case.centre)
             res.setdefault((label, p.iterations), []).append({k: m.get(k, float("nan")) for k in K})
+        if os.environ.get("LEVELS"):
+            row = [names[i], label, round(draws[i]["camera"]["ev"], 2), draws[i]["physical"], "gt", *levels(gt)]
+            for p in pts:
+                row += [p.iterations, *levels(p.maps)]
+            print(*row, flush=True)
     print(i, names[i], {f"{l}@{it}": round(v[-1]["rerender_rmse"], 4) for (l, it), v in res.items()}, flush=True)
 table = {f"{l}@{it}": {k: float(np.mean([r[k] for r in v])) for k in K} for (l, it), v in res.items()}
 for k, v in table.items(): print(k, {a: round(b, 4) for a, b in v.items()})

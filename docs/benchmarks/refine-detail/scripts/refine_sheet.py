@@ -1,7 +1,8 @@
 """What a fine-tune variant does to real photos, to look at: per photo one row per variant (the stage one's own
-maps first), each row the base colour, specular, roughness (sRGB grey), normals ((n + 1) / 2) and the maps relit
-under the flash and two lights (:func:`svbrdf.runtime.texture_set.relit_panel`). The photo is read at ``SIZE`` px
-(long side) and fine-tuned with ``fast`` plus each variant's TrainConfig overrides; 8-bit PNG.
+maps first), each row the batch contact sheet's strip (:func:`svbrdf.runtime.contact_sheet.strip`: photo, base
+colour, normals, roughness, specular, relit from the upper left) followed by the maps relit under the flash and
+two lights (:func:`svbrdf.runtime.texture_set.relit_panel`). The photo is read at ``SIZE`` px (long side) and
+fine-tuned with ``fast`` plus each variant's TrainConfig overrides; 8-bit PNG.
 
     OMP_NUM_THREADS=1 python docs/benchmarks/refine-detail/scripts/refine_sheet.py OUT.png SIZE CKPT PHOTO[,PHOTO...] 'LABEL=JSON;...'
 """
@@ -11,9 +12,8 @@ import warnings
 
 import numpy as np
 
-from svbrdf.runtime.colour import linear_to_srgb
-from svbrdf.runtime.imageio import read_image, resize_long_side, write_image
-from svbrdf.runtime.maps import encode_normal
+from svbrdf.runtime.contact_sheet import THUMB, strip
+from svbrdf.runtime.imageio import read_image, write_image
 from svbrdf.runtime.texture_set import relit_panel
 from svbrdf.trainer import train
 from svbrdf.trainer.config import resolve
@@ -25,15 +25,12 @@ variants = {}
 for item in spec.split(";"):
     label, ovr = item.split("=", 1)
     variants[label] = json.loads(ovr)
-V = 128  # side of each view in the sheet
 
 
-def row(maps, cfg):
-    small = [linear_to_srgb(np.clip(maps.diffuse, 0, 1)), linear_to_srgb(np.clip(np.repeat(maps.specular, 3, -1), 0, 1)),
-             linear_to_srgb(np.clip(np.repeat(maps.roughness, 3, -1), 0, 1)), encode_normal(maps.normal)]
-    views = [resize_long_side(v.astype(np.float32), V) for v in small]
-    relit = relit_panel(maps, cfg.render_config, size=V)
-    return np.concatenate(views + [relit], axis=1)
+def row(photo, maps, cfg):
+    relit = relit_panel(maps, cfg.render_config, size=THUMB)
+    panel = np.pad(relit, ((0, THUMB - relit.shape[0]), (0, 0), (0, 0)), constant_values=0.2)
+    return np.concatenate([strip(photo, maps, relit), panel], axis=1)
 
 
 rows = []
@@ -45,10 +42,10 @@ for path in photos:
         cfg = resolve("fast", **ovr)
         trainer = make_trainer(tensor, "finetune", cfg, init=ckpt, threads=1)
         if first:
-            rows.append(row(trainer.predict_maps(), cfg))
+            rows.append(row(photo, trainer.predict_maps(), cfg))
             first = False
         trainer.run()
-        rows.append(row(trainer.predict_maps(), cfg))
+        rows.append(row(photo, trainer.predict_maps(), cfg))
         print(path, label, "done", flush=True)
 w = max(r.shape[1] for r in rows)
 sheet = np.concatenate([np.pad(r, ((0, 0), (0, w - r.shape[1]), (0, 0))) for r in rows], axis=0)
