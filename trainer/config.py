@@ -105,6 +105,10 @@ class TrainConfig:
             in-memory snapshot; ``guard_snapshot_every``: iterations between snapshots.
         predict_max_side: photos with a longer side are predicted in overlapping tiles of this size;
             ``predict_overlap``: their overlap.
+        photo_context: a U-Net generator (``generator.arch="unet"``) sees every training tile and every
+            prediction tile with the whole photo's flash spot and global vectors
+            (:class:`svbrdf.trainer.models.PhotoContext`), so what it learns on tiles is what it predicts for the
+            whole photo; refreshed (without gradient) every ``context_every`` iterations. No effect on ``"wen"``.
     """
 
     preset: str = "paper"
@@ -156,6 +160,8 @@ class TrainConfig:
     guard_snapshot_every: int = 50
     predict_max_side: int = 1024
     predict_overlap: int = 128
+    photo_context: bool = True
+    context_every: int = 1
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -216,6 +222,7 @@ class TrainConfig:
         need(self.quality == "fixed" or self.eval_every > 0, "quality 'auto' needs eval_every > 0")
         need(self.guard_rollback_after >= 1 and self.guard_snapshot_every >= 1,
              "guard_rollback_after and guard_snapshot_every must be >= 1")
+        need(self.context_every >= 1, f"context_every must be >= 1, got {self.context_every}")
         need(self.predict_max_side >= 8 and 0 <= 2 * self.predict_overlap <= self.predict_max_side,
              "predict_max_side must be >= 8 and predict_overlap in [0, predict_max_side / 2]")
         RenderConfig(**self.render)  # validates the renderer settings

@@ -257,29 +257,69 @@ def _conv3(cin: int, cout: int, stride: int = 1) -> nn.Conv2d:
     return nn.Conv2d(cin, cout, 3, stride=stride, padding=1)
 
 
-def flash_cue(x: torch.Tensor) -> Tuple[torch.Tensor, torch.Tensor]:
-    """Where the brightest spot of a photo is: a soft arg-max of its luminance.
+def _frame(n: int, start: torch.Tensor, whole: int) -> torch.Tensor:
+    """(B, n) centres of ``n`` pixels from ``start`` (B,) along a side of ``whole`` px, mapped to [-1, 1]."""
+    return 2.0 * (start.view(-1, 1) + torch.arange(n, device=start.device, dtype=torch.float32) + 0.5) / whole - 1.0
+
+
+def flash_cue(x: torch.Tensor, centre: Optional[torch.Tensor] = None, origin: Optional[torch.Tensor] = None,
+              size: Optional[Tuple[int, int]] = None) -> Tuple[torch.Tensor, torch.Tensor]:
+    """Where the brightest spot of a photo is (a soft arg-max of its luminance), and every pixel's offset from it.
 
     Args:
-        x: (B, 3, H, W) linear photo, values >= 0.
+        x: (B, 3, H, W) linear photo, values >= 0: the whole photo, or a tile of it (then give the three below).
+        centre: (B, 2) the spot, as returned for the whole photo (:class:`PhotoContext`); None = found in ``x``.
+        origin: (B, 2) or (2,) top-left pixel (row, column) of ``x`` in the whole photo; None = (0, 0).
+        size: (H, W) of the whole photo the coordinates refer to; None = ``x``'s own size.
 
     Returns:
         ``(offset, centre)``: (B, 2, H, W) offset of every pixel from the spot and (B, 2) the spot, both in the
-        units of :func:`svbrdf.runtime.render.plane_positions` (x right in [-1, 1] across the width, y up, scaled
-        by H / W). The spot is the mean position weighted by ``luminance ** UNET_FLASH_POWER`` (a softmax of the
-        log luminance), so a clipped highlight dominates; in a photo without one it drifts to the brightest area.
+        units of :func:`svbrdf.runtime.render.plane_positions` of the whole photo (x right in [-1, 1] across its
+        width, y up, scaled by its H / W). The spot is the mean position weighted by ``luminance **
+        UNET_FLASH_POWER`` (a softmax of the log luminance), so a clipped highlight dominates; in a photo without
+        one it drifts to the brightest area. A tile given the whole photo's ``centre``, its ``origin`` and ``size``
+        gets exactly the offsets of the same pixels of the whole photo.
     """
     b, _, h, w = x.shape
-    lum = x.float().mean(1).clamp_min(1e-6)  # (B, H, W)
-    weight = torch.softmax(UNET_FLASH_POWER * torch.log(lum).flatten(1), dim=1).view(b, h, w)
-    xs = (2.0 * (torch.arange(w, device=x.device, dtype=torch.float32) + 0.5) / w - 1.0)
-    ys = (h / w) * (1.0 - 2.0 * (torch.arange(h, device=x.device, dtype=torch.float32) + 0.5) / h)
-    cx = (weight.sum(1) * xs).sum(-1)  # (B,)
-    cy = (weight.sum(2) * ys).sum(-1)
-    off_x = xs.view(1, 1, w) - cx.view(b, 1, 1)
-    off_y = ys.view(1, h, 1) - cy.view(b, 1, 1)
-    offset = torch.stack([off_x.expand(b, h, w), off_y.expand(b, h, w)], dim=1)
-    return offset.to(x.dtype), torch.stack([cx, cy], dim=1).to(x.dtype)
+    hh, ww = (h, w) if size is None else size
+    org = torch.zeros(2, device=x.device) if origin is None else torch.as_tensor(origin, device=x.device)
+    org = org.to(torch.float32).reshape(-1, 2).expand(b, 2)
+    xs = _frame(w, org[:, 1], ww)  # (B, W)
+    ys = -(hh / ww) * _frame(h, org[:, 0], hh)  # (B, H), y up
+    if centre is None:
+        lum = x.float().mean(1).clamp_min(1e-6)  # (B, H, W)
+        weight = torch.softmax(UNET_FLASH_POWER * torch.log(lum).flatten(1), dim=1).view(b, h, w)
+        centre = torch.stack([(weight.sum(1) * xs).sum(-1), (weight.sum(2) * ys).sum(-1)], dim=1)
+    c = centre.to(torch.float32).view(b, 2)
+    off_x = (xs - c[:, 0:1]).view(b, 1, w).expand(b, h, w)
+    off_y = (ys - c[:, 1:2]).view(b, h, 1).expand(b, h, w)
+    return torch.stack([off_x, off_y], dim=1).to(x.dtype), c.to(x.dtype)
+
+
+@dataclass
+class PhotoContext:
+    """What a tile of a photo takes from the whole photo in the U-Net (``arch="unet"``): everything the network
+    otherwise computes from its own input as a whole (:meth:`Generator.photo_context`).
+
+    The U-Net's flash cue (the spot's position and every pixel's offset from it) and its global track (means over
+    the input, fed back as per-channel biases at every decoder level) change with the crop it sees: a tile alone
+    gets other maps than the same pixels of the whole photo (docs/benchmarks/refine-detail/v2-refine). With this
+    context a tile gets the whole photo's spot, its own pixels' offsets in the whole photo's frame and the whole
+    photo's global vectors, so its maps differ from the whole photo's only within a receptive field of its border.
+
+    Attributes:
+        centre: (B, 2) the flash spot of the whole photo (:func:`flash_cue` units).
+        size: (H, W) of the whole photo as the network saw it (padded to its multiple), px.
+        tracks: decoder module name -> the (B, G) global vectors its levels take, deepest level first.
+    """
+
+    centre: torch.Tensor
+    size: Tuple[int, int]
+    tracks: Dict[str, Tuple[torch.Tensor, ...]]
+
+    def detach(self) -> "PhotoContext":
+        return PhotoContext(self.centre.detach(), self.size, {k: tuple(g.detach() for g in v)
+                                                              for k, v in self.tracks.items()})
 
 
 class UNetEncoder(nn.Module):
@@ -304,16 +344,26 @@ class UNetEncoder(nn.Module):
             for i in range(len(channels) - 1))
         self.global_in = nn.Linear(5 + 2 + channels[-1], global_dim)
 
-    def forward(self, x: torch.Tensor) -> Tuple[Tuple[torch.Tensor, ...], torch.Tensor]:
-        """(B, 3, H, W) linear photo (H, W multiples of ``2 ** levels``) -> (skips, (B, global_dim))."""
+    def forward(self, x: torch.Tensor, context: Optional[PhotoContext] = None, origin: Optional[torch.Tensor] = None
+                ) -> Tuple[Tuple[torch.Tensor, ...], Optional[torch.Tensor]]:
+        """(B, 3, H, W) linear photo (H, W multiples of ``2 ** levels``) -> (skips, (B, global_dim)).
+
+        With a ``context`` (``x`` a tile of that photo at ``origin``, see :func:`flash_cue`) the offsets are the
+        whole photo's and the global vector is None (the decoders take the context's).
+        """
         act = nn.functional.leaky_relu
-        offset, centre = flash_cue(x)
+        if context is None:
+            offset, centre = flash_cue(x)
+        else:
+            offset, centre = flash_cue(x, context.centre, origin, context.size)
         feats = torch.cat([torch.log(x.clamp_min(0.0) + UNET_LOG_EPS), offset], dim=1)
         h = act(self.stem(feats), LRELU_SLOPE)
         skips = [h]
         for down, conv in self.down:
             h = act(conv(act(down(h), LRELU_SLOPE)), LRELU_SLOPE)
             skips.append(h)
+        if context is not None:
+            return tuple(skips), None
         g = torch.cat([feats.mean((2, 3)), centre, h.mean((2, 3))], dim=1)
         return tuple(skips), act(self.global_in(g), LRELU_SLOPE)
 
@@ -348,20 +398,40 @@ class UNetDecoder(nn.Module):
                 self.track.append(nn.Linear(global_dim + cout, global_dim))
         self.out = nn.Conv2d(channels[0], outc, 1)
 
-    def forward(self, latent: Tuple[Tuple[torch.Tensor, ...], torch.Tensor]) -> torch.Tensor:
+    def forward(self, latent: Tuple[Tuple[torch.Tensor, ...], Optional[torch.Tensor]],
+                tracks: Optional[Sequence[torch.Tensor]] = None) -> torch.Tensor:
+        """Encoder latent -> (B, outc, H, W) pre-tanh outputs; ``tracks``: the global vector of every level (a
+        :class:`PhotoContext`'s) instead of the latent's own track."""
+        out = self._levels(latent, tracks)
+        return self.out(out)
+
+    def tracks(self, latent: Tuple[Tuple[torch.Tensor, ...], torch.Tensor]) -> Tuple[torch.Tensor, ...]:
+        """The global vector each level takes (deepest first) for this latent; skips the full-resolution level,
+        whose means feed nothing."""
+        record: List[torch.Tensor] = []
+        self._levels(latent, None, record)
+        return tuple(record)
+
+    def _levels(self, latent, tracks=None, record: Optional[List[torch.Tensor]] = None) -> Optional[torch.Tensor]:
         act = nn.functional.leaky_relu
         skips, g = latent
         h = skips[-1]
         for i, (convs, bias) in enumerate(zip(self.convs, self.bias)):
+            if tracks is not None:
+                g = tracks[i]
+            elif record is not None:
+                record.append(g)
+                if len(record) == len(self.convs):
+                    return None
             skip = skips[-2 - i]
             h = F.interpolate(h, scale_factor=2.0, mode="bilinear", align_corners=False)
             h = torch.cat([h, skip], dim=1)
             h = act(convs[0](h) + bias(g)[:, :, None, None], LRELU_SLOPE)
             for conv in convs[1:]:
                 h = act(conv(h), LRELU_SLOPE)
-            if i < len(self.track):
+            if tracks is None and i < len(self.track):
                 g = act(self.track[i](torch.cat([g, h.mean((2, 3))], dim=1)), LRELU_SLOPE)
-        return self.out(h)
+        return h
 
 #: What each entry of :attr:`Generator.out_offset` shifts (pre-tanh): decoder_nr's two channels, then decoder_ds's four.
 OFFSET_CHANNELS = ("height", "roughness", "diffuse_r", "diffuse_g", "diffuse_b", "specular")
@@ -421,22 +491,53 @@ class Generator(nn.Module):
         layers.append(_conv(dec[-1], outc, 3, pre_act=True))  # Wen's trimmed last block: no upsampling
         return nn.Sequential(*layers)
 
-    def forward_features(self, x: torch.Tensor) -> Any:
+    def forward_features(self, x: torch.Tensor, context: Optional[PhotoContext] = None,
+                         origin: Optional[torch.Tensor] = None) -> Any:
         """Encoder latent of a linear photo.
 
         Args:
             x: (B, 3, H, W) linear RGB photo (values >= 0, typically [0, 1]); any H, W >= 8. It is padded
                 (replicate, bottom/right) to a multiple of 4 (``2 ** decoder_blocks``) before encoding.
+            context: ``arch="unet"`` only: ``x`` is a tile of the photo this :meth:`photo_context` was taken from,
+                at ``origin`` ((B, 2) or (2,) top-left row, column in that photo); its maps then are those of the
+                same pixels of the whole photo, up to a receptive field at the tile's border. Ignored for ``"wen"``.
 
         Returns:
-            ``arch="wen"``: (B, C, ceil(H/4), ceil(W/4)) latent; ``arch="unet"``: ``(skips, global)``, the skips
-            at every level (level 0 at the padded full size) and the (B, G) global vector.
+            ``arch="wen"``: (B, C, ceil(H/4), ceil(W/4)) latent; ``arch="unet"``: ``(skips, global, context)``, the
+            skips at every level (level 0 at the padded full size), the (B, G) global vector (None with a context)
+            and the context.
         """
         if x.ndim != 4 or x.shape[1] != 3:
             raise ValueError(f"Generator expects (B, 3, H, W), got {tuple(x.shape)}")
         m = self.multiple
         x = F.pad(x, (0, (-x.shape[-1]) % m, 0, (-x.shape[-2]) % m), mode="replicate")
-        return self.encoder(x)
+        if self.cfg.arch != "unet":
+            return self.encoder(x)
+        skips, g = self.encoder(x, context, origin)
+        return skips, g, context
+
+    def photo_context(self, photo: torch.Tensor) -> PhotoContext:
+        """The whole photo's flash spot and global vectors, for its tiles (:class:`PhotoContext`; ``arch="unet"``).
+
+        Args:
+            photo: (B, 3, H, W) linear RGB photo, as given to :meth:`forward`. Costs the encoder and the decoders
+                below full resolution; differentiable (``.detach()`` it to reuse it across steps).
+        """
+        if self.cfg.arch != "unet":
+            raise ValueError("a photo context exists for arch='unet' only")
+        m = self.multiple
+        x = F.pad(photo, (0, (-photo.shape[-1]) % m, 0, (-photo.shape[-2]) % m), mode="replicate")
+        skips, g = self.encoder(x)
+        _, centre = flash_cue(x)
+        tracks = {name: getattr(self, name).tracks((skips, g)) for name in DECODER_MAPS}
+        return PhotoContext(centre, (x.shape[-2], x.shape[-1]), tracks)
+
+    def _decoded(self, name: str, latent: Any) -> torch.Tensor:
+        dec = getattr(self, name)
+        if self.cfg.arch != "unet":
+            return dec(latent)
+        skips, g, context = latent
+        return dec((skips, g), None if context is None else context.tracks[name])
 
     @staticmethod
     def _unit(y: torch.Tensor) -> torch.Tensor:
@@ -470,18 +571,20 @@ class Generator(nn.Module):
         h, w = size
         out: Dict[str, torch.Tensor] = {}
         if want & set(DECODER_MAPS["decoder_nr"]):
-            y = self._unit(self.decoder_nr(latent) + self.out_offset[0:2].view(1, 2, 1, 1))[..., :h, :w]
+            y = self._unit(self._decoded("decoder_nr", latent) + self.out_offset[0:2].view(1, 2, 1, 1))[..., :h, :w]
             out["normal"] = height_to_normal(y[:, 0:1], self.cfg.height_scale)
             out["roughness"] = y[:, 1:2]
         if want & set(DECODER_MAPS["decoder_ds"]):
-            y = self._unit(self.decoder_ds(latent) + self.out_offset[2:6].view(1, 4, 1, 1))[..., :h, :w]
+            y = self._unit(self._decoded("decoder_ds", latent) + self.out_offset[2:6].view(1, 4, 1, 1))[..., :h, :w]
             out["diffuse"] = y[:, 0:3]
             out["specular"] = y[:, 3:4]
         return {n: out[n] for n in MAP_NAMES if n in want}
 
-    def forward(self, x: torch.Tensor) -> torch.Tensor:
-        """(B, 3, H, W) linear photo -> (B, 8, H, W) packed maps (layout and ranges of :meth:`decode`)."""
-        return pack_maps(self.decode(self.forward_features(x), size=(x.shape[-2], x.shape[-1])))
+    def forward(self, x: torch.Tensor, context: Optional[PhotoContext] = None,
+                origin: Optional[torch.Tensor] = None) -> torch.Tensor:
+        """(B, 3, H, W) linear photo -> (B, 8, H, W) packed maps (layout and ranges of :meth:`decode`); a tile of a
+        photo with that photo's ``context`` at ``origin`` (:meth:`forward_features`)."""
+        return pack_maps(self.decode(self.forward_features(x, context, origin), size=(x.shape[-2], x.shape[-1])))
 
 
 class Discriminator(nn.Module):
@@ -516,7 +619,7 @@ def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
 
 
 __all__ = [
-    "OFFSET_CHANNELS", "ARCHS", "UNetEncoder", "UNetDecoder", "flash_cue",
+    "OFFSET_CHANNELS", "ARCHS", "UNetEncoder", "UNetDecoder", "flash_cue", "PhotoContext",
     "GeneratorConfig", "DiscriminatorConfig", "MODEL_PRESETS", "DISC_PRESETS", "DECODER_MAPS", "Generator",
     "Discriminator", "height_to_normal", "pack_maps", "count_parameters",
 ]

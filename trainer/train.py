@@ -48,7 +48,7 @@ from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, f
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss,
                                    SUPERVISED_WEIGHTS)
-from svbrdf.trainer.models import Discriminator, Generator, pack_maps
+from svbrdf.trainer.models import Discriminator, Generator, PhotoContext, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
 from svbrdf.trainer.render import FlashGeometry
 
@@ -95,7 +95,7 @@ def tensor_photo_info(photo: torch.Tensor, name: str = "<tensor>") -> Dict[str, 
 # ----------------------------------------------------------------------------------------------- inference
 @torch.no_grad()
 def predict_full(generator: Generator, photo: torch.Tensor, *, max_side: int = 1024,
-                 overlap: int = 128) -> torch.Tensor:
+                 overlap: int = 128, context: bool = True) -> torch.Tensor:
     """Maps of a whole photo: one pass, or overlapping tiles blended smoothly when a side exceeds ``max_side``.
 
     Args:
@@ -103,6 +103,8 @@ def predict_full(generator: Generator, photo: torch.Tensor, *, max_side: int = 1
         photo: (1, 3, H, W) linear RGB photo, H, W >= 8.
         max_side: largest side predicted in one pass; larger photos use ``max_side`` tiles.
         overlap: overlap between tiles, pixels (raised-cosine blend, :mod:`svbrdf.runtime.tiling`).
+        context: a U-Net's tiles take the whole photo's context (:meth:`Generator.photo_context`, one pass of the
+            encoder over the whole photo), so they agree with each other; False: each tile alone.
 
     Returns:
         (1, 8, H, W) float32 packed maps on the photo's device (unit normals after blending).
@@ -111,12 +113,16 @@ def predict_full(generator: Generator, photo: torch.Tensor, *, max_side: int = 1
     boxes = tile_boxes(h, w, max_side, overlap) if max(h, w) > max_side else [(0, 0, h, w)]
     if len(boxes) == 1:
         return generator(photo).float()
+    unet = getattr(getattr(generator, "cfg", None), "arch", None) == "unet"
+    ctx = generator.photo_context(photo) if context and unet else None
     acc = torch.zeros((1, 8, h, w), dtype=torch.float32, device=photo.device)
     wsum = torch.zeros((1, 1, h, w), dtype=torch.float32, device=photo.device)
     for box in boxes:
         y0, x0, th, tw = box
         wt = torch.from_numpy(tile_weights(box, h, w, overlap)).to(photo.device)[None, None]
-        acc[..., y0:y0 + th, x0:x0 + tw] += generator(photo[..., y0:y0 + th, x0:x0 + tw]).float() * wt
+        tile = photo[..., y0:y0 + th, x0:x0 + tw]
+        maps = generator(tile) if ctx is None else generator(tile, ctx, torch.tensor([y0, x0]))
+        acc[..., y0:y0 + th, x0:x0 + tw] += maps.float() * wt
         wsum[..., y0:y0 + th, x0:x0 + tw] += wt
     acc /= wsum
     n = acc[:, SLICES["normal"]]
@@ -246,6 +252,9 @@ class Trainer:
         self.eval_maps: Optional[torch.Tensor] = None
         #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``lambda_anchor``; set by load_init).
         self.anchor: Optional[torch.Tensor] = None
+        #: The whole photo's context for the tiles (U-Net generators with ``photo_context``; :meth:`_context`).
+        self.context: Optional[PhotoContext] = None
+        self._context_step = -1
 
         self.step = 0
         self.history: List[Dict[str, Any]] = []
@@ -291,6 +300,22 @@ class Trainer:
 
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
+
+    def _context(self, refresh: bool = False) -> Optional[PhotoContext]:
+        """The whole photo's context for this iteration's tiles (None: a "wen" generator or ``photo_context``
+        off); recomputed without gradient every ``context_every`` iterations, or now with ``refresh``."""
+        if not self.config.photo_context or self.generator.cfg.arch != "unet":
+            return None
+        due = self.step // self.config.context_every
+        if refresh or self.context is None or due != self._context_step:
+            with torch.no_grad():
+                self.context = self.generator.photo_context(self.photo.to(torch.float32))
+            self._context_step = due
+        return self.context
+
+    def _tile_maps(self, x: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
+        """(1, 8, t, t) maps of the photo tile ``x`` at (y0, x0) (with the photo's context; under autocast)."""
+        return self.generator(x, self._context(), torch.tensor([y0, x0]))
 
     def _radiance(self, maps: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         """The rendering of ``maps`` on the tile at (y0, x0) as it reaches the sensor: the flash model of
@@ -371,7 +396,7 @@ class Trainer:
         frozen = tuple(n for n in MAP_NAMES if n not in trained)
         size = (x.shape[-2], x.shape[-1])
         with self._amp():
-            latent = self.generator.forward_features(x)
+            latent = self.generator.forward_features(x, self._context(), torch.tensor([y0, x0]))
             out = self.generator.decode(latent, trained, size)
             with torch.no_grad():
                 out.update(self.generator.decode(latent, frozen, size))
@@ -440,7 +465,7 @@ class Trainer:
             x = self._crop(self.photo, y0, x0)
             with torch.no_grad():
                 with self._amp():
-                    maps = self.generator(x).float()
+                    maps = self._tile_maps(x, y0, x0).float()
                 fake = self._seen(self._radiance(maps, y0, x0))
         with self._amp():
             real_logits, fake_logits = self.discriminator(x), self.discriminator(fake.detach())
@@ -453,7 +478,7 @@ class Trainer:
         y0, x0 = self._draw_tile(self.tile_rng)
         x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
         with self._amp():
-            maps = self.generator(x)
+            maps = self._tile_maps(x, y0, x0)
         rendering, total = self._generator_losses(("nr", "ds"), x, guess, maps.float(), y0, x0, terms)
         self._apply(("nr", "ds") + self._camera_keys, total)
         if self.gan_active:
@@ -499,9 +524,10 @@ class Trainer:
             previous evaluation| (None at the first)}``.
         """
         maps, l1 = [], []
+        self._context(refresh=True)
         for y0, x0 in self.eval_boxes:
             x = self._crop(self.photo, y0, x0)
-            m = self.generator(x).float()
+            m = self._tile_maps(x, y0, x0).float()
             l1.append((self._seen(self._radiance(m, y0, x0)) - x).abs().mean())
             maps.append(m)
         maps_t = torch.cat(maps)
@@ -554,7 +580,7 @@ class Trainer:
     def predict(self) -> torch.Tensor:
         """(1, 8, H, W) maps of the whole photo as the generator predicts them (see :func:`predict_full`)."""
         return predict_full(self.generator, self.photo, max_side=self.config.predict_max_side,
-                            overlap=self.config.predict_overlap)
+                            overlap=self.config.predict_overlap, context=self.config.photo_context)
 
     def predict_maps(self, meta: Optional[dict] = None) -> Maps:
         """The final texture set of the whole photo: :meth:`predict`, without its radial trend around the flash

@@ -281,6 +281,40 @@ def test_flash_cue_finds_the_highlight():
     assert offset[0, :, 6, 31].abs().max() < 0.05  # about zero on the highlight
 
 
+def test_flash_cue_of_a_tile_in_the_photo_frame_equals_the_crop_of_the_whole():
+    x = torch.rand(2, 3, 40, 56)
+    offset, centre = flash_cue(x)
+    part, c2 = flash_cue(x[..., 8:32, 16:48], centre, torch.tensor([8, 16]), (40, 56))
+    torch.testing.assert_close(part, offset[..., 8:32, 16:48])
+    torch.testing.assert_close(c2, centre)
+    alone, _ = flash_cue(x[..., 8:32, 16:48])  # the tile's own frame: other offsets
+    assert (alone - offset[..., 8:32, 16:48]).abs().max() > 0.1
+
+
+def test_a_tile_with_the_photo_context_gets_the_whole_photo_maps_away_from_its_border():
+    g = _unet()
+    x = torch.rand(1, 3, 128, 128)
+    x[..., 20:26, 90:96] = 1.0  # a highlight outside the tile
+    with torch.no_grad():
+        whole = g(x)
+        ctx = g.photo_context(x)
+        torch.testing.assert_close(g(x, ctx, torch.tensor([0, 0])), whole)  # the whole photo: the same maps
+        tile = x[..., 32:96, 32:96]
+        inside = (slice(None), slice(None), slice(24, -24), slice(24, -24))
+        with_ctx = (g(tile, ctx, torch.tensor([32, 32])) - whole[..., 32:96, 32:96])[inside].abs().max()
+        alone = (g(tile) - whole[..., 32:96, 32:96])[inside].abs().max()
+    assert with_ctx < 1e-4 < 1e-2 < alone
+
+
+def test_the_photo_context_is_a_unet_thing():
+    g = Generator(GeneratorConfig(width=0.125))
+    with pytest.raises(ValueError, match="unet"):
+        g.photo_context(torch.rand(1, 3, 16, 16))
+    x = torch.rand(1, 3, 16, 16)
+    with torch.no_grad():  # a "wen" generator ignores a context argument
+        torch.testing.assert_close(g(x, None, torch.tensor([4, 4])), g(x))
+
+
 def test_unet_gradients_reach_every_trainable_part_and_the_encoder_can_be_frozen():
     g = _unet(train_encoder=False).train()
     g(torch.rand(1, 3, 32, 32)).sum().backward()

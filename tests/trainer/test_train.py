@@ -493,3 +493,41 @@ def test_perceptual_term_skipped_on_photos_without_a_clipped_highlight():
     assert lit.perceptual is not None and lit.clipped_fraction == pytest.approx(64 / (48 * 64))
     assert "nr/perceptual" in lit.iteration()
     assert Trainer(random_photo(), resolve("tiny"), threads=1).perceptual is not None  # 0 = never skipped
+
+
+# ------------------------------------------------------------------------- the photo's context for U-Net tiles
+
+def _unet_trainer(**kw):
+    gen = {**resolve("tiny").generator.to_dict(), "arch": "unet", "decoder_blocks": 3}
+    cfg = resolve("tiny", generator=gen, tile=32, schedule="joint", eval_every=0, **kw)
+    return Trainer(random_photo(64, 96), cfg, threads=1)
+
+
+def test_unet_tiles_train_with_the_whole_photo_context_refreshed_on_schedule():
+    trainer = _unet_trainer(context_every=2)
+    ctx = trainer._context()
+    assert ctx is not None and ctx.size == (64, 96)
+    torch.testing.assert_close(ctx.centre, trainer.generator.photo_context(trainer.photo).centre)
+    trainer.iteration()
+    assert trainer._context() is ctx  # step 1: the same block of two iterations
+    trainer.iteration()
+    assert trainer._context() is not ctx  # step 2: recomputed from the updated weights
+    assert all(not g.requires_grad for gs in trainer._context().tracks.values() for g in gs)
+
+
+def test_without_photo_context_unet_tiles_see_themselves_alone():
+    trainer = _unet_trainer(photo_context=False)
+    assert trainer._context() is None
+    trainer.iteration()  # and still trains
+    assert trainer.step == 1
+
+
+def test_predict_full_unet_tiles_with_the_photo_context_agree_with_one_pass():
+    from svbrdf.trainer.models import Generator, GeneratorConfig
+    with torch.random.fork_rng():
+        torch.manual_seed(0)
+        g = Generator(GeneratorConfig(width=0.125, decoder_blocks=3, arch="unet")).eval()
+    photo = random_photo(96, 128)
+    whole = predict_full(g, photo, max_side=256)
+    errs = {c: (predict_full(g, photo, max_side=64, overlap=16, context=c) - whole).abs().mean() for c in (True, False)}
+    assert errs[True] < 0.05 * errs[False]
