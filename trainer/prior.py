@@ -78,6 +78,10 @@ class PriorConfig:
         size: side of the training images, px.
         photo_size: side of the photos the crops come from, px (>= ``size``).
         crop_share: fraction of batches that are crops of ``photo_size`` photos (the rest: whole ``size`` photos).
+        crop_context: a U-Net (``generator.arch="unet"``) sees each crop with its whole photo's context
+            (:meth:`~svbrdf.trainer.models.Generator.photo_context`, without gradient), as the fine-tune's tiles
+            (:attr:`svbrdf.trainer.config.TrainConfig.photo_context`) and the prediction's windows do. Costs a
+            forward pass of the encoder over the ``photo_size`` photos per crop batch.
         batch: materials per iteration.
         iters: iterations.
         lr, lr_min, betas: Adam; the learning rate decays from ``lr`` to ``lr_min`` on a cosine over ``iters``.
@@ -120,6 +124,7 @@ class PriorConfig:
     size: int = 128
     photo_size: int = 256
     crop_share: float = 0.5
+    crop_context: bool = False
     batch: int = 8
     iters: int = 5000
     lr: float = 5e-4
@@ -169,6 +174,7 @@ class PriorConfig:
              f"size must be >= 32 and a multiple of {self.generator_multiple()}, got {self.size}")
         need(self.photo_size >= self.size, f"photo_size {self.photo_size} must be >= size {self.size}")
         need(0.0 <= self.crop_share <= 1.0, f"crop_share must be in [0, 1], got {self.crop_share}")
+        need(not self.crop_context or self.generator.arch == "unet", "crop_context needs generator.arch='unet'")
         need(0.0 <= self.physical_share <= 1.0, f"physical_share must be in [0, 1], got {self.physical_share}")
         need(self.batch >= 1 and self.iters >= 1, "batch and iters must be >= 1")
         need(self.lr > 0 and 0 <= self.lr_min <= self.lr, f"need lr > 0 and 0 <= lr_min <= lr, got {self.lr}, "
@@ -372,10 +378,23 @@ def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[in
 
 def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, families: List[str], crop: bool
                ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
-    """Photos of materials from :func:`draw_materials` (second half of :func:`sample_batch`)."""
+    """Photos of materials from :func:`draw_materials` (second half of :func:`sample_batch`).
+
+    With ``config.crop_context`` a crop batch's ``info`` also holds ``"whole"``, the (B, 3, P, P) photos the crops
+    come from, and ``"origins"``, the (B, 2) top-left (row, column) of each crop in its photo.
+    """
     simulate = simulate_photos_batched if config.batched else simulate_photos
+    info: Dict[str, Any] = {"families": families, "crop": crop}
+    if crop and config.crop_context and config.size < maps.shape[-1]:
+        whole, maps, draws = simulate(maps, config, rng)
+        s, n = config.size, maps.shape[-1] - config.size + 1
+        origins = torch.tensor([[int(torch.randint(0, n, (), generator=rng)) for _ in range(2)] for _ in draws])
+        photos = torch.stack([whole[i, :, y:y + s, x:x + s] for i, (y, x) in enumerate(origins.tolist())])
+        maps = torch.stack([maps[i, :, y:y + s, x:x + s] for i, (y, x) in enumerate(origins.tolist())])
+        info.update(whole=whole, origins=origins)
+        return photos.contiguous(), maps.contiguous(), {**info, "draws": draws}
     photos, maps, draws = simulate(maps, config, rng, crop=config.size if crop else None)
-    return photos, maps, {"families": families, "crop": crop, "draws": draws}
+    return photos, maps, {**info, "draws": draws}
 
 
 def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rng: torch.Generator
@@ -499,7 +518,12 @@ class PriorTrainer:
             group["lr"] = self.lr_at(self.step)
         self.generator.train()
         with torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.bf16):
-            pred = self.generator(photos)
+            if "whole" in info:  # crop_context: the crops see their whole photos' flash spot and global vectors
+                with torch.no_grad():
+                    ctx = self.generator.photo_context(info["whole"].to(self.device))
+                pred = self.generator(photos, ctx, info["origins"].to(self.device))
+            else:
+                pred = self.generator(photos)
         terms = prior_loss(pred.float(), maps, self.config, self.rng)
         self.optimizer.zero_grad(set_to_none=True)
         if self.config.batched:
@@ -724,7 +748,8 @@ PRIOR_PRESETS: Dict[str, Callable[[], PriorConfig]] = {
     "v1": PriorConfig,
     "v2": lambda: PriorConfig(
         generator=GeneratorConfig(width=0.25, decoder_blocks=4, train_encoder=True, arch="unet"),
-        size=256, photo_size=512, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3, render_views=6,
+        size=256, photo_size=512, crop_context=True, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3,
+        render_views=6,
         grazing_share=0.5, lambda_grad=1.0, lambda_amount=2.0, amount_maps=("roughness",), amount_windows=(32,),
         batched=True, bf16=True, log_every=50, compact_checkpoint=True, checkpoint_every=2000, eval_every=500,
         eval_batch=32),

@@ -2,6 +2,7 @@
 
 import dataclasses
 import json
+import math
 import os
 import signal
 
@@ -212,6 +213,24 @@ def tiny_v2(**kw) -> PriorConfig:
                 log_every=2, render_views=2, bf16=False)
     base.update(kw)
     return dataclasses.replace(prior_preset("v2"), **base)
+
+
+def test_crops_with_context_come_with_their_whole_photos_and_train(monkeypatch):
+    cfg = tiny_v2(crop_share=1.0, log_every=1)
+    assert cfg.crop_context
+    photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(0))
+    assert photos.shape == (2, 3, 32, 32) and info["whole"].shape == (2, 3, 64, 64)
+    for i, (y, x) in enumerate(info["origins"].tolist()):
+        torch.testing.assert_close(photos[i], info["whole"][i, :, y:y + 32, x:x + 32])
+    trainer = PriorTrainer(dataclasses.replace(cfg, iters=1), threads=1)
+    seen = []
+    photo_context = type(trainer.generator).photo_context
+    monkeypatch.setattr(type(trainer.generator), "photo_context",
+                        lambda g, p: seen.append(p.shape) or photo_context(g, p))
+    rec = trainer.iteration()
+    assert seen == [(2, 3, 64, 64)] and rec["crop"] and math.isfinite(rec["total"])
+    with pytest.raises(ValueError, match="crop_context"):
+        tiny(crop_context=True)  # a "wen" generator has no photo context
 
 
 def test_v1_preset_is_the_default_and_v2_changes_only_what_it_names():
