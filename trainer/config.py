@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 from dataclasses import dataclass, field, fields
 from typing import Any, Dict, Iterable, Optional, Tuple
 
@@ -81,6 +82,12 @@ class TrainConfig:
         highlight_fill: fill the region of a clipped flash highlight in the final maps with the material's own
             maps from elsewhere (:func:`svbrdf.runtime.highlight_fill.fill_highlight`, before the trend removal;
             False: as predicted).
+        flash_position: where the flash (with the camera, co-located) is over the photo, (x, y) in the renderer's
+            units (:func:`svbrdf.runtime.render.plane_positions`: x right, y up, 1 = half the photo width), at the
+            render config's camera distance; None = above the photo's centre (the paper's geometry), unless
+            ``locate_flash``.
+        locate_flash: place the flash over the photo's highlight (:func:`svbrdf.runtime.burn_in.highlight_centre`)
+            instead of over its centre; ignored when ``flash_position`` is given.
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
             (False: the paper's unclipped renderings).
@@ -108,7 +115,9 @@ class TrainConfig:
         photo_context: a U-Net generator (``generator.arch="unet"``) sees every training tile and every
             prediction tile with the whole photo's flash spot and global vectors
             (:class:`svbrdf.trainer.models.PhotoContext`), so what it learns on tiles is what it predicts for the
-            whole photo; refreshed (without gradient) every ``context_every`` iterations. No effect on ``"wen"``.
+            whole photo; refreshed (without gradient) every ``context_every`` iterations (5: 1.12x the time of an
+            iteration without the context, 1: 1.43x, the same maps on held-out procedural materials,
+            docs/benchmarks/refine-detail/photo-context). No effect on ``"wen"``.
     """
 
     preset: str = "paper"
@@ -142,6 +151,8 @@ class TrainConfig:
     flash_trend: bool = False
     uniform_specular: bool = False
     highlight_fill: bool = False
+    flash_position: Optional[Tuple[float, float]] = None
+    locate_flash: bool = False
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
@@ -161,11 +172,13 @@ class TrainConfig:
     predict_max_side: int = 1024
     predict_overlap: int = 128
     photo_context: bool = True
-    context_every: int = 1
+    context_every: int = 5
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
         self.anchor_maps = tuple(self.anchor_maps)
+        if self.flash_position is not None:
+            self.flash_position = tuple(float(v) for v in self.flash_position)
         self.validate()
 
     @property
@@ -222,6 +235,9 @@ class TrainConfig:
         need(self.quality == "fixed" or self.eval_every > 0, "quality 'auto' needs eval_every > 0")
         need(self.guard_rollback_after >= 1 and self.guard_snapshot_every >= 1,
              "guard_rollback_after and guard_snapshot_every must be >= 1")
+        need(self.flash_position is None or (len(self.flash_position) == 2
+                                              and all(math.isfinite(v) for v in self.flash_position)),
+             f"flash_position must be two finite numbers (x, y), got {self.flash_position}")
         need(self.context_every >= 1, f"context_every must be >= 1, got {self.context_every}")
         need(self.predict_max_side >= 8 and 0 <= 2 * self.predict_overlap <= self.predict_max_side,
              "predict_max_side must be >= 8 and predict_overlap in [0, predict_max_side / 2]")

@@ -57,11 +57,14 @@ class FlashGeometry:
         config: renderer settings (field of view).
         light_pos: (3,) light position, ``None`` = co-located flash.
         device, dtype: where the tensors live.
+        camera_pos: (3,) camera position, ``None`` = above the photo's centre
+            (:func:`svbrdf.runtime.render.camera_position`).
     """
 
     def __init__(self, height: int, width: int, config: RenderConfig = ZHAO,
-                 light_pos: Optional[Sequence[float]] = None, device=None, dtype=torch.float32):
-        v, l, d2 = light_vectors(height, width, light_pos, config)
+                 light_pos: Optional[Sequence[float]] = None, device=None, dtype=torch.float32,
+                 camera_pos: Optional[Sequence[float]] = None):
+        v, l, d2 = light_vectors(height, width, light_pos, config, camera_pos)
         to = dict(device=device, dtype=dtype)
         self.view = torch.as_tensor(v, **to).permute(2, 0, 1)[None].contiguous()
         self.light = torch.as_tensor(l, **to).permute(2, 0, 1)[None].contiguous()

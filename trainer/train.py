@@ -35,7 +35,7 @@ import torch
 
 from svbrdf.runtime.camera import radius2
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.burn_in import photo_burn_in
+from svbrdf.runtime.burn_in import highlight_centre, photo_burn_in
 from svbrdf.runtime.flash_trend import postprocess
 from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
@@ -241,7 +241,10 @@ class Trainer:
 
         with torch.no_grad():
             self.guess = guessed_diffuse(self.photo).float()
-        self.geometry = FlashGeometry(h, w, config.render_config, device=self.device)
+        #: (x, y) of the flash over the photo in the renderer's units (``flash_position`` / ``locate_flash``).
+        self.flash_xy = self._flash_position()
+        self.geometry = FlashGeometry(h, w, config.render_config, device=self.device,
+                                      camera_pos=(*self.flash_xy, config.render_config.camera_distance))
         self.radius2 = None if self.vignetting_logit is None else \
             torch.from_numpy(radius2(h, w)).to(self.device).permute(2, 0, 1)[None]  # (1, 1, H, W)
         self.flash_basis = flash_basis(self.geometry.light) if config.lambda_flash > 0 else None
@@ -285,6 +288,16 @@ class Trainer:
         if (photo < 0).any():
             raise ImageError(f"{name}: photo has negative values (expected linear RGB >= 0)")
         return photo
+
+    def _flash_position(self) -> Tuple[float, float]:
+        cfg = self.config
+        if cfg.flash_position is not None:
+            return cfg.flash_position
+        if not cfg.locate_flash:
+            return (0.0, 0.0)
+        h, w = self.photo.shape[-2:]
+        row, col = highlight_centre(self.photo[0].permute(1, 2, 0).cpu().numpy())
+        return (2.0 * col / w - 1.0, (h - 2.0 * row) / w)  # plane_positions' frame: y up, half widths
 
     def _adam(self, params) -> torch.optim.Adam:
         return torch.optim.Adam(params, lr=self.config.lr, betas=tuple(self.config.betas), eps=1e-8)

@@ -531,3 +531,28 @@ def test_predict_full_unet_tiles_with_the_photo_context_agree_with_one_pass():
     whole = predict_full(g, photo, max_side=256)
     errs = {c: (predict_full(g, photo, max_side=64, overlap=16, context=c) - whole).abs().mean() for c in (True, False)}
     assert errs[True] < 0.05 * errs[False]
+
+
+# ----------------------------------------------------------------------------- where the flash is over the photo
+
+def test_flash_position_moves_the_camera_and_the_flash_over_the_photo():
+    trainer = Trainer(random_photo(48, 64), resolve("tiny", flash_position=(0.5, -0.25)), threads=1)
+    assert trainer.flash_xy == (0.5, -0.25)
+    # the pixel under the flash (x = 0.5 -> column 48, y = -0.25 -> row 24 + 0.25 * 64 / 2 = 32) sees it head-on
+    v = trainer.geometry.view[0, :, 32, 48]
+    assert v[2] > 0.999 and torch.allclose(trainer.geometry.view, trainer.geometry.light)
+    centred = Trainer(random_photo(48, 64), resolve("tiny"), threads=1)
+    assert centred.flash_xy == (0.0, 0.0) and centred.geometry.view[0, 2, 24, 32] > 0.999
+    with pytest.raises(ValueError, match="flash_position"):
+        resolve("tiny", flash_position=[0.1])
+
+
+def test_locate_flash_finds_an_off_centre_highlight():
+    photo = torch.full((1, 3, 64, 96), 0.2)
+    yy, xx = torch.meshgrid(torch.arange(64.0), torch.arange(96.0), indexing="ij")
+    photo += 0.8 * torch.exp(-((yy - 16) ** 2 + (xx - 72) ** 2) / 50.0)  # the highlight up and to the right
+    trainer = Trainer(photo, resolve("tiny", locate_flash=True), threads=1)
+    x, y = trainer.flash_xy
+    assert abs(x - (2 * 72.5 / 96 - 1)) < 0.1 and abs(y - (64 - 2 * 16.5) / 96) < 0.1
+    given = Trainer(photo, resolve("tiny", locate_flash=True, flash_position=(0.0, 0.0)), threads=1)
+    assert given.flash_xy == (0.0, 0.0)  # a given position wins
