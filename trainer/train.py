@@ -243,8 +243,8 @@ class Trainer:
             self.guess = guessed_diffuse(self.photo).float()
         #: (x, y) of the flash over the photo in the renderer's units (``flash_position`` / ``locate_flash``).
         self.flash_xy = self._flash_position()
-        self.geometry = FlashGeometry(h, w, config.render_config, device=self.device,
-                                      camera_pos=(*self.flash_xy, config.render_config.camera_distance))
+        cam = None if self.flash_xy == (0.0, 0.0) else (*self.flash_xy, config.render_config.camera_distance)
+        self.geometry = FlashGeometry(h, w, config.render_config, device=self.device, camera_pos=cam)
         self.radius2 = None if self.vignetting_logit is None else \
             torch.from_numpy(radius2(h, w)).to(self.device).permute(2, 0, 1)[None]  # (1, 1, H, W)
         self.flash_basis = flash_basis(self.geometry.light) if config.lambda_flash > 0 else None
