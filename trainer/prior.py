@@ -81,7 +81,9 @@ class PriorConfig:
         crop_context: a U-Net (``generator.arch="unet"``) sees each crop with its whole photo's context
             (:meth:`~svbrdf.trainer.models.Generator.photo_context`, without gradient), as the fine-tune's tiles
             (:attr:`svbrdf.trainer.config.TrainConfig.photo_context`) and the prediction's windows do. Costs a
-            forward pass of the encoder over the ``photo_size`` photos per crop batch.
+            forward pass of the encoder over the ``photo_size`` photos per crop batch. Off in both presets:
+            continuing the CPU v2 candidate with it for 1,500 iterations made the stage one worse on its held-out
+            whole photos (roughness RMSE 0.226 -> 0.446; docs/benchmarks/refine-detail/photo-context).
         batch: materials per iteration.
         iters: iterations.
         lr, lr_min, betas: Adam; the learning rate decays from ``lr`` to ``lr_min`` on a cosine over ``iters``.
@@ -748,7 +750,7 @@ PRIOR_PRESETS: Dict[str, Callable[[], PriorConfig]] = {
     "v1": PriorConfig,
     "v2": lambda: PriorConfig(
         generator=GeneratorConfig(width=0.25, decoder_blocks=4, train_encoder=True, arch="unet"),
-        size=256, photo_size=512, crop_context=True, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3,
+        size=256, photo_size=512, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3,
         render_views=6,
         grazing_share=0.5, lambda_grad=1.0, lambda_amount=2.0, amount_maps=("roughness",), amount_windows=(32,),
         batched=True, bf16=True, log_every=50, compact_checkpoint=True, checkpoint_every=2000, eval_every=500,

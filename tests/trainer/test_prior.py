@@ -216,8 +216,7 @@ def tiny_v2(**kw) -> PriorConfig:
 
 
 def test_crops_with_context_come_with_their_whole_photos_and_train(monkeypatch):
-    cfg = tiny_v2(crop_share=1.0, log_every=1)
-    assert cfg.crop_context
+    cfg = tiny_v2(crop_share=1.0, log_every=1, crop_context=True)
     photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(0))
     assert photos.shape == (2, 3, 32, 32) and info["whole"].shape == (2, 3, 64, 64)
     for i, (y, x) in enumerate(info["origins"].tolist()):
