@@ -317,10 +317,6 @@ class PhotoContext:
     size: Tuple[int, int]
     tracks: Dict[str, Tuple[torch.Tensor, ...]]
 
-    def detach(self) -> "PhotoContext":
-        return PhotoContext(self.centre.detach(), self.size, {k: tuple(g.detach() for g in v)
-                                                              for k, v in self.tracks.items()})
-
 
 class UNetEncoder(nn.Module):
     """Encoder of the U-Net candidate: linear photo -> skips at every level and a global vector.
@@ -521,7 +517,7 @@ class Generator(nn.Module):
 
         Args:
             photo: (B, 3, H, W) linear RGB photo, as given to :meth:`forward`. Costs the encoder and the decoders
-                below full resolution; differentiable (``.detach()`` it to reuse it across steps).
+                below full resolution; differentiable (compute it under ``torch.no_grad()`` to reuse it across steps).
         """
         if self.cfg.arch != "unet":
             raise ValueError("a photo context exists for arch='unet' only")

@@ -750,8 +750,7 @@ PRIOR_PRESETS: Dict[str, Callable[[], PriorConfig]] = {
     "v1": PriorConfig,
     "v2": lambda: PriorConfig(
         generator=GeneratorConfig(width=0.25, decoder_blocks=4, train_encoder=True, arch="unet"),
-        size=256, photo_size=512, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3,
-        render_views=6,
+        size=256, photo_size=512, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3, render_views=6,
         grazing_share=0.5, lambda_grad=1.0, lambda_amount=2.0, amount_maps=("roughness",), amount_windows=(32,),
         batched=True, bf16=True, log_every=50, compact_checkpoint=True, checkpoint_every=2000, eval_every=500,
         eval_batch=32),
