@@ -11,7 +11,12 @@ rest of it. :func:`fill_highlight` does what an artist would do with a clone bru
    (:func:`svbrdf.runtime.burn_in.highlight_centre`; clipped pixels further away are the material, e.g. a white
    fleck), grown by :data:`GROW` times their equivalent radius ``sqrt(area / pi)`` (at least :data:`MIN_GROW_PX`):
    the pixels next to a clipped highlight are near-clipped and specular-dominated, and the estimators' discs are
-   that much wider than the clipped area.
+   that much wider than the clipped area. Joined with the highlight's **shoulder** (:func:`shoulder_mask`): the
+   connected pixels around the centre where the photo is more than :data:`SHOULDER` times as bright as a matte
+   material's flash fall-off would make it there. An estimator draws its disc, and the dark ring around it, where
+   the highlight dominates the photo, not only where it clipped (on the before/after grid's red card nothing
+   clipped covers the roughness's dark disc); without the shoulder, a shoulder larger than :data:`MAX_SHARE`
+   leaves the region to the clipped highlight.
 2. **The source**: for a small region (its box with the band at most :data:`PATCH_SIDE` px on a copy no longer
    than :data:`SEARCH_MAX_SIDE`), one offset for the whole region, the one whose copy best continues the maps
    around it: the sum of squared differences over a band around the region (each map weighted by its inverse
@@ -34,7 +39,7 @@ normals are renormalised and every map is clipped to its range. The specular map
 the photo shows the specular level best, and the runtime's single specular level (the median,
 :func:`svbrdf.runtime.flash_trend.uniform_specular`) loses that evidence when the region is filled from elsewhere
 (the preview's specular RMSE on the shared synthetic cases rose 0.0592 -> 0.0623 when it was filled). Nothing is filled (``meta["highlight_fill"]["filled"]`` False, with the reason) when the photo
-has no clipped highlight, when the region covers more than :data:`MAX_SHARE` of the maps, or when no source fits.
+has neither a clipped highlight nor a shoulder, when the region covers more than :data:`MAX_SHARE` of the maps, or when no source fits.
 Thresholds were set on held-out procedural materials, not on the benchmark's data
 (docs/benchmarks/highlight-fill/README.md).
 """
@@ -46,8 +51,9 @@ from typing import Any, Dict, Optional, Tuple
 
 import numpy as np
 
-from .burn_in import highlight_centre
+from .burn_in import RING_RADII, highlight_centre
 from .maps import Maps
+from .render import ZHAO, light_vectors, shade
 from .tileable import map_weights, screened_poisson
 from .tiling import block_mean
 
@@ -59,6 +65,21 @@ SEARCH_RADIUS = 0.2
 GROW = 1.0
 #: ... and by at least this many pixels.
 MIN_GROW_PX = 2
+#: The highlight's shoulder: where the photo (blurred) is more than this times as bright as a matte material's flash
+#: fall-off, scaled to the photo's level far from the highlight, would make it (None: no shoulder). The specular
+#: lobe then gives at least twice what the base colour does. 2, 3 and 4 gave the same errors on held-out
+#: procedural materials (re-render 0.1349 / 0.1348 / 0.1349 from 0.1361); 3 rather than 2, whose larger shoulders
+#: pass :data:`MAX_SHARE` more often (docs/benchmarks/refine-detail/lobe-and-rings/README.md).
+SHOULDER: Optional[float] = 3.0
+#: Half-width of the box blur of the shoulder's photo, fraction of the width (about a Gaussian of 1 %: texture
+#: averaged out, the highlight's shape kept).
+SHOULDER_BLUR = 0.017
+#: Where the photo's level is taken: between these distances from the highlight centre, fractions of the width
+#: (the burn-in score's ring, :data:`svbrdf.runtime.burn_in.RING_RADII`).
+SHOULDER_LEVEL_RADII = RING_RADII
+#: The flash geometry of the fall-off: a co-located flash with inverse-square fall-off at the project's field of
+#: view (the fine-tune's flash model, ``fast``).
+SHOULDER_GEOMETRY = ZHAO.replace(falloff=True)
 #: The maps that are filled (the specular is kept: see the module docstring).
 FILL_MAPS = ("diffuse", "roughness", "normal")
 #: Nothing is filled when the region covers more than this share of the maps (no room to copy from).
@@ -83,7 +104,8 @@ UNTYPICAL_WEIGHT = 1.0
 #: The full-size refinement of the offset compares at most about this many band pixels (evenly strided).
 REFINE_SAMPLES = 20000
 
-__all__ = ["fill_highlight", "highlight_mask", "FILL_MAPS", "CLIP_LEVEL", "SEARCH_RADIUS", "GROW", "MIN_GROW_PX", "MAX_SHARE"]
+__all__ = ["fill_highlight", "highlight_mask", "shoulder_mask", "FILL_MAPS", "CLIP_LEVEL", "SEARCH_RADIUS", "GROW",
+           "MIN_GROW_PX", "MAX_SHARE", "SHOULDER"]
 
 
 def _disc_dilate(mask: np.ndarray, radius: float) -> np.ndarray:
@@ -120,20 +142,23 @@ def _component(mask: np.ndarray, seed: Tuple[int, int]) -> np.ndarray:
         comp = grown
 
 
-def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = None) -> np.ndarray:
-    """The region of the maps that a clipped flash highlight leaves unknown (see the module docstring, step 1).
+def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = None,
+                   shoulder: Optional[float] = SHOULDER) -> np.ndarray:
+    """The region of the maps that a flash highlight leaves unknown (see the module docstring, step 1).
 
-    The highlight is the connected patch of clipped pixels nearest the highlight centre (within
+    The clipped highlight is the connected patch of clipped pixels nearest the highlight centre (within
     :data:`SEARCH_RADIUS`), found on a copy no longer than :data:`SEARCH_MAX_SIDE` where clipped pixels one
     block apart count as connected (a speckled highlight is one patch); other clipped pixels are the material's
-    own glints and stay.
+    own glints and stay. It is grown (:data:`GROW`) and joined with the shoulder (:func:`shoulder_mask`) unless
+    the two cover more than :data:`MAX_SHARE` of the photo.
 
     Args:
         photo: (H, W, 3) linear photo, [0, 1].
         centre: (row, column) of the highlight in pixels (default :func:`highlight_centre` of the small copy).
+        shoulder: the shoulder's brightness ratio (:data:`SHOULDER`); None: the clipped highlight alone.
 
     Returns:
-        (H, W) bool, True where the maps should be filled (all False without a clipped highlight).
+        (H, W) bool, True where the maps should be filled (all False without a clipped highlight or a shoulder).
     """
     photo = np.asarray(photo, dtype=np.float32)
     h, w = photo.shape[:2]
@@ -141,6 +166,57 @@ def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = No
     if centre is None:
         cy, cx = highlight_centre(block_mean(photo, k))
         centre = (cy * k, cx * k)
+    core = _clipped_highlight(photo, centre, k)
+    if shoulder is None:
+        return core
+    region = core | shoulder_mask(photo, centre, shoulder)
+    return region if region.sum() <= MAX_SHARE * h * w else core
+
+
+def shoulder_mask(photo: np.ndarray, centre: Tuple[float, float], ratio: float) -> np.ndarray:
+    """The highlight's shoulder: the connected pixels around ``centre`` where the photo is more than ``ratio``
+    times as bright as a matte material would be there.
+
+    On a block-mean copy no longer than :data:`SEARCH_MAX_SIDE`: the photo's luminance (mean of the linear
+    channels) box-blurred over :data:`SHOULDER_BLUR` of the width, divided by the diffuse weight of a flat matte
+    plane under :data:`SHOULDER_GEOMETRY`'s flash (:func:`svbrdf.runtime.render.shade`: cosine and inverse-square
+    fall-off), is compared with ``ratio`` times its median between :data:`SHOULDER_LEVEL_RADII` of the width from
+    ``centre`` (the photo's level where the highlight has faded); the 8-connected part above it that holds
+    ``centre``, at full size.
+
+    Args:
+        photo: (H, W, 3) linear photo.
+        centre: (row, column) of the highlight in pixels.
+        ratio: brightness over the matte level that counts as the highlight's (:data:`SHOULDER`).
+
+    Returns:
+        (H, W) bool (all False when the centre itself is not that bright).
+    """
+    h, w = photo.shape[:2]
+    k = _search_step(h, w)
+    small = block_mean(np.asarray(photo, np.float32), k, partial=True)
+    hs, ws = small.shape[:2]
+    lum = _box_mean(small.mean(axis=-1, keepdims=True), max(1, round(SHOULDER_BLUR * ws)))[..., 0]
+    v, l, d2 = light_vectors(hs, ws, None, SHOULDER_GEOMETRY)
+    one = np.ones((hs, ws), np.float32)
+    matte, _ = shade((0 * one, 0 * one, one), (v[..., 0], v[..., 1], v[..., 2]), (l[..., 0], l[..., 1], l[..., 2]),
+                     0 * one, one, SHOULDER_GEOMETRY, d2[..., 0])
+    rel = lum / np.maximum(matte, 1e-6)
+    r = np.hypot((np.arange(hs)[:, None] + 0.5) * k - centre[0], (np.arange(ws)[None, :] + 0.5) * k - centre[1]) / w
+    far = (r >= SHOULDER_LEVEL_RADII[0]) & (r <= SHOULDER_LEVEL_RADII[1])
+    level = float(np.median(rel[far] if far.any() else rel))
+    bright = rel > ratio * level
+    seed = (min(max(int(centre[0] // k), 0), hs - 1), min(max(int(centre[1] // k), 0), ws - 1))
+    if not bright[seed]:
+        return np.zeros((h, w), bool)
+    comp = _component(bright, seed)
+    return np.repeat(np.repeat(comp, k, axis=0), k, axis=1)[:h, :w]
+
+
+def _clipped_highlight(photo: np.ndarray, centre: Tuple[float, float], k: int) -> np.ndarray:
+    """(H, W) bool: the clipped highlight nearest ``centre``, grown (:func:`highlight_mask`); ``k`` the search
+    grid's block size."""
+    h, w = photo.shape[:2]
     clipped = photo.max(axis=-1) >= CLIP_LEVEL
     small = block_mean(clipped[..., None].astype(np.float32), k, partial=True)[..., 0] > 0
     near = _disc_dilate(small, 1.5)  # gaps of one block closed
@@ -374,7 +450,7 @@ def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optiona
     out = maps._with(dict(maps.items()))
     out.meta["highlight_fill"] = record
     if n == 0:
-        record["reason"] = "no clipped highlight"
+        record["reason"] = "no clipped highlight and no shoulder"
         return out
     if n > MAX_SHARE * h * w:
         record["reason"] = f"the highlight covers {n / (h * w):.0%} of the maps (more than {MAX_SHARE:.0%})"

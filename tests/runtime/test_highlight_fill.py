@@ -115,7 +115,7 @@ def test_nothing_is_filled_without_a_highlight_or_without_room():
     maps = _periodic()
     out = hf.fill_highlight(maps, _photo(N, np.zeros((N, N), bool)))
     assert not out.meta["highlight_fill"]["filled"]
-    assert out.meta["highlight_fill"]["reason"] == "no clipped highlight"
+    assert out.meta["highlight_fill"]["reason"] == "no clipped highlight and no shoulder"
     np.testing.assert_array_equal(out.diffuse, maps.diffuse)
     big = _disc(N, (64.0, 64.0), 40)
     out = hf.fill_highlight(maps, mask=big)
@@ -197,3 +197,54 @@ def test_a_large_region_is_filled_patch_by_patch_from_whole_periods():
     assert rec["filled"] and rec["offset"] is None and rec["patches"] > 1, rec
     for name in hf.FILL_MAPS:  # every patch from a whole number of periods away: the truth itself
         assert np.abs(getattr(filled, name) - getattr(truth, name)).max() < 1e-3, name
+
+
+def _flash_photo(n, lobe_amp, lobe_sigma, seed=0):
+    """A matte textured plane under the shoulder's flash (the one renderer), plus a round highlight lobe of
+    ``lobe_amp`` (linear) and ``lobe_sigma`` px at the image centre."""
+    from svbrdf.runtime.render import render
+
+    rng = np.random.default_rng(seed)
+    diffuse = np.repeat(rng.uniform(0.15, 0.35, (n, n, 1)), 3, axis=-1).astype(np.float32)
+    normal = np.zeros((n, n, 3), np.float32)
+    normal[..., 2] = 1.0
+    matte = Maps(diffuse=diffuse, specular=np.zeros((n, n, 1), np.float32),
+                 roughness=np.ones((n, n, 1), np.float32), normal=normal)
+    photo = render(matte, config=hf.SHOULDER_GEOMETRY)
+    photo = photo / photo.max() * 0.15
+    yy, xx = np.mgrid[0:n, 0:n] + 0.5
+    lobe = lobe_amp * np.exp(-0.5 * (np.hypot(yy - n / 2, xx - n / 2) / lobe_sigma) ** 2)
+    return np.minimum(photo + lobe[..., None], 1.0).astype(np.float32)
+
+
+def test_a_matte_photo_has_no_shoulder():
+    photo = _flash_photo(N, 0.0, 1.0)
+    assert not hf.shoulder_mask(photo, (N / 2, N / 2), hf.SHOULDER).any()
+    assert not hf.highlight_mask(photo, (N / 2, N / 2)).any()
+
+
+def test_the_shoulder_of_an_unclipped_highlight_is_the_region():
+    photo = _flash_photo(N, 0.8, 8.0)  # peak 0.9: nothing clips
+    centre = (N / 2, N / 2)
+    assert not hf.highlight_mask(photo, centre, shoulder=None).any()
+    mask = hf.highlight_mask(photo, centre)
+    assert mask[_disc(N, centre, 6)].all()  # where the lobe is several times the matte level
+    assert not mask[~_disc(N, centre, 30)].any()  # where it has faded
+    np.testing.assert_array_equal(mask, hf.shoulder_mask(photo, centre, hf.SHOULDER))
+    # the region is filled: a burnt disc there is restored from the periodic texture around it
+    truth = _periodic()
+    out = hf.fill_highlight(_burnt(truth, mask), photo, centre=centre)
+    assert out.meta["highlight_fill"]["filled"]
+    assert np.abs(out.roughness - truth.roughness)[mask].mean() < 0.1
+
+
+def test_a_shoulder_too_large_leaves_the_clipped_highlight(monkeypatch):
+    centre = (N / 2, N / 2)
+    photo = _flash_photo(N, 0.8, 8.0)
+    photo[_disc(N, centre, 2.5)] = 1.0  # a small clipped core on top of the shoulder
+    core = hf.highlight_mask(photo, centre, shoulder=None)
+    shoulder = hf.shoulder_mask(photo, centre, hf.SHOULDER)
+    assert 0 < core.mean() < 0.01 < 0.02 < shoulder.mean()
+    np.testing.assert_array_equal(hf.highlight_mask(photo, centre), core | shoulder)
+    monkeypatch.setattr(hf, "MAX_SHARE", 0.02)  # the shoulder no longer fits: the clipped core alone
+    np.testing.assert_array_equal(hf.highlight_mask(photo, centre), core)

@@ -53,3 +53,15 @@ def test_a_row_may_carry_settings(tmp_path, tiny_ckpt, capsys):
     for bad in ("tiny+no_such_setting=1", "tiny+flash_trend"):
         assert before_after.main([*base, "--presets", bad, "--force"]) == 2
         assert "error" in capsys.readouterr().err
+
+
+def test_an_unwritable_format_is_refused_before_any_fine_tune(tmp_path, tiny_ckpt, capsys, monkeypatch):
+    img = np.random.default_rng(0).uniform(0.1, 0.6, (40, 40, 3))
+    write_image(tmp_path / "a.png", img, bits=8, srgb_encode=True)
+    monkeypatch.setattr(before_after, "photo_burn_in", None)  # a fine-tune reaching its scoring would fail
+    out = tmp_path / "grid.jpg"
+    assert before_after.main([str(tmp_path / "a.png"), "--presets", "tiny", "--iters", "1", "--size", "32",
+                              "--init", str(tiny_ckpt), "--out", str(out)]) == 2
+    err = capsys.readouterr().err
+    assert "unsupported output format '.jpg'" in err and err.count("\n") == 1
+    assert not out.exists() and not out.with_suffix(".json").exists()

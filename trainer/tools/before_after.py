@@ -27,7 +27,7 @@ from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.trainer.bench.datasets import Case
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.imageio import WRITE_EXTENSIONS, write_image
 from svbrdf.runtime.maps import Maps, encode_normal
 from svbrdf.runtime.render import ZHAO
 from svbrdf.runtime.texture_set import relit_panel
@@ -76,6 +76,9 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     try:
         if args.out.exists() and not args.force:
             raise SvbrdfError(f"{args.out}: exists (use --force to overwrite)")
+        if args.out.suffix.lower() not in WRITE_EXTENSIONS:  # before minutes of fine-tunes, not after
+            raise SvbrdfError(f"{args.out}: unsupported output format {args.out.suffix or '(none)'!r} "
+                              f"(use {', '.join(WRITE_EXTENSIONS)})")
         init = args.init or default_checkpoint()
         if init is None:
             raise SvbrdfError("no stage-one checkpoint: pass --init CKPT")

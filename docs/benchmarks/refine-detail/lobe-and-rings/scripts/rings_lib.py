@@ -1,0 +1,29 @@
+"""The roughness's radial profile beyond chance, for the probes of this folder (radial_probe.py, contour_probe.py):
+the step that was tried in svbrdf.runtime.flash_trend (``flash_trend_profile.diff``) and not adopted."""
+import numpy as np
+
+from svbrdf.runtime.tiling import block_mean
+
+
+def profile_beyond_chance(field, centre, bin_px=1.0, chance=4.0):
+    """(H, W, C) the radial part of ``field`` (H, W, C): annulus means minus the mean, each shrunk by
+    ``max(0, 1 - chance t / dev^2)``, ``t = s^2 l max(1, min(l, bin_px)) / n`` the variance an annulus's mean has by
+    chance (s^2 the variance left after the profile, l the correlation length from 8 x 8 block means)."""
+    h, w, c = field.shape
+    r = np.hypot(np.arange(h)[:, None] + 0.5 - centre[0], np.arange(w)[None, :] + 0.5 - centre[1])
+    k = (r / bin_px).astype(np.int64).ravel()
+    n = np.bincount(k).astype(np.float64)
+    out = np.zeros_like(field, dtype=np.float64)
+    for j in range(c):
+        g = field[..., j].astype(np.float64).ravel()
+        g = g - g.mean()
+        dev = np.bincount(k, g, minlength=len(n)) / np.maximum(n, 1.0)
+        rest = (g - dev[k]).reshape(h, w, 1)
+        s2 = float(np.mean(rest ** 2))
+        if s2 > 0:
+            area = float(np.clip(64.0 * np.var(block_mean(rest.astype(np.float32), 8), dtype=np.float64) / s2, 1, 64))
+            t = s2 * np.sqrt(area) * max(1.0, min(np.sqrt(area), bin_px)) / np.maximum(n, 1.0)
+            dev = dev * np.maximum(0.0, 1.0 - chance * t / np.maximum(dev ** 2, 1e-30))
+        dev[n == 0] = 0.0
+        out[..., j] = np.interp(r, (np.arange(len(n)) + 0.5) * bin_px, dev)
+    return out
