@@ -18,7 +18,7 @@ from svbrdf.runtime.tiling import block_mean
 from svbrdf.trainer.bench.metrics import evaluate, gaussian_blur
 
 warnings.simplefilter("ignore")
-from rings_lib import profile_beyond_chance  # noqa: E402
+from rings_lib import profile_beyond_chance, write_means  # noqa: E402
 SIGMA, BINS, CHANCE = 0.03, 64, 4.0
 cache, out = Path(sys.argv[1]), Path(sys.argv[2])
 sheet = (Path(sys.argv[3]), sys.argv[4].split(",")) if len(sys.argv) > 4 else None
@@ -79,15 +79,7 @@ for f in sorted(cache.glob("*.pkl")):
                 from svbrdf.trainer.tools.before_after import row_image
                 pics.append(row_image(case.photo, m))
     print(case.name, flush=True)
-table = {}
-for (kind, name), es in rows.items():
-    t = {k: float(np.mean([e[k] for e in es if k in e])) for k in KEYS if any(k in e for e in es)}
-    t["n"] = len(es)
-    table[f"{kind} {name}"] = t
-print("| variant | " + " | ".join(KEYS) + " |")
-for name, t in table.items():
-    print(f"| {name} | " + " | ".join(f"{t[k]:.4f}" if k in t else "-" for k in KEYS) + " |")
-out.write_text(json.dumps({"means": table, "cases": per}, indent=1, default=float))
+write_means(rows, per, KEYS, out)
 if sheet:
     from svbrdf.runtime.imageio import write_image
     write_image(sheet[0], np.clip(np.concatenate(pics, axis=0), 0, 1), bits=8, force=True)

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
+from rings_lib import write_means  # noqa: E402
 from lobe_fit import fit_lobes  # noqa: E402  (a probe, not part of the package)
 from svbrdf.runtime.render import ZHAO
 from svbrdf.trainer.bench.metrics import evaluate
@@ -39,11 +40,4 @@ for f in sorted(cache.glob("*.pkl")):
             per.setdefault(case.name, {})[name] = {**{k: e.get(k) for k in KEYS},
                                                   "lobes": m.meta.get("lobes")}
     print(case.name, flush=True)
-table = {}
-for name, es in rows.items():
-    table[name] = {k: float(np.mean([e[k] for e in es if k in e])) for k in KEYS if any(k in e for e in es)}
-    table[name]["n"] = len(es)
-print("| variant | " + " | ".join(KEYS) + " |")
-for name, t in table.items():
-    print(f"| {name} | " + " | ".join(f"{t[k]:.4f}" if k in t else "-" for k in KEYS) + " |")
-out.write_text(json.dumps({"means": table, "cases": per}, indent=1, default=float))
+write_means(rows, per, KEYS, out)

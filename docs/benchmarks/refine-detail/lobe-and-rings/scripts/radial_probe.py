@@ -12,7 +12,7 @@ import numpy as np
 
 from svbrdf.runtime.burn_in import photo_burn_in
 sys.path.insert(0, str(Path(__file__).parent))
-from rings_lib import profile_beyond_chance  # noqa: E402
+from rings_lib import profile_beyond_chance, write_means  # noqa: E402
 from svbrdf.trainer.bench.metrics import evaluate
 
 warnings.simplefilter("ignore")
@@ -63,12 +63,4 @@ for f in sorted(cache.glob("*.pkl")):
             rows.setdefault((case.kind, name), []).append(e)
             per.setdefault(case.name, {})[name] = {k: e.get(k) for k in KEYS}
     print(case.name, flush=True)
-table = {}
-for (kind, name), es in rows.items():
-    t = {k: float(np.mean([e[k] for e in es if k in e])) for k in KEYS if any(k in e for e in es)}
-    t["n"] = len(es)
-    table[f"{kind} {name}"] = t
-print("| variant | " + " | ".join(KEYS) + " |")
-for name, t in table.items():
-    print(f"| {name} | " + " | ".join(f"{t[k]:.4f}" if k in t else "-" for k in KEYS) + " |")
-out.write_text(json.dumps({"means": table, "cases": per}, indent=1, default=float))
+write_means(rows, per, KEYS, out)

@@ -1,5 +1,8 @@
-"""The roughness's radial profile beyond chance, for the probes of this folder (radial_probe.py, contour_probe.py):
-the step that was tried in svbrdf.runtime.flash_trend (``flash_trend_profile.diff``) and not adopted."""
+"""Shared by the probes of this folder: the roughness's radial profile beyond chance (radial_probe.py,
+contour_probe.py: the step that was tried in svbrdf.runtime.flash_trend, ``flash_trend_profile.diff``, and not
+adopted) and the means table every probe prints and writes."""
+import json
+
 import numpy as np
 
 from svbrdf.runtime.tiling import block_mean
@@ -27,3 +30,17 @@ def profile_beyond_chance(field, centre, bin_px=1.0, chance=4.0):
         dev[n == 0] = 0.0
         out[..., j] = np.interp(r, (np.arange(len(n)) + 0.5) * bin_px, dev)
     return out
+
+
+def write_means(rows, per, keys, out):
+    """Print the mean of each of ``keys`` per variant (``rows``: variant -> list of metric dicts) as a Markdown
+    table and write ``{"means", "cases": per}`` to ``out`` (a Path)."""
+    table = {}
+    for name, es in rows.items():
+        t = {k: float(np.mean([e[k] for e in es if k in e])) for k in keys if any(k in e for e in es)}
+        t["n"] = len(es)
+        table[name if isinstance(name, str) else " ".join(name)] = t
+    print("| variant | " + " | ".join(keys) + " |")
+    for name, t in table.items():
+        print(f"| {name} | " + " | ".join(f"{t[k]:.4f}" if k in t else "-" for k in keys) + " |")
+    out.write_text(json.dumps({"means": table, "cases": per}, indent=1, default=float))

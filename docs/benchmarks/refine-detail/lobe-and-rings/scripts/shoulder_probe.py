@@ -18,6 +18,9 @@ from svbrdf.runtime.flash_trend import remove_flash_trend
 from svbrdf.runtime.render import ZHAO, light_vectors, shade
 from svbrdf.trainer.bench.metrics import evaluate, gaussian_blur
 
+sys.path.insert(0, str(Path(__file__).parent))
+from rings_lib import write_means  # noqa: E402
+
 warnings.simplefilter("ignore")
 cache, out = Path(sys.argv[1]), Path(sys.argv[2])
 ts = [float(t) for t in sys.argv[3].split(",")]
@@ -78,15 +81,7 @@ for f in sorted(cache.glob("*.pkl")):
             from svbrdf.trainer.tools.before_after import row_image
             pics.append(row_image(case.photo, m))
     print(case.name, {n: round(s, 3) for n, s in shares.items()}, flush=True)
-table = {}
-for (kind, name), es in rows.items():
-    tb = {k: float(np.mean([e[k] for e in es if k in e])) for k in KEYS if any(k in e for e in es)}
-    tb["n"] = len(es)
-    table[f"{kind} {name}"] = tb
-print("| variant | " + " | ".join(KEYS) + " |")
-for name, tb in table.items():
-    print(f"| {name} | " + " | ".join(f"{tb[k]:.4f}" if k in tb else "-" for k in KEYS) + " |")
-out.write_text(json.dumps({"means": table, "cases": per}, indent=1, default=float))
+write_means(rows, per, KEYS, out)
 if sheet:
     from svbrdf.runtime.imageio import write_image
     write_image(sheet[0], np.clip(np.concatenate(pics, axis=0), 0, 1), bits=8, force=True)
