@@ -267,8 +267,9 @@ FLASH_TREND = True
 #: The preview's specular map is one level per photo, its median (:func:`svbrdf.runtime.flash_trend.uniform_specular`):
 #: its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Now").
 UNIFORM_SPECULAR = True
-#: The region of a clipped flash highlight is filled with the material's own maps from elsewhere
-#: (:func:`svbrdf.runtime.highlight_fill.fill_highlight`): no disc, no blob (docs/benchmarks/highlight-fill/).
+#: The region of a clipped flash highlight and its shoulder is filled with the material's own maps from elsewhere
+#: (:func:`svbrdf.runtime.highlight_fill.fill_highlight`): no disc, no blob (docs/benchmarks/highlight-fill/,
+#: docs/benchmarks/refine-detail/lobe-and-rings/).
 HIGHLIGHT_FILL = True
 #: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;
 #: at 1024 px the full-size quantile alone cost 0.1 s).

@@ -313,7 +313,8 @@ _HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=Tru
 #: procedural materials 600 iterations are still worse than 150 (0.180 vs 0.164; with the GAN 0.218):
 #: docs/benchmarks/refine-detail/README.md. A default run (150) is unchanged.
 #: The region of a clipped highlight is filled from the material elsewhere in the final maps (``highlight_fill``):
-#: the synthetic cases' burn-in 0.484 -> 0.359 at 150 iterations (docs/benchmarks/highlight-fill/).
+#: the synthetic cases' burn-in 0.484 -> 0.359 at 150 iterations (docs/benchmarks/highlight-fill/); with the
+#: highlight's shoulder in the region 0.332 (docs/benchmarks/refine-detail/lobe-and-rings/).
 _FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "iters_finetune": 150, "lambda_anchor": 3.0, "anchor_maps": ("normal",),
          "gan_steps": 150, "highlight_fill": True}
 
