@@ -15,8 +15,8 @@ rest of it. :func:`fill_highlight` does what an artist would do with a clone bru
    connected pixels around the centre where the photo is more than :data:`SHOULDER` times as bright as a matte
    material's flash fall-off would make it there. An estimator draws its disc, and the dark ring around it, where
    the highlight dominates the photo, not only where it clipped (on the before/after grid's red card nothing
-   clipped covers the roughness's dark disc); without the shoulder, a shoulder larger than :data:`MAX_SHARE`
-   leaves the region to the clipped highlight.
+   clipped covers the roughness's dark disc). A shoulder that would take the region past :data:`MAX_SHARE` is
+   left out: the clipped highlight alone is filled, as before.
 2. **The source**: for a small region (its box with the band at most :data:`PATCH_SIDE` px on a copy no longer
    than :data:`SEARCH_MAX_SIDE`), one offset for the whole region, the one whose copy best continues the maps
    around it: the sum of squared differences over a band around the region (each map weighted by its inverse
@@ -143,7 +143,7 @@ def _component(mask: np.ndarray, seed: Tuple[int, int]) -> np.ndarray:
 
 
 def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = None,
-                   shoulder: Optional[float] = SHOULDER) -> np.ndarray:
+                   shoulder: bool = True) -> np.ndarray:
     """The region of the maps that a flash highlight leaves unknown (see the module docstring, step 1).
 
     The clipped highlight is the connected patch of clipped pixels nearest the highlight centre (within
@@ -155,7 +155,8 @@ def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = No
     Args:
         photo: (H, W, 3) linear photo, [0, 1].
         centre: (row, column) of the highlight in pixels (default :func:`highlight_centre` of the small copy).
-        shoulder: the shoulder's brightness ratio (:data:`SHOULDER`); None: the clipped highlight alone.
+        shoulder: join the shoulder at :data:`SHOULDER` (when that is not None); False: the clipped highlight
+            alone.
 
     Returns:
         (H, W) bool, True where the maps should be filled (all False without a clipped highlight or a shoulder).
@@ -167,9 +168,9 @@ def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = No
         cy, cx = highlight_centre(block_mean(photo, k))
         centre = (cy * k, cx * k)
     core = _clipped_highlight(photo, centre, k)
-    if shoulder is None:
+    if not shoulder or SHOULDER is None:
         return core
-    region = core | shoulder_mask(photo, centre, shoulder)
+    region = core | shoulder_mask(photo, centre, SHOULDER)
     return region if region.sum() <= MAX_SHARE * h * w else core
 
 

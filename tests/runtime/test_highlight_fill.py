@@ -226,7 +226,7 @@ def test_a_matte_photo_has_no_shoulder():
 def test_the_shoulder_of_an_unclipped_highlight_is_the_region():
     photo = _flash_photo(N, 0.8, 8.0)  # peak 0.9: nothing clips
     centre = (N / 2, N / 2)
-    assert not hf.highlight_mask(photo, centre, shoulder=None).any()
+    assert not hf.highlight_mask(photo, centre, shoulder=False).any()
     mask = hf.highlight_mask(photo, centre)
     assert mask[_disc(N, centre, 6)].all()  # where the lobe is several times the matte level
     assert not mask[~_disc(N, centre, 30)].any()  # where it has faded
@@ -242,9 +242,17 @@ def test_a_shoulder_too_large_leaves_the_clipped_highlight(monkeypatch):
     centre = (N / 2, N / 2)
     photo = _flash_photo(N, 0.8, 8.0)
     photo[_disc(N, centre, 2.5)] = 1.0  # a small clipped core on top of the shoulder
-    core = hf.highlight_mask(photo, centre, shoulder=None)
+    core = hf.highlight_mask(photo, centre, shoulder=False)
     shoulder = hf.shoulder_mask(photo, centre, hf.SHOULDER)
     assert 0 < core.mean() < 0.01 < 0.02 < shoulder.mean()
     np.testing.assert_array_equal(hf.highlight_mask(photo, centre), core | shoulder)
     monkeypatch.setattr(hf, "MAX_SHARE", 0.02)  # the shoulder no longer fits: the clipped core alone
     np.testing.assert_array_equal(hf.highlight_mask(photo, centre), core)
+
+
+def test_no_shoulder_when_it_is_switched_off(monkeypatch):
+    photo = _flash_photo(N, 0.8, 8.0)
+    centre = (N / 2, N / 2)
+    assert hf.highlight_mask(photo, centre).any()
+    monkeypatch.setattr(hf, "SHOULDER", None)
+    assert not hf.highlight_mask(photo, centre).any()

@@ -20,7 +20,7 @@ for f in sorted(glob.glob("../shared/data/henzler-flash/test/*/*.JPG")):
         k = hf._search_step(*img.shape[:2])
         cy, cx = highlight_centre(block_mean(img, k))
         c = (cy * k, cx * k)
-        core = hf.highlight_mask(img, c, shoulder=None)
+        core = hf.highlight_mask(img, c, shoulder=False)
         sh = hf.shoulder_mask(img, c, hf.SHOULDER)
         reg = hf.highlight_mask(img, c)
         row.append(f"{size}: core {core.mean():.3f} shoulder {sh.mean():.3f} region {reg.mean():.3f}")
