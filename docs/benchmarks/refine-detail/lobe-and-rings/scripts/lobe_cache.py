@@ -11,29 +11,16 @@ Optional env: INIT (checkpoint), MODEL (ONNX), OVERRIDES (JSON TrainConfig overr
 import json, os, pickle, sys, time, warnings
 from pathlib import Path
 
-import numpy as np
-import torch
-
-from svbrdf.runtime.maps import Maps
-from svbrdf.trainer.bench.cases import BenchCase, load_cases
 from svbrdf.trainer.bench.methods import METHODS, BenchOptions
+
+sys.path.insert(0, str(Path(__file__).parent))
+from rings_lib import probe_cases  # noqa: E402
 
 warnings.simplefilter("ignore")
 src, out = sys.argv[1], Path(sys.argv[2])
 part, parts = (int(sys.argv[3]), int(sys.argv[4])) if len(sys.argv) > 4 else (0, 1)
 out.mkdir(parents=True, exist_ok=True)
-if src.startswith("procedural:"):
-    from svbrdf.trainer.prior import PriorConfig, simulate_photos
-    from svbrdf.trainer.procedural import sample_materials
-    n = int(src.split(":")[1])
-    rng = torch.Generator().manual_seed(987654)
-    mats, names = sample_materials(n, 256, rng)
-    photos, gts, _ = simulate_photos(mats, PriorConfig(), rng)
-    cases = [BenchCase(f"proc{i}_{names[i]}", "", "synthetic", "procedural",
-                       photos[i].permute(1, 2, 0).numpy().copy(), Maps.unpack(gts[i].permute(1, 2, 0).numpy()),
-                       (128.0, 128.0), None) for i in range(n)]
-else:
-    cases = load_cases(Path("/work/shared/data"), 256, src.split(":", 1)[1])
+cases = probe_cases(src)
 ovr = json.loads(os.environ.get("OVERRIDES", "{}"))
 for i in range(part, len(cases), parts):
     case = cases[i]

@@ -10,30 +10,16 @@ import sys, warnings
 from pathlib import Path
 
 import numpy as np
-import torch
 
 from svbrdf.runtime import session as S
-from svbrdf.runtime.maps import Maps
-from svbrdf.trainer.bench.cases import BenchCase, load_cases
 from svbrdf.trainer.bench.metrics import evaluate
 
 sys.path.insert(0, str(Path(__file__).parent))
-from rings_lib import write_means  # noqa: E402
+from rings_lib import probe_cases, write_means  # noqa: E402
 
 warnings.simplefilter("ignore")
 src, out, pads = sys.argv[1], Path(sys.argv[2]), [int(p) for p in sys.argv[3].split(",")]
-if src.startswith("procedural:"):
-    from svbrdf.trainer.prior import PriorConfig, simulate_photos
-    from svbrdf.trainer.procedural import sample_materials
-    n = int(src.split(":")[1])
-    rng = torch.Generator().manual_seed(987654)
-    mats, names = sample_materials(n, 256, rng)
-    photos, gts, _ = simulate_photos(mats, PriorConfig(), rng)
-    cases = [BenchCase(f"proc{i}_{names[i]}", "", "synthetic", "procedural",
-                       photos[i].permute(1, 2, 0).numpy().copy(), Maps.unpack(gts[i].permute(1, 2, 0).numpy()),
-                       (128.0, 128.0), None) for i in range(n)]
-else:
-    cases = load_cases(Path("/work/shared/data"), 256, src.split(":", 1)[1])
+cases = probe_cases(src)
 KEYS = ["rerender_rmse", "input_rmse", "diffuse_rmse", "specular_rmse", "roughness_rmse", "normal_angle_deg",
         "grazing_rmse", "burn_in", "capture_rmse", "capture_ssim", "frame"]
 session = S.load_session(threads=1)

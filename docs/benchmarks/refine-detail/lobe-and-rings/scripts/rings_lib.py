@@ -1,7 +1,8 @@
 """Shared by the probes of this folder: the roughness's radial profile beyond chance (radial_probe.py,
 contour_probe.py: the step that was tried in svbrdf.runtime.flash_trend, ``flash_trend_profile.diff``, and not
-adopted) and the means table every probe prints and writes."""
+adopted), the cases every probe reads and the means table every probe prints and writes."""
 import json
+from pathlib import Path
 
 import numpy as np
 
@@ -44,3 +45,25 @@ def write_means(rows, per, keys, out):
     for name, t in table.items():
         print(f"| {name} | " + " | ".join(f"{t[k]:.4f}" if k in t else "-" for k in keys) + " |")
     out.write_text(json.dumps({"means": table, "cases": per}, indent=1, default=float))
+
+
+def probe_cases(src):
+    """The cases of ``src``: ``procedural:N`` (N held-out procedural materials, seed 987654, realistic flash
+    photos of svbrdf.trainer.prior.simulate_photos, 256 px) or ``shared:GLOB`` (the benchmark's cases of
+    ../shared/data at 256 px)."""
+    from svbrdf.trainer.bench.cases import BenchCase, load_cases
+
+    if not src.startswith("procedural:"):
+        return load_cases(Path(__file__).resolve().parents[5] / ".." / "shared" / "data", 256, src.split(":", 1)[1])
+    import torch
+
+    from svbrdf.runtime.maps import Maps
+    from svbrdf.trainer.prior import PriorConfig, simulate_photos
+    from svbrdf.trainer.procedural import sample_materials
+
+    n = int(src.split(":")[1])
+    rng = torch.Generator().manual_seed(987654)
+    mats, names = sample_materials(n, 256, rng)
+    photos, gts, _ = simulate_photos(mats, PriorConfig(), rng)
+    return [BenchCase(f"proc{i}_{names[i]}", "", "synthetic", "procedural", photos[i].permute(1, 2, 0).numpy().copy(),
+                      Maps.unpack(gts[i].permute(1, 2, 0).numpy()), (128.0, 128.0), None) for i in range(n)]
