@@ -7,7 +7,7 @@ draws along an iso-brightness contour of the photo). On cached maps (``lobe_cach
 
     python docs/benchmarks/refine-detail/lobe-and-rings/scripts/contour_probe.py CACHE_DIR OUT.json [SHEET.png NAMES]
 """
-import json, math, pickle, sys, warnings
+import pickle, sys, warnings
 from pathlib import Path
 
 import numpy as np

@@ -30,7 +30,7 @@ specular, blended across class borders by the k-means soft assignment at full si
 from __future__ import annotations
 
 import math
-from typing import Dict, Optional, Sequence, Tuple
+from typing import Optional, Sequence, Tuple
 
 import numpy as np
 

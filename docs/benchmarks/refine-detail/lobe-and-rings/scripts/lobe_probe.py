@@ -1,14 +1,12 @@
-"""The lobe fit (svbrdf.runtime.lobe_fit) applied to cached maps (``lobe_cache.py``): each case's preview and
+"""The lobe fit (``lobe_fit.py`` beside this script) applied to cached maps (``lobe_cache.py``): each case's preview and
 default refine, as they are and with the fit at 1 / 2 / 3 classes; the benchmark's measures (evaluate) averaged.
 
     python docs/benchmarks/refine-detail/lobe-and-rings/scripts/lobe_probe.py CACHE_DIR OUT.json [VARIANTS]
 
 VARIANTS: comma-separated ``classes`` counts (default 1,2,3).
 """
-import json, pickle, sys, warnings
+import pickle, sys, warnings
 from pathlib import Path
-
-import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from rings_lib import write_means  # noqa: E402

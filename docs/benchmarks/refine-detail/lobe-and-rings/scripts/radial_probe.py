@@ -5,7 +5,7 @@ averaged per variant.
 
     python docs/benchmarks/refine-detail/lobe-and-rings/scripts/radial_probe.py CACHE_DIR OUT.json N0[,N0...] [MAPS]
 """
-import json, pickle, sys, warnings
+import pickle, sys, warnings
 from pathlib import Path
 
 import numpy as np

@@ -7,7 +7,7 @@ mask, on cached maps (``lobe_cache.py``, after the shipped steps), then the flas
 
     python docs/benchmarks/refine-detail/lobe-and-rings/scripts/shoulder_probe.py CACHE_DIR OUT.json T[,T...] [SHEET.png NAMES]
 """
-import json, pickle, sys, warnings
+import pickle, sys, warnings
 from pathlib import Path
 
 import numpy as np
