@@ -24,6 +24,11 @@ which only discourages the same pattern during the fine-tune): applied to the fi
 refine, it is what makes them highlight-free, and the renderer's specular lobe is left to reproduce the highlight.
 Widths chosen on held-out procedural materials, not on the benchmark's data (docs/benchmarks/accuracy/README.md,
 "Flash-trend removal").
+
+:func:`even_lighting` is the same idea on the network's *input*: the photo divided by its own smooth lighting
+(the flash's fall-off and the broad part of its highlight), so that the network sees the material evenly lit and
+has no bright disc to paint into its maps. The preview runs the network on it
+(:data:`svbrdf.runtime.session.EVEN_LIGHTING`); the post-processing still reads the photo itself.
 """
 
 from __future__ import annotations
@@ -34,7 +39,7 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from .burn_in import highlight_centre, photo_burn_in
-from .highlight_fill import fill_highlight
+from .highlight_fill import _box_mean, fill_highlight
 from .tiling import block_mean
 from .maps import MAP_RANGES, Maps
 
@@ -45,6 +50,14 @@ TREND_WIDTHS: Tuple[float, ...] = (0.05, 0.1, 0.2, 0.4)
 TREND_MAPS: Tuple[str, ...] = ("diffuse", "specular", "roughness")
 #: The fit runs on a block-averaged copy no longer than this (the trend is smooth); the subtraction at full size.
 FIT_MAX_SIDE = 256
+#: The width of the low pass of :func:`even_lighting` that the preview (:data:`svbrdf.runtime.session.EVEN_LIGHTING`)
+#: and the default refine (``even_lighting`` of the ``fast`` preset) use, a fraction of the photo width: the best of
+#: 1/16, 1/8 and 1/4 on held-out procedural materials (docs/benchmarks/refine-detail/flat-input/). It takes out the
+#: flash's broad fall-off and part of its highlight; narrower widths take out more of the highlight and with it
+#: the network's cue for the gloss (the roughness turns matte).
+EVEN_LIGHTING_WIDTH = 0.25
+#: :func:`lighting_field` is computed on a block-mean copy no longer than this and interpolated (it is smooth).
+LIGHTING_MAX_SIDE = 64
 
 
 def radial_basis(shape: Tuple[int, int], centre: Tuple[float, float], widths: Sequence[float] = TREND_WIDTHS,
@@ -142,6 +155,66 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     return result
 
 
+def _interp_matrix(n: int, m: int, k: int) -> np.ndarray:
+    """(n, m) linear interpolation of m samples at block centres (blocks of k pixels) onto n pixel centres; ends
+    held."""
+    x = np.clip((np.arange(n) + 0.5) / k - 0.5, 0, m - 1)
+    i0 = np.minimum(np.floor(x).astype(int), max(m - 2, 0))
+    f = x - i0 if m > 1 else np.zeros(n)
+    a = np.zeros((n, m))
+    a[np.arange(n), i0] += 1 - f
+    a[np.arange(n), np.minimum(i0 + 1, m - 1)] += f
+    return a
+
+
+def lighting_field(photo: np.ndarray, sigma: float) -> np.ndarray:
+    """The photo's smooth lighting: the geometric-mean luminance around each pixel.
+
+    ``exp`` of the log luminance (mean of the linear channels, floored at 1e-4) low-passed by a Gaussian of
+    ``sigma`` x the width (three box blurs) on a block-mean copy no longer than :data:`LIGHTING_MAX_SIDE`,
+    interpolated bilinearly to full size. Borders are extended (edge pixels repeated).
+
+    Args:
+        photo: (H, W, 3) linear photo.
+        sigma: the low pass's standard deviation as a fraction of the width, > 0.
+
+    Returns:
+        (H, W) float32, > 0, in the photo's units.
+    """
+    h, w = photo.shape[:2]
+    k = max(1, math.ceil(max(h, w) / LIGHTING_MAX_SIDE))
+    lum = block_mean(np.asarray(photo, np.float32).mean(axis=-1, keepdims=True), k, partial=True)
+    g = np.log(np.maximum(lum, 1e-4)).astype(np.float64)
+    s = sigma * w / k  # in blocks; three boxes of radius r have the variance r (r + 1)
+    r = max(1, int(round((math.sqrt(1 + 4 * s * s) - 1) / 2)))
+    for _ in range(3):
+        g = _box_mean(g, r)
+    f32 = lambda a: a.astype(np.float32)  # noqa: E731  (float32 at full size: 4x less time than float64 at 2048 px)
+    field = f32(_interp_matrix(h, g.shape[0], k)) @ f32(g[..., 0]) @ f32(_interp_matrix(w, g.shape[1], k)).T
+    return np.exp(field, out=field)
+
+
+def even_lighting(photo: np.ndarray, sigma: float) -> np.ndarray:
+    """The photo evenly lit: divided by its :func:`lighting_field`, scaled so that its median luminance is the
+    photo's (medians of a strided copy at most about 256 px long). Every channel is divided by the same field, so colours and the detail finer than ``sigma`` are kept;
+    a clipped highlight stays flat.
+
+    Args:
+        photo: (H, W, 3) linear photo.
+        sigma: see :func:`lighting_field`.
+
+    Returns:
+        (H, W, 3) float32 linear, >= 0.
+    """
+    photo = np.asarray(photo, np.float32)
+    field = lighting_field(photo, sigma)
+    # The medians on a strided subsample (at most about 256 px long): the full-size medians cost more than the rest.
+    step = max(1, math.ceil(max(photo.shape[:2]) / 256))
+    lum = photo[::step, ::step].mean(axis=-1)
+    scale = float(np.median(lum)) / max(float(np.median(lum / field[::step, ::step])), 1e-12)
+    return photo * (np.float32(scale) / field)[..., None]
+
+
 def uniform_specular(maps: Maps) -> Maps:
     """The maps with the specular albedo replaced by its median: one level per photo.
 
@@ -204,5 +277,5 @@ def postprocess(maps: Maps, photo: np.ndarray, *, flash_trend: bool = True, spec
     return out
 
 
-__all__ = ["postprocess", "remove_flash_trend", "uniform_specular", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS",
+__all__ = ["postprocess", "remove_flash_trend", "uniform_specular", "even_lighting", "lighting_field", "EVEN_LIGHTING_WIDTH", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS",
            "FIT_MAX_SIDE"]

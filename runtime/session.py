@@ -14,7 +14,9 @@ Pipeline of :func:`estimate`:
    linear photo stays >= 0 and a flash highlight does not ring into negative values as with the default
    lanczos3. A file at least twice ``max_size`` is read in strips averaged over pixel blocks first, so memory
    does not grow with the file's size (:func:`~svbrdf.runtime.imageio.read_image`);
-3. run the model (the full graph, or the part graph of the one decoder the requested maps need: see
+3. divide the photo by its own smooth lighting (:func:`svbrdf.runtime.flash_trend.even_lighting`,
+   :data:`EVEN_LIGHTING`): the network sees the material evenly lit, not the flash's fall-off and broad highlight;
+   run the model on that (the full graph, or the part graph of the one decoder the requested maps need: see
    :meth:`PreviewSession.graph_for`) in one pass when the image fits in one ``tile`` x ``tile`` window, else
    in overlapping tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's
    inference). The generator uses instance normalisation, so tiles see their own statistics: expect
@@ -50,7 +52,7 @@ from typing import Iterable, Optional, Tuple, Union
 
 import numpy as np
 
-from .flash_trend import postprocess
+from .flash_trend import EVEN_LIGHTING_WIDTH, even_lighting, postprocess
 from .errors import ImageError, ModelError, SvbrdfError
 from .imageio import RESIZE_FILTER, ImageWarning, image_info, read_image, resize_long_side
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
@@ -271,6 +273,11 @@ UNIFORM_SPECULAR = True
 #: (:func:`svbrdf.runtime.highlight_fill.fill_highlight`): no disc, no blob (docs/benchmarks/highlight-fill/,
 #: docs/benchmarks/refine-detail/lobe-and-rings/).
 HIGHLIGHT_FILL = True
+#: The network sees the photo divided by its own smooth lighting (:func:`svbrdf.runtime.flash_trend.even_lighting`,
+#: a low pass of this standard deviation, a fraction of the width; ``None`` or 0: the photo as it is). The flash's
+#: fall-off and the broad part of its highlight are then not in the network's input, so it cannot paint them into
+#: the maps (docs/benchmarks/refine-detail/flat-input/).
+EVEN_LIGHTING: Optional[float] = EVEN_LIGHTING_WIDTH
 #: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;
 #: at 1024 px the full-size quantile alone cost 0.1 s).
 COLOUR_MAX_SIDE = 256
@@ -421,7 +428,8 @@ def estimate(
     timings["resize"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    packed = tiled_apply(lambda x: session.run(x, names), image, tile, overlap)
+    net_input = even_lighting(image, EVEN_LIGHTING) if EVEN_LIGHTING else image
+    packed = tiled_apply(lambda x: session.run(x, names), net_input, tile, overlap)
     timings["infer"] = time.perf_counter() - t
     computed = np.concatenate([np.arange(N_CHANNELS)[SLICES[n]] for n in names])
     # A part graph leaves the other maps' channels NaN; overflow shows in the computed ones (e.g. float photos near

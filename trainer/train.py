@@ -36,7 +36,7 @@ import torch
 from svbrdf.runtime.camera import radius2
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.burn_in import highlight_centre, photo_burn_in
-from svbrdf.runtime.flash_trend import postprocess
+from svbrdf.runtime.flash_trend import even_lighting, postprocess
 from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.tiling import tile_boxes, tile_weights
@@ -184,6 +184,10 @@ class Trainer:
         photo = self._check_photo(photo, photo_info)
         self.photo_info = dict(photo_info) if photo_info else tensor_photo_info(photo)
         self.photo = photo.to(self.device, torch.float32)
+        self.net_input = self.photo  # what the generator sees: the photo, or it evenly lit (config.even_lighting)
+        if config.even_lighting > 0:
+            even = even_lighting(self.photo[0].permute(1, 2, 0).cpu().numpy(), config.even_lighting)
+            self.net_input = torch.from_numpy(even).permute(2, 0, 1)[None].to(self.device)
         h, w = self.photo.shape[-2:]
         self.tile = min(config.tile, h, w)
         if self.tile < self.min_tile():  # the photo passed the same check, so config.tile is too small
@@ -322,7 +326,7 @@ class Trainer:
         due = self.step // self.config.context_every
         if refresh or self.context is None or due != self._context_step:
             with torch.no_grad():
-                self.context = self.generator.photo_context(self.photo.to(torch.float32))
+                self.context = self.generator.photo_context(self.net_input.to(torch.float32))
             self._context_step = due
         return self.context
 
@@ -405,11 +409,12 @@ class Trainer:
     def _g_step(self, key: str, terms: Dict[str, List[torch.Tensor]]) -> None:
         y0, x0 = self._draw_tile(self.tile_rng)
         x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
+        x_in = self._crop(self.net_input, y0, x0)
         trained = _DECODER_BY_KEY[key].maps
         frozen = tuple(n for n in MAP_NAMES if n not in trained)
         size = (x.shape[-2], x.shape[-1])
         with self._amp():
-            latent = self.generator.forward_features(x, self._context(), torch.tensor([y0, x0]))
+            latent = self.generator.forward_features(x_in, self._context(), torch.tensor([y0, x0]))
             out = self.generator.decode(latent, trained, size)
             with torch.no_grad():
                 out.update(self.generator.decode(latent, frozen, size))
@@ -478,7 +483,7 @@ class Trainer:
             x = self._crop(self.photo, y0, x0)
             with torch.no_grad():
                 with self._amp():
-                    maps = self._tile_maps(x, y0, x0).float()
+                    maps = self._tile_maps(self._crop(self.net_input, y0, x0), y0, x0).float()
                 fake = self._seen(self._radiance(maps, y0, x0))
         with self._amp():
             real_logits, fake_logits = self.discriminator(x), self.discriminator(fake.detach())
@@ -491,7 +496,7 @@ class Trainer:
         y0, x0 = self._draw_tile(self.tile_rng)
         x, guess = self._crop(self.photo, y0, x0), self._crop(self.guess, y0, x0)
         with self._amp():
-            maps = self._tile_maps(x, y0, x0)
+            maps = self._tile_maps(self._crop(self.net_input, y0, x0), y0, x0)
         rendering, total = self._generator_losses(("nr", "ds"), x, guess, maps.float(), y0, x0, terms)
         self._apply(("nr", "ds") + self._camera_keys, total)
         if self.gan_active:
@@ -540,7 +545,7 @@ class Trainer:
         self._context(refresh=True)
         for y0, x0 in self.eval_boxes:
             x = self._crop(self.photo, y0, x0)
-            m = self._tile_maps(x, y0, x0).float()
+            m = self._tile_maps(self._crop(self.net_input, y0, x0), y0, x0).float()
             l1.append((self._seen(self._radiance(m, y0, x0)) - x).abs().mean())
             maps.append(m)
         maps_t = torch.cat(maps)
@@ -592,7 +597,7 @@ class Trainer:
 
     def predict(self) -> torch.Tensor:
         """(1, 8, H, W) maps of the whole photo as the generator predicts them (see :func:`predict_full`)."""
-        return predict_full(self.generator, self.photo, max_side=self.config.predict_max_side,
+        return predict_full(self.generator, self.net_input, max_side=self.config.predict_max_side,
                             overlap=self.config.predict_overlap, context=self.config.photo_context)
 
     def predict_maps(self, meta: Optional[dict] = None) -> Maps:

@@ -130,3 +130,47 @@ def test_postprocess_runs_the_asked_steps_and_scores_before_and_after():
     assert all(np.array_equal(getattr(on, n), getattr(want, n)) for n in ("diffuse", "specular", "roughness", "normal"))
     assert on.meta["burn_in_model"] == photo_burn_in(burnt, photo)
     assert on.meta["burn_in"]["burn_in"] < 0.5 * on.meta["burn_in_model"]["burn_in"]
+
+
+def _lit_texture(h=96, w=128, seed=0):
+    """A stationary colour texture (linear) and the same under a flash's fall-off (cosine cubed over the squared
+    distance of a flash at 0.4 widths above the plane, centred off the image centre)."""
+    tex = 0.2 + 0.5 * _texture(max(h, w), seed).diffuse[:h, :w]
+    yy, xx = np.mgrid[0:h, 0:w] + 0.5
+    r2 = ((yy - 40) ** 2 + (xx - 70) ** 2) / w ** 2
+    light = (1.0 / (1.0 + r2 / 0.4 ** 2) ** 2).astype(np.float32)
+    return tex.astype(np.float32), tex * light[..., None]
+
+
+def test_even_lighting_takes_out_the_flash_and_keeps_the_texture_and_colour():
+    tex, photo = _lit_texture()
+    even = ft.even_lighting(photo, 0.25)
+    assert even.shape == photo.shape and even.dtype == np.float32 and (even >= 0).all()
+    lum, even_lum, tex_lum = photo.mean(-1), even.mean(-1), tex.mean(-1)
+    assert np.median(even_lum) == pytest.approx(np.median(lum), rel=1e-5)  # the level is the photo's
+    # Brightness under the flash against a corner, over the texture's own ratio: 11.7 in the photo; the narrower
+    # the low pass, the closer to 1 (0.25 of the width takes out the broad fall-off only, 1/16 nearly all of it).
+    spot, corner = (slice(30, 50), slice(60, 80)), (slice(84, 96), slice(0, 12))
+    ratio = lambda a: a[spot].mean() / a[corner].mean() / (tex_lum[spot].mean() / tex_lum[corner].mean())  # noqa
+    ratios = [ratio(ft.even_lighting(photo, s).mean(-1)) for s in (1 / 16, 1 / 8, 1 / 4)]
+    assert ratio(lum) > 10 and ratios == sorted(ratios) and ratios[-1] < 0.5 * ratio(lum) and ratios[0] < 1.3
+    # Every channel divided by the same field: a pixel's colour (channel ratios) is kept exactly.
+    np.testing.assert_allclose(even[..., 0] * photo[..., 1], even[..., 1] * photo[..., 0], rtol=1e-4, atol=1e-7)
+
+
+def test_an_evenly_lit_photo_is_left_as_it_is():
+    tex, _ = _lit_texture()
+    flat = np.full_like(tex, 0.3)
+    np.testing.assert_allclose(ft.lighting_field(flat, 0.25), 0.3, rtol=1e-5)
+    np.testing.assert_allclose(ft.even_lighting(flat, 0.25), flat, rtol=1e-5)
+    # A pure texture is changed only by its own smooth part: most of it is kept.
+    assert np.corrcoef(ft.even_lighting(tex, 0.25).mean(-1).ravel(), tex.mean(-1).ravel())[0, 1] > 0.95
+
+
+@pytest.mark.parametrize("shape", [(9, 9), (37, 58), (300, 130)])
+def test_lighting_field_shapes_and_small_photos(shape):
+    rng = np.random.default_rng(1)
+    photo = rng.uniform(0, 1, shape + (3,)).astype(np.float32)
+    photo[0, 0] = 0.0  # black pixels are floored, not log(0)
+    field = ft.lighting_field(photo, 0.25)
+    assert field.shape == shape and field.dtype == np.float32 and np.isfinite(field).all() and (field > 0).all()

@@ -123,7 +123,12 @@ def test_session_reads_the_manifest(session, tiny_model):
     assert session.metadata["training"]["step"] == 7
 
 
-def test_estimate_array_in_one_pass(session):
+@pytest.mark.parametrize("even", [0.25, None])
+def test_estimate_array_in_one_pass(session, even, monkeypatch):
+    from svbrdf.runtime import session as session_module
+    from svbrdf.runtime.flash_trend import even_lighting
+
+    monkeypatch.setattr(session_module, "EVEN_LIGHTING", even)
     photo = _texture(37, 58)
     maps = estimate(photo, session)
     _check_maps(maps, (37, 58))
@@ -133,8 +138,10 @@ def test_estimate_array_in_one_pass(session):
     assert set(meta["timings"]) == {"read", "resize", "infer", "post"}
     assert maps.render_config == session.render_config and maps.render_config.fov_deg == TINY_FOV
     assert "render_config" not in meta  # a typed field, not a dict in the metadata
-    # The maps are the model's output, clipped/renormalised, the colour from the photo, the flash trend removed.
-    raw = session.run(photo)
+    # The maps are the model's output on the photo evenly lit (or as it is), clipped/renormalised, the colour from
+    # the photo, the flash trend removed; the post-processing reads the photo itself.
+    raw = session.run(photo if even is None else even_lighting(photo, even))
+    assert even is None or not np.allclose(raw, session.run(photo), atol=1e-3)  # the input did change
     from svbrdf.runtime.burn_in import photo_burn_in
     from svbrdf.runtime.flash_trend import remove_flash_trend, uniform_specular
     from svbrdf.runtime.highlight_fill import fill_highlight

@@ -556,3 +556,31 @@ def test_locate_flash_finds_an_off_centre_highlight():
     assert abs(x - (2 * 72.5 / 96 - 1)) < 0.1 and abs(y - (64 - 2 * 16.5) / 96) < 0.1
     given = Trainer(photo, resolve("tiny", locate_flash=True, flash_position=(0.0, 0.0)), threads=1)
     assert given.flash_xy == (0.0, 0.0)  # a given position wins
+
+
+def test_even_lighting_feeds_the_generator_the_evenly_lit_photo_and_the_losses_the_photo(monkeypatch):
+    from svbrdf.runtime.flash_trend import even_lighting
+
+    photo = random_photo(64, 96)
+    cfg = resolve("tiny", tile=32, schedule="joint", eval_every=0, lambda_render=1.0, even_lighting=0.25)
+    trainer = Trainer(photo, cfg, threads=1)
+    want = even_lighting(photo[0].permute(1, 2, 0).numpy(), 0.25)
+    torch.testing.assert_close(trainer.net_input[0].permute(1, 2, 0), torch.from_numpy(want))
+    torch.testing.assert_close(trainer.photo, photo)  # the photo itself is kept for the losses
+    seen, targets = [], []
+    forward = trainer.generator.forward_features
+    monkeypatch.setattr(trainer.generator, "forward_features", lambda x, *a, **k: seen.append(x) or forward(x, *a, **k))
+    render_loss = train_mod.render_loss
+    monkeypatch.setattr(train_mod, "render_loss", lambda r, x, *a: targets.append(x) or render_loss(r, x, *a))
+    trainer.iteration()
+    crops = lambda t: [t[..., y:y + 32, x:x + 32] for y in range(33) for x in range(65)]  # noqa: E731
+    assert seen and all(any(torch.equal(s, c) for c in crops(trainer.net_input)) for s in seen)
+    assert targets and all(any(torch.equal(t, c) for c in crops(trainer.photo)) for t in targets)
+    # The final maps are the generator's on the evenly lit photo too.
+    torch.testing.assert_close(trainer.predict(), predict_full(trainer.generator, trainer.net_input,
+                                                                max_side=cfg.predict_max_side,
+                                                                overlap=cfg.predict_overlap))
+    # Off (0) in the paper's presets, and where a run sets it to 0: the generator sees the photo.
+    for off in (resolve("tiny", tile=32, eval_every=0), resolve("fast", tile=32, eval_every=0, even_lighting=0)):
+        t = Trainer(photo, off, threads=1)
+        assert off.even_lighting == 0 and t.net_input is t.photo
