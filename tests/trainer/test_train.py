@@ -79,7 +79,8 @@ def test_paper_and_zhao_presets_are_the_published_schedule():
     assert f.lambda_fourier == 0  # no longer needed once the flash term is in (docs/benchmarks/accuracy/)
     new = ("render", "saturate", "learn_vignetting", "learn_offsets", "lambda_render", "lambda_flash",
            "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "flash_trend",
-           "uniform_specular", "lambda_anchor", "anchor_maps", "gan_steps", "highlight_fill")
+           "uniform_specular", "lambda_anchor", "anchor_maps", "gan_steps", "highlight_fill", "even_lighting")
+    assert f.even_lighting == 0.25 and p.even_lighting == z.even_lighting == 0  # refine-detail/flat-input
     assert f.gan_steps == f.iters_finetune and p.gan_steps == z.gan_steps == 0  # refine-detail: the GAN drifts
     assert f.lambda_anchor > 0 and f.anchor_maps == ("normal",)  # docs/benchmarks/accuracy/, "Normals from ..."
     assert f.iters_finetune == 150 and resolve("fast-v1").iters_finetune == 600  # docs/benchmarks/prior/
