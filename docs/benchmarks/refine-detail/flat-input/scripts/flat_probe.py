@@ -5,7 +5,7 @@ benchmark (evaluate), with the runtime's post-processing on the original photo i
 
 SRC: ``procedural:N`` (held-out, seed 987654: the tuning set) or ``shared:GLOB`` (evaluation only).
 SIGMAS: comma-separated widths of ``even_lighting`` (``rtS`` the same), ``polyD``
-(``flat_lib.flatten_poly`` of degree D), ``llrS`` (``flat_lib.flatten_llr`` at width S) or ``mixD/R`` (diffuse and normal from the photo evenly lit at width D, the
+(``flat_lib.flatten_poly`` of degree D), ``llrS`` (``flat_lib.flatten_llr`` at width S) ``varspecS`` (evenly lit at S, the specular map as the network gives it, not one level) or ``mixD/R`` (diffuse and normal from the photo evenly lit at width D, the
 specular and roughness at R; no ``+lvl`` variant). Variants: ``shipped`` (the network on the photo); ``flat@s`` (every map from the flattened photo); ``flat@s+lvl`` (the flattened photo's
 maps, the roughness's median and the specular level set to the shipped preview's).
 """
@@ -59,6 +59,11 @@ for case in probe_cases(src):
             net = flatten_poly(photo, int(s[4:]))
         elif s.startswith("llr"):
             net = flatten_llr(photo, float(s[3:]))
+        elif s.startswith("varspec"):  # the specular as the network gives it (no one level), evenly lit at S
+            fm = maps_of(even_lighting(photo, float(s[7:])), photo)
+            variants[f"flat@{s}"] = postprocess(fm, photo, flash_trend=S.FLASH_TREND, specular_level=False,
+                                                highlight_fill=S.HIGHLIGHT_FILL)
+            continue
         else:  # "rt0.25" is the name the runs of flat-input/ gave the same
             net = even_lighting(photo, float(s.removeprefix("rt")))
         fm = maps_of(net, photo)
