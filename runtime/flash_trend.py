@@ -54,7 +54,7 @@ FIT_MAX_SIDE = 256
 #: and the default refine (``even_lighting`` of the ``fast`` preset) use, a fraction of the photo width: the best of
 #: 1/16, 1/8 and 1/4 on held-out procedural materials (docs/benchmarks/refine-detail/flat-input/). It takes out the
 #: flash's broad fall-off and part of its highlight; narrower widths take out more of the highlight and with it
-#: the network's cue for the gloss (the roughness turns matte).
+#: the network's cue for the gloss (the preview's roughness turns matte, the refine's blotchy).
 EVEN_LIGHTING_WIDTH = 0.25
 #: :func:`lighting_field` is computed on a block-mean copy no longer than this and interpolated (it is smooth).
 LIGHTING_MAX_SIDE = 64
