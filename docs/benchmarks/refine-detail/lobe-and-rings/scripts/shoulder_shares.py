@@ -6,6 +6,7 @@ when they pass MAX_SHARE; the fill itself then refuses a region past MAX_SHARE).
     python docs/benchmarks/refine-detail/lobe-and-rings/scripts/shoulder_shares.py > shoulder_shares.txt
 """
 import glob, warnings
+from pathlib import Path
 
 from svbrdf.runtime import highlight_fill as hf
 from svbrdf.runtime.burn_in import highlight_centre
@@ -13,7 +14,8 @@ from svbrdf.runtime.imageio import read_image
 from svbrdf.runtime.tiling import block_mean
 
 warnings.simplefilter("ignore")
-for f in sorted(glob.glob("../shared/data/henzler-flash/test/*/*.JPG")):
+DATA = Path(__file__).resolve().parents[5].parent / "shared" / "data"  # ../shared/data beside the repository
+for f in sorted(glob.glob(str(DATA / "henzler-flash" / "test" / "*" / "*.JPG"))):
     row = []
     for size in (256, 1024, 2048):
         img = read_image(f, max_size=size)
