@@ -39,8 +39,8 @@ from typing import Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from .burn_in import highlight_centre, photo_burn_in
-from .highlight_fill import _box_mean, fill_highlight
-from .tiling import block_mean
+from .highlight_fill import fill_highlight
+from .tiling import block_mean, box_mean
 from .maps import MAP_RANGES, Maps
 
 #: Widths of the radial bumps, as fractions of the image width: the highlight lobe (and a clipped highlight's
@@ -188,7 +188,7 @@ def lighting_field(photo: np.ndarray, sigma: float) -> np.ndarray:
     s = sigma * w / k  # in blocks; three boxes of radius r have the variance r (r + 1)
     r = max(1, int(round((math.sqrt(1 + 4 * s * s) - 1) / 2)))
     for _ in range(3):
-        g = _box_mean(g, r)
+        g = box_mean(g, r)
     f32 = lambda a: a.astype(np.float32)  # noqa: E731  (float32 at full size: 4x less time than float64 at 2048 px)
     field = f32(_interp_matrix(h, g.shape[0], k)) @ f32(g[..., 0]) @ f32(_interp_matrix(w, g.shape[1], k)).T
     return np.exp(field, out=field)
@@ -196,8 +196,8 @@ def lighting_field(photo: np.ndarray, sigma: float) -> np.ndarray:
 
 def even_lighting(photo: np.ndarray, sigma: float) -> np.ndarray:
     """The photo evenly lit: divided by its :func:`lighting_field`, scaled so that its median luminance is the
-    photo's (medians of a strided copy at most about 256 px long). Every channel is divided by the same field, so colours and the detail finer than ``sigma`` are kept;
-    a clipped highlight stays flat.
+    photo's (medians of a strided copy at most about 256 px long). Every channel is divided by the same field, so
+    colours and the detail finer than ``sigma`` are kept; a clipped highlight stays flat.
 
     Args:
         photo: (H, W, 3) linear photo.

@@ -55,7 +55,7 @@ from .burn_in import RING_RADII, highlight_centre
 from .maps import Maps
 from .render import ZHAO, light_vectors, shade
 from .tileable import map_weights, screened_poisson
-from .tiling import block_mean
+from .tiling import block_mean, box_mean
 
 #: A photo pixel is clipped when any linear channel reaches this (8-bit sRGB 254.5/255 and above: 0.99).
 CLIP_LEVEL = 0.98
@@ -197,7 +197,7 @@ def shoulder_mask(photo: np.ndarray, centre: Tuple[float, float], ratio: float) 
     k = _search_step(h, w)
     small = block_mean(np.asarray(photo, np.float32), k, partial=True)
     hs, ws = small.shape[:2]
-    lum = _box_mean(small.mean(axis=-1, keepdims=True), max(1, round(SHOULDER_BLUR * ws)))[..., 0]
+    lum = box_mean(small.mean(axis=-1, keepdims=True), max(1, round(SHOULDER_BLUR * ws)))[..., 0]
     v, l, d2 = light_vectors(hs, ws, None, SHOULDER_GEOMETRY)
     one = np.ones((hs, ws), np.float32)
     matte, _ = shade((0 * one, 0 * one, one), (v[..., 0], v[..., 1], v[..., 2]), (l[..., 0], l[..., 1], l[..., 2]),
@@ -231,14 +231,6 @@ def _clipped_highlight(photo: np.ndarray, centre: Tuple[float, float], k: int) -
     core = clipped & np.repeat(np.repeat(comp, k, axis=0), k, axis=1)[:h, :w]
     n = int(core.sum())
     return _disc_dilate(core, max(float(MIN_GROW_PX), GROW * math.sqrt(n / math.pi)))
-
-
-def _box_mean(x: np.ndarray, r: int) -> np.ndarray:
-    """Mean of ``x`` (h, w, C) over the (2r + 1)^2 window around each pixel (edges repeated), float64."""
-    a = np.pad(x.astype(np.float64), ((r + 1, r), (r + 1, r), (0, 0)), mode="edge")
-    c = a.cumsum(0).cumsum(1)
-    n = 2 * r + 1
-    return (c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]) / (n * n)
 
 
 def _search_step(h: int, w: int) -> int:
@@ -346,7 +338,7 @@ def _patch_offsets(x: np.ndarray, mask: np.ndarray, wts: np.ndarray, radius: flo
     xs = src.xs
     # How unlike the material a source pixel is: its local mean's squared distance from the median level of the
     # maps outside the region, in variance units (a stain or a piece of a ring around the flash is far from it).
-    local = _box_mean(xs, max(1, PATCH_SIDE // 4))
+    local = box_mean(xs, max(1, PATCH_SIDE // 4))
     level = np.median(local[~ms], axis=0)
     spec_untypical = np.fft.rfft2(np.einsum("hwc,c->hw", (local - level) ** 2, wts))
     comp = xs.copy()

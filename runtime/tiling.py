@@ -30,7 +30,8 @@ DEFAULT_OVERLAP = 64
 #: tile covers a pixel; on the grid, at 64 and 160, by 4 deg: tests/runtime/test_session.py).
 TILE_ALIGN = 32
 
-__all__ = ["DEFAULT_OVERLAP", "TILE_ALIGN", "tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply", "block_mean"]
+__all__ = ["DEFAULT_OVERLAP", "TILE_ALIGN", "tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply", "block_mean",
+           "box_mean"]
 
 
 def _check(tile: int, overlap: int) -> None:
@@ -186,3 +187,11 @@ def block_mean(arr: np.ndarray, k: int, partial: bool = False) -> np.ndarray:
     n_rows = np.minimum(k, r - k * np.arange(rr // k)).astype(np.float32)
     n_cols = np.minimum(k, w - k * np.arange(cc // k)).astype(np.float32)
     return sums / (n_rows[:, None, None] * n_cols[None, :, None])
+
+
+def box_mean(x: np.ndarray, r: int) -> np.ndarray:
+    """Mean of ``x`` (h, w, C) over the (2r + 1)^2 window around each pixel (edges repeated), float64."""
+    a = np.pad(x.astype(np.float64), ((r + 1, r), (r + 1, r), (0, 0)), mode="edge")
+    c = a.cumsum(0).cumsum(1)
+    n = 2 * r + 1
+    return (c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]) / (n * n)

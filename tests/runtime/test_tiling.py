@@ -161,3 +161,16 @@ def test_block_mean_full_and_partial_blocks(shape):
         for j in range(part.shape[1]):
             np.testing.assert_allclose(part[i, j], a[i * k:(i + 1) * k, j * k:(j + 1) * k].mean(axis=(0, 1)), atol=1e-6)
     assert block_mean(a, 1).dtype == np.float32 and block_mean(a, 1).shape == shape
+
+
+def test_box_mean_is_the_window_mean_with_edges_repeated():
+    from svbrdf.runtime.tiling import box_mean
+
+    x = np.random.default_rng(0).uniform(0, 1, (9, 11, 2))
+    r = 2
+    padded = np.pad(x, ((r, r), (r, r), (0, 0)), mode="edge")
+    want = np.stack([[padded[i:i + 2 * r + 1, j:j + 2 * r + 1].mean(axis=(0, 1)) for j in range(11)]
+                     for i in range(9)])
+    got = box_mean(x, r)
+    assert got.shape == x.shape and got.dtype == np.float64
+    np.testing.assert_allclose(got, want, atol=1e-12)

@@ -1,6 +1,7 @@
-"""A lighting model tried beside the runtime's (``svbrdf.runtime.flash_trend.even_lighting``, the low pass that
-began here as this probe's ``flatten`` and moved into the package unchanged): the photo divided by exp of a
-polynomial fitted to its log luminance (no border bias, no width), median luminance kept. Not adopted.
+"""Lighting models tried beside the runtime's (``svbrdf.runtime.flash_trend.even_lighting``, the low pass that
+began here as this probe's ``flatten`` and moved into the package unchanged), none adopted: a polynomial fitted to
+the log luminance (no border bias, no width) and a locally linear low pass (the window cut at the border). The
+photo is divided by either as the runtime divides it by its own (``_divide``).
 """
 import math
 
@@ -11,14 +12,29 @@ from svbrdf.runtime.tiling import block_mean
 SMALL = 64
 
 
+def _small_log_lum(photo):
+    """(log luminance of a block-mean copy <= SMALL px (float64, floored at 1e-4), block size k)."""
+    h, w = photo.shape[:2]
+    k = max(1, math.ceil(max(h, w) / SMALL))
+    lum = block_mean(np.asarray(photo, np.float32).mean(axis=-1, keepdims=True), k, partial=True)[..., 0]
+    return np.log(np.maximum(lum, 1e-4)).astype(np.float64), k
+
+
+def _divide(photo, field):
+    """(H, W, 3) float32: the photo divided by a lighting field, median luminance kept."""
+    lum = photo.mean(axis=-1)
+    flat = photo / field[..., None]
+    scale = np.median(lum) / max(float(np.median(flat.mean(axis=-1))), 1e-8)
+    return np.clip(flat * scale, 0, None).astype(np.float32)
+
+
 def poly_lighting(photo, degree):
     """(H, W) exp of a least-squares polynomial of ``degree`` in (x, y) (scaled to [-1, 1] by the width) fitted
     to the log luminance of a block-mean copy <= 64 px."""
     h, w = photo.shape[:2]
-    k = max(1, math.ceil(max(h, w) / SMALL))
-    lum = block_mean(np.asarray(photo, np.float32).mean(axis=-1, keepdims=True), k, partial=True)[..., 0]
-    g = np.log(np.maximum(lum, 1e-4)).astype(np.float64)
+    g, k = _small_log_lum(photo)
     hs, ws = g.shape
+
     def terms(ys, xs):
         return np.stack([xs ** i * ys ** j for i in range(degree + 1) for j in range(degree + 1 - i)], -1)
     yy, xx = np.meshgrid((np.arange(hs) + 0.5) * k, (np.arange(ws) + 0.5) * k, indexing="ij")
@@ -30,10 +46,7 @@ def poly_lighting(photo, degree):
 
 def flatten_poly(photo, degree=4):
     """(H, W, 3) float32: the photo divided by :func:`poly_lighting`, median luminance kept."""
-    lum = photo.mean(axis=-1)
-    flat = photo / poly_lighting(photo, degree)[..., None]
-    scale = np.median(lum) / max(float(np.median(flat.mean(axis=-1))), 1e-8)
-    return np.clip(flat * scale, 0, None).astype(np.float32)
+    return _divide(photo, poly_lighting(photo, degree))
 
 
 def _box_sum0(x, r):
@@ -51,9 +64,7 @@ def llr_lighting(photo, sigma):
     from svbrdf.runtime.flash_trend import _interp_matrix
 
     h, w = photo.shape[:2]
-    k = max(1, math.ceil(max(h, w) / SMALL))
-    lum = block_mean(np.asarray(photo, np.float32).mean(axis=-1, keepdims=True), k, partial=True)[..., 0]
-    g = np.log(np.maximum(lum, 1e-4)).astype(np.float64)
+    g, k = _small_log_lum(photo)
     hs, ws = g.shape
     s = sigma * w / k
     r = max(1, int(round((math.sqrt(1 + 4 * s * s) - 1) / 2)))
@@ -77,7 +88,4 @@ def llr_lighting(photo, sigma):
 
 def flatten_llr(photo, sigma=0.25):
     """(H, W, 3) float32: the photo divided by :func:`llr_lighting`, median luminance kept."""
-    lum = photo.mean(axis=-1)
-    flat = photo / llr_lighting(photo, sigma)[..., None]
-    scale = np.median(lum) / max(float(np.median(flat.mean(axis=-1))), 1e-8)
-    return np.clip(flat * scale, 0, None).astype(np.float32)
+    return _divide(photo, llr_lighting(photo, sigma))

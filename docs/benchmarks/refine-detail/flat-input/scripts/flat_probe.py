@@ -1,13 +1,17 @@
-"""The preview from the evenly lit photo (``svbrdf.runtime.flash_trend.even_lighting``) against the network on the photo itself, per case of the
-benchmark (evaluate), with the runtime's post-processing on the original photo in every variant.
+"""The preview from the evenly lit photo (``svbrdf.runtime.flash_trend.even_lighting``) against the network on the
+photo itself, per case of the benchmark (evaluate), with the runtime's post-processing on the original photo in
+every variant.
 
     OMP_NUM_THREADS=1 python docs/benchmarks/refine-detail/flat-input/scripts/flat_probe.py SRC OUT.json [SIGMAS]
 
 SRC: ``procedural:N`` (held-out, seed 987654: the tuning set) or ``shared:GLOB`` (evaluation only).
-SIGMAS: comma-separated widths of ``even_lighting`` (``rtS`` the same), ``polyD``
-(``flat_lib.flatten_poly`` of degree D), ``llrS`` (``flat_lib.flatten_llr`` at width S) ``varspecS`` (evenly lit at S, the specular map as the network gives it, not one level) or ``mixD/R`` (diffuse and normal from the photo evenly lit at width D, the
-specular and roughness at R; no ``+lvl`` variant). Variants: ``shipped`` (the network on the photo); ``flat@s`` (every map from the flattened photo); ``flat@s+lvl`` (the flattened photo's
-maps, the roughness's median and the specular level set to the shipped preview's).
+SIGMAS, comma-separated: a width of ``even_lighting`` (``rtS`` the same); ``polyD`` (``flat_lib.flatten_poly`` of
+degree D); ``llrS`` (``flat_lib.flatten_llr`` at width S); ``varspecS`` (evenly lit at S, the specular map as the
+network gives it, not one level); ``mixD/R`` (diffuse and normal from the photo evenly lit at width D, specular and
+roughness at R).
+Variants: ``shipped`` (the network on the photo itself: the preview before this folder); ``flat@s`` (every map from
+the evenly lit photo); ``flat@s+lvl`` (those maps, the roughness's median and the specular level set to the
+``shipped`` maps'; not for ``mix`` and ``varspec``).
 """
 import sys, warnings
 from pathlib import Path
@@ -17,10 +21,9 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).parent))
 sys.path.insert(0, str(Path(__file__).parents[2] / "lobe-and-rings" / "scripts"))
 from flat_lib import flatten_llr, flatten_poly  # noqa: E402
-from svbrdf.runtime.flash_trend import even_lighting
 from rings_lib import probe_cases, write_means  # noqa: E402
 from svbrdf.runtime import session as S
-from svbrdf.runtime.flash_trend import postprocess
+from svbrdf.runtime.flash_trend import even_lighting, postprocess
 from svbrdf.runtime.maps import Maps
 from svbrdf.trainer.bench.metrics import evaluate
 

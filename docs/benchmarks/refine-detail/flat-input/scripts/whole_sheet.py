@@ -1,23 +1,23 @@
 """Whole photos (not the benchmark's centre crops) as the preview gives them, at a given size, with the network's
 input evenly lit at each of several widths (``svbrdf.runtime.session.EVEN_LIGHTING``; ``none``: the photo as it
-is; ``polyD``: ``flat_lib.flatten_poly``). Per photo and setting one row of the before/after grid's layout (photo, base colour, normal, roughness,
-specular, relit by the flash and two lights), each panel scaled to ROW_H pixels high. Prints each row's burn-in.
+is; ``polyD``: ``flat_lib.flatten_poly``). Per photo and setting one row of the before/after grid's layout
+(photo, base colour, normal, roughness, specular, relit by the flash and two lights; ``before_after.row_image``
+cannot be used: the relit panel of a large photo is smaller than its maps), each panel strided to about ROW_H
+pixels high. Prints each row's burn-in.
 
     python docs/benchmarks/refine-detail/flat-input/scripts/whole_sheet.py OUT.png SIZE none,0.25,poly4 PHOTO [PHOTO ...]
 """
 import sys, warnings
-
 from pathlib import Path
 
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).parent))
 from flat_lib import flatten_poly  # noqa: E402
-from svbrdf.runtime.flash_trend import even_lighting
-
 from svbrdf.runtime import session as S
-from svbrdf.runtime.imageio import write_image
 from svbrdf.runtime.colour import linear_to_srgb
+from svbrdf.runtime.flash_trend import even_lighting
+from svbrdf.runtime.imageio import write_image
 from svbrdf.runtime.maps import encode_normal
 from svbrdf.runtime.render import ZHAO
 from svbrdf.runtime.texture_set import relit_panel

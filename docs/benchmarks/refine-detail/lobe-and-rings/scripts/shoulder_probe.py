@@ -16,6 +16,7 @@ from svbrdf.runtime import highlight_fill as hf
 from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.flash_trend import remove_flash_trend
 from svbrdf.runtime.render import ZHAO, light_vectors, shade
+from svbrdf.runtime.tiling import box_mean
 from svbrdf.trainer.bench.metrics import evaluate, gaussian_blur
 
 sys.path.insert(0, str(Path(__file__).parent))
@@ -66,7 +67,7 @@ for f in sorted(cache.glob("*.pkl")):
         shares[f"fast+shoulder{t:g}"] = float(mask.mean()) if filled.meta["highlight_fill"]["filled"] else 0.0
         # only the fill's smooth part: the maps keep their own detail, their level follows the fill
         r = max(1, round(LOW * m0.shape[1]))
-        low = {n: getattr(m0, n) + hf._box_mean(getattr(filled, n) - getattr(m0, n), r).astype(np.float32)
+        low = {n: getattr(m0, n) + box_mean(getattr(filled, n) - getattr(m0, n), r).astype(np.float32)
                for n in hf.FILL_MAPS}
         lowmaps = m0._with({**dict(m0.items()), **low}).clipped()
         variants[f"fast+shoulderlow{t:g}"] = remove_flash_trend(lowmaps, centre=centre)
