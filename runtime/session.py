@@ -195,6 +195,22 @@ class PreviewSession:
         return self.info.path
 
     @property
+    def even_lighting(self) -> Optional[float]:
+        """The width of :func:`~svbrdf.runtime.flash_trend.even_lighting` the network is shown the photo at
+        (``None``: the photo as it is), from what the model was trained on.
+
+        A model fine-tuned on a photo (any stage but ``"prior"``) saw what its ``train_config.even_lighting``
+        says (absent or 0, as in every export before it existed and in the paper's presets: the photo itself). A
+        stage one (``"prior"``, or no training record) learned on flash photos as they are, and is shown them
+        evenly lit at :data:`EVEN_LIGHTING` because that measured better (docs/benchmarks/refine-detail/flat-input/);
+        its ``train_config`` is the fine-tune preset meant for it, not its own input.
+        """
+        training = self.metadata.get("training") or {}
+        if training.get("stage") in (None, "prior"):
+            return EVEN_LIGHTING or None
+        return float((training.get("train_config") or {}).get("even_lighting") or 0.0) or None
+
+    @property
     def loaded(self) -> Tuple[str, ...]:
         """Graphs created so far (``"full"`` and/or part names), in creation order."""
         return tuple(self._sessions)
@@ -276,7 +292,8 @@ HIGHLIGHT_FILL = True
 #: The network sees the photo divided by its own smooth lighting (:func:`svbrdf.runtime.flash_trend.even_lighting`,
 #: a low pass of this standard deviation, a fraction of the width; ``None`` or 0: the photo as it is). The flash's
 #: fall-off and the broad part of its highlight are then not in the network's input, so it cannot paint them into
-#: the maps (docs/benchmarks/refine-detail/flat-input/).
+#: the maps (docs/benchmarks/refine-detail/flat-input/). For a stage one; a fine-tuned model is shown what it was
+#: trained on (:attr:`PreviewSession.even_lighting`).
 EVEN_LIGHTING: Optional[float] = EVEN_LIGHTING_WIDTH
 #: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;
 #: at 1024 px the full-size quantile alone cost 0.1 s).
@@ -428,7 +445,8 @@ def estimate(
     timings["resize"] = time.perf_counter() - t
 
     t = time.perf_counter()
-    net_input = even_lighting(image, EVEN_LIGHTING) if EVEN_LIGHTING else image
+    width = session.even_lighting
+    net_input = even_lighting(image, width) if width else image
     packed = tiled_apply(lambda x: session.run(x, names), net_input, tile, overlap)
     timings["infer"] = time.perf_counter() - t
     computed = np.concatenate([np.arange(N_CHANNELS)[SLICES[n]] for n in names])
@@ -444,6 +462,7 @@ def estimate(
         "model": {"path": str(session.path), "sha256": session.info.sha256, "verified": session.info.verified,
                   "graph": graph},
         "maps": list(names),
+        "even_lighting": width,  # what the network was shown: the photo evenly lit at this width, or None
         "input_size": [in_h, in_w],
         "size": [h, w],
         "resized": (h, w) != (in_h, in_w),

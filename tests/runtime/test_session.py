@@ -116,6 +116,24 @@ def test_missing_and_corrupt_models(tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------------------------------------------ inference
+def test_a_model_is_shown_the_input_it_was_trained_on(session, monkeypatch):
+    from svbrdf.runtime import session as session_module
+
+    monkeypatch.setattr(session_module, "EVEN_LIGHTING", 0.25)
+    config = session.metadata["training"]["train_config"]
+    for stage, train_even, want in [("pretrain", 0.0, None), ("finetune", 0.25, 0.25), ("fit", 0.5, 0.5),
+                                    ("finetune", None, None), ("prior", 0.0, 0.25), (None, 0.0, 0.25)]:
+        config = {k: v for k, v in config.items() if k != "even_lighting"}
+        if train_even is not None:
+            config["even_lighting"] = train_even
+        monkeypatch.setitem(session.metadata, "training", {"stage": stage, "train_config": config})
+        assert session.even_lighting == want, (stage, train_even)
+    monkeypatch.setitem(session.metadata, "training", None)  # a bare module's export: as a stage one
+    assert session.even_lighting == 0.25
+    monkeypatch.setattr(session_module, "EVEN_LIGHTING", None)
+    assert session.even_lighting is None
+
+
 def test_session_reads_the_manifest(session, tiny_model):
     assert isinstance(session, PreviewSession)
     assert session.path == tiny_model and session.providers[-1] == "CPUExecutionProvider"
@@ -123,17 +141,23 @@ def test_session_reads_the_manifest(session, tiny_model):
     assert session.metadata["training"]["step"] == 7
 
 
-@pytest.mark.parametrize("even", [0.25, None])
-def test_estimate_array_in_one_pass(session, even, monkeypatch):
+@pytest.mark.parametrize("stage, even", [("prior", 0.25), ("prior", None), ("finetune", 0.125), ("finetune", 0.0)])
+def test_estimate_array_in_one_pass(session, stage, even, monkeypatch):
     from svbrdf.runtime import session as session_module
     from svbrdf.runtime.flash_trend import even_lighting
 
-    monkeypatch.setattr(session_module, "EVEN_LIGHTING", even)
+    # A stage one is shown the photo evenly lit at the runtime's width; a fine-tuned model at its own training's.
+    monkeypatch.setattr(session_module, "EVEN_LIGHTING", even if stage == "prior" else 0.3)
+    training = {**session.metadata["training"], "stage": stage,
+                "train_config": {**session.metadata["training"]["train_config"], "even_lighting": even}}
+    monkeypatch.setitem(session.metadata, "training", training)
+    even = even or None
+    assert session.even_lighting == even
     photo = _texture(37, 58)
     maps = estimate(photo, session)
     _check_maps(maps, (37, 58))
     meta = maps.meta
-    assert meta["tiles"] == 1 and not meta["resized"] and meta["size"] == [37, 58]
+    assert meta["tiles"] == 1 and not meta["resized"] and meta["size"] == [37, 58] and meta["even_lighting"] == even
     assert meta["model"]["sha256"] == session.info.sha256 and meta["model"]["verified"]
     assert set(meta["timings"]) == {"read", "resize", "infer", "post"}
     assert maps.render_config == session.render_config and maps.render_config.fov_deg == TINY_FOV
