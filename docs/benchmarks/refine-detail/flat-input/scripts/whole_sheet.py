@@ -6,8 +6,10 @@ cannot be used: the relit panel of a large photo is smaller than its maps), each
 pixels high. Prints each row's burn-in.
 
     python docs/benchmarks/refine-detail/flat-input/scripts/whole_sheet.py OUT.png SIZE none,0.25,poly4 PHOTO [PHOTO ...]
+
+``MODEL=path.onnx`` in the environment: that model instead of the packaged one.
 """
-import sys, warnings
+import os, sys, warnings
 from pathlib import Path
 
 import numpy as np
@@ -25,7 +27,7 @@ from svbrdf.runtime.texture_set import relit_panel
 warnings.simplefilter("ignore")
 ROW_H = 192
 out, size, settings, photos = sys.argv[1], int(sys.argv[2]), sys.argv[3].split(","), sys.argv[4:]
-sess = S.load_session()
+sess = S.load_session(os.environ.get("MODEL") or None)
 rows = []
 for f in photos:
     for setting in settings:
