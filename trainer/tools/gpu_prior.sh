@@ -64,9 +64,12 @@ if torch.cuda.is_available():
         photos, maps, _ = sample_batch(cfg, rng, device="cuda")
         torch.cuda.set_sync_debug_mode("default")
         torch.cuda.synchronize()
-    syncs = sum("synchroniz" in str(w.message) for w in caught)
+    where = [f"{w.filename.split('/svbrdf/')[-1]}:{w.lineno}" for w in caught if "synchroniz" in str(w.message)]
     print(f"gpu_prior: one v2 batch {tuple(photos.shape)} on cuda in {time.perf_counter() - t0:.3f} s, "
-          f"{syncs} host synchronisations")
+          f"{len(where)} host synchronisations")
+    from collections import Counter  # where they come from (the Python line that called the synchronising op)
+    for place, count in Counter(where).most_common(12):
+        print(f"gpu_prior:   {count:3d} x {place}")
 EOF
 fi
 
