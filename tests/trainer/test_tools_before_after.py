@@ -65,3 +65,17 @@ def test_an_unwritable_format_is_refused_before_any_fine_tune(tmp_path, tiny_ckp
     err = capsys.readouterr().err
     assert "unsupported output format '.jpg'" in err and err.count("\n") == 1
     assert not out.exists() and not out.with_suffix(".json").exists()
+
+
+def test_a_row_larger_than_the_panel_size_lines_up():
+    from svbrdf.runtime.maps import Maps
+    from svbrdf.runtime.texture_set import PANEL_SIZE
+
+    s = PANEL_SIZE + 8
+    rng = np.random.default_rng(0)
+    maps = Maps(diffuse=rng.uniform(0, 1, (s, s, 3)).astype(np.float32),
+                specular=np.full((s, s, 1), 0.04, np.float32), roughness=np.full((s, s, 1), 0.5, np.float32),
+                normal=np.tile(np.array([0, 0, 1], np.float32), (s, s, 1)))
+    row = before_after.row_image(rng.uniform(0, 1, (s, s, 3)).astype(np.float32), maps)
+    assert row.shape == (s, 8 * s, 3)
+

@@ -34,10 +34,11 @@ from svbrdf.runtime.texture_set import relit_panel
 
 
 def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:
-    """(S, 8 S, 3) sRGB-encoded row: photo, base colour, normal, roughness, specular, three relit panels."""
+    """(S, 8 S, 3) sRGB-encoded row: photo, base colour, normal, roughness, specular, three relit panels (rendered
+    at the maps' size, so that a square larger than the texture set's panel size lines up)."""
     grey = lambda a: np.repeat(a, 3, axis=-1)  # noqa: E731
     parts = [linear_to_srgb(np.clip(photo, 0, 1)), linear_to_srgb(maps.diffuse), encode_normal(maps.normal),
-             grey(maps.roughness), grey(linear_to_srgb(maps.specular)), relit_panel(maps, ZHAO)]
+             grey(maps.roughness), grey(linear_to_srgb(maps.specular)), relit_panel(maps, ZHAO, size=None)]
     return np.concatenate([np.asarray(p, np.float32) for p in parts], axis=1)
 
 
