@@ -52,6 +52,9 @@ MODEL_ENV = "SVBRDF_MODEL"
 INPUT_NAME = "image"
 OUTPUT_NAME = "maps"
 MIN_SIZE = 8
+#: ``training.stage`` of a stage one (a prior trained on procedural materials, :mod:`svbrdf.trainer.prior`); any
+#: other stage is a model fine-tuned on one photo.
+PRIOR_STAGE = "prior"
 
 
 @dataclass(frozen=True)
@@ -82,7 +85,7 @@ DECODERS: Tuple[Decoder, ...] = (
 PARTS: Mapping[str, Tuple[str, ...]] = {d.part: d.maps for d in DECODERS}
 
 __all__ = [
-    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "Decoder", "DECODERS", "PARTS",
+    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "PRIOR_STAGE", "Decoder", "DECODERS", "PARTS",
     "part_file_name",
     "ModelInfo", "find_model",
     "manifest_path_for", "read_manifest", "sha256_file", "map_layout", "input_contract", "check_layout",

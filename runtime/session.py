@@ -57,7 +57,7 @@ from .errors import ImageError, ModelError, SvbrdfError
 from .imageio import RESIZE_FILTER, ImageWarning, image_info, read_image, resize_long_side
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
 from .manifest import (
-    INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, ModelInfo, check_layout, find_model,
+    INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, PRIOR_STAGE, ModelInfo, check_layout, find_model,
 )
 from .render import ZHAO, RenderConfig
 from .tiling import DEFAULT_OVERLAP, block_mean, tile_boxes, tiled_apply
@@ -206,7 +206,7 @@ class PreviewSession:
         its ``train_config`` is the fine-tune preset meant for it, not its own input.
         """
         training = self.metadata.get("training") or {}
-        if training.get("stage") in (None, "prior"):
+        if training.get("stage") in (None, PRIOR_STAGE):
             return EVEN_LIGHTING or None
         return float((training.get("train_config") or {}).get("even_lighting") or 0.0) or None
 

@@ -48,6 +48,7 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.camera import REALISTIC, Camera, expose
+from svbrdf.runtime.manifest import PRIOR_STAGE
 from svbrdf.runtime.maps import SLICES
 from svbrdf.runtime.render import RenderConfig, light_vectors, physical_config
 from svbrdf.trainer import checkpoint as ckpt_io
@@ -61,7 +62,7 @@ from svbrdf.trainer.procedural import FAMILIES, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
 
 PathLike = Union[str, Path]
-STAGE = "prior"
+STAGE = PRIOR_STAGE
 #: Callback ``(trainer, record) -> stop?`` called after every iteration.
 Callback = Callable[["PriorTrainer", Dict[str, Any]], bool]
 
