@@ -273,7 +273,7 @@ def _fbm(k: int, size: int, g: torch.Generator, beta: float, low: float, aniso: 
     c, s = math.cos(angle), math.sin(angle)
     along, across = fx * c + fy * s, -fx * s + fy * c
     amp = ((along * aniso) ** 2 + across ** 2 + low * low) ** (-0.5 * beta)
-    amp[0, 0] = 0.0
+    amp[:1, :1].zero_()  # no DC term (a fill on the device: `amp[0, 0] = 0.0` copies a host scalar, a GPU sync)
     shape = (k,) + tuple(amp.shape)
     spec = torch.complex(_randn(g, *shape), _randn(g, *shape)) * amp
     return _norm01(torch.fft.irfft2(spec, s=(size, size)))

@@ -1,14 +1,17 @@
 """The procedural stage one (svbrdf.trainer.prior): photo simulation, losses, training, resume, fine-tune, CLI."""
 
+import contextlib
 import dataclasses
 import json
 import math
 import os
 import signal
+import traceback
 
 import numpy as np
 import pytest
 import torch
+from torch.utils._python_dispatch import TorchDispatchMode
 
 from svbrdf.runtime.colour import linear_to_srgb
 from svbrdf.runtime.maps import SLICES
@@ -22,6 +25,7 @@ from svbrdf.trainer.prior import (
     STAGE, PriorConfig, PriorTrainer, map_errors, prior_loss, prior_preset, resume_prior, sample_batch,
     simulate_photos, view_light_directions,
 )
+from svbrdf.trainer.device import to_device
 from svbrdf.trainer.procedural import sample_materials
 
 
@@ -382,6 +386,88 @@ def test_cuda_stream_stays_on_the_device_and_trains():
     trainer = PriorTrainer(cfg, device="cuda")
     trainer.run()
     assert trainer.step == cfg.iters and trainer.bf16
+
+
+class _HostReads(TorchDispatchMode):
+    """Records, on the meta device (a device with no data, standing in for a GPU), every operation that would make
+    the host wait for a GPU: a device value read on the host (``item``, ``int``, ``bool``...), an output whose
+    shape depends on device values (``nonzero``, boolean masks), a Python scalar written into a device tensor
+    (on CUDA an unpinned host-to-device copy) and any host-to-device copy not staged by ``to_device``."""
+
+    def __init__(self):
+        super().__init__()
+        self.found = []
+
+    def _note(self, what):
+        stack = [f for f in traceback.extract_stack()
+                 if ("svbrdf" in f.filename or "/trainer/" in f.filename) and "/tests/" not in f.filename]
+        self.found.append(f"{what} at {stack[-1].filename.rsplit('/', 1)[-1]}:{stack[-1].lineno}" if stack else what)
+
+    @staticmethod
+    def _from_python_code():
+        """Whether the op was called by a line of Python (``x[i] = 0.0``), not by autograd's backward."""
+        frames = [f for f in traceback.extract_stack() if "/torch/" not in f.filename and f.name != "__torch_dispatch__"
+                  and f.name != "_from_python_code"]
+        return bool(frames) and not frames[-1].line.rstrip().endswith(".backward()")
+
+    def __torch_dispatch__(self, func, types, args=(), kwargs=None):
+        kwargs = kwargs or {}
+        name = func.overloadpacket.__name__
+        meta = lambda t: isinstance(t, torch.Tensor) and t.device.type == "meta"  # noqa: E731
+        if name in ("_local_scalar_dense", "nonzero", "masked_select", "_unique2", "unique_dim") and meta(args[0]):
+            self._note(name)
+        elif name in ("index", "index_put_") and any(meta(i) and i.dtype == torch.bool for i in args[1] if i is not None):
+            self._note(f"{name} with a boolean mask")
+        elif name == "scalar_tensor" and str(kwargs.get("device")) == "meta" and self._from_python_code():
+            self._note("a Python scalar written into a device tensor")  # (autograd's own scalars stay on the device)
+        elif name in ("_to_copy", "copy_") and any(isinstance(a, torch.Tensor) and a.device.type == "cpu"
+                                                  for a in args[:2]) and (
+                str(kwargs.get("device")) == "meta" or meta(args[0])):
+            if not any(f.name == "to_device" for f in traceback.extract_stack()):
+                self._note("a host-to-device copy outside to_device")
+        if name == "_local_scalar_dense" and meta(args[0]):  # a meta tensor has no value: go on with a plausible one
+            return True if args[0].dtype == torch.bool else 1 if not args[0].dtype.is_floating_point else 0.5
+        if name == "nonzero" and meta(args[0]):  # no data-independent shape: say nothing is non-zero
+            return torch.empty(0, args[0].dim(), dtype=torch.long, device="meta")
+        return func(*args, **kwargs)
+
+
+def test_the_v2_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
+    # The GPU chunks counted 73 host synchronisations per batch (docs/benchmarks/prior-v2/chunks/README.md): each
+    # one stops the host until the GPU has run everything queued, so the batch cannot be built while the network
+    # trains. Checked on the CPU by building the batch and the loss on the meta device.
+    generator = torch.Generator
+
+    class OnTheHostForMeta:  # torch.Generator(device="meta") does not exist; its draws are the host's
+        def __new__(cls, device=None):
+            return generator() if device is None or str(device) == "meta" else generator(device=device)
+
+    monkeypatch.setattr(torch, "Generator", OnTheHostForMeta)
+    autocast = torch.autocast
+    monkeypatch.setattr(torch, "autocast", lambda device_type=None, *a, **k: contextlib.nullcontext()
+                        if device_type == "meta" else autocast(device_type, *a, **k))
+    cfg = prior_preset("v2")
+    rng = generator().manual_seed(2)
+    for _ in range(2):  # a crop batch and a whole-photo batch (crop_share 0.5)
+        with _HostReads() as probe:
+            photos, maps, info = sample_batch(cfg, rng, device="meta")
+            terms = prior_loss(maps.clone().requires_grad_(), maps, cfg, rng)
+            terms["total"].backward()
+        assert photos.device.type == "meta" and photos.shape == (cfg.batch, 3, cfg.size, cfg.size)
+        assert probe.found == [], probe.found[:5]
+
+
+def test_the_host_read_probe_sees_what_it_looks_for():
+    x = torch.zeros(4, 4, device="meta")
+    with _HostReads() as probe:
+        x.sum().item()
+        x[0, 0] = 1.0
+        x.nonzero()
+        torch.ones(2).to("meta")
+        to_device(torch.ones(2), "meta")
+    assert [f.split(" at ")[0] for f in probe.found] == [
+        "_local_scalar_dense", "a Python scalar written into a device tensor", "nonzero",
+        "a host-to-device copy outside to_device"], probe.found
 
 
 def test_cli_time_limit_resume_from_a_file_and_bad_input(tmp_path, capsys):
