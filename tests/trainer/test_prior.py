@@ -20,7 +20,7 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer import train as train_mod
 from svbrdf.trainer.stage import make_trainer
 from svbrdf.trainer.config import resolve
-from svbrdf.trainer.models import GeneratorConfig
+from svbrdf.trainer.models import Generator, GeneratorConfig
 from svbrdf.trainer.prior import (
     STAGE, PriorConfig, PriorTrainer, map_errors, prior_loss, prior_preset, resume_prior, sample_batch,
     simulate_photos, view_light_directions,
@@ -435,7 +435,7 @@ class _HostReads(TorchDispatchMode):
 def test_the_v2_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
     # The GPU chunks counted 73 host synchronisations per batch (docs/benchmarks/prior-v2/chunks/README.md): each
     # one stops the host until the GPU has run everything queued, so the batch cannot be built while the network
-    # trains. Checked on the CPU by building the batch and the loss on the meta device.
+    # trains. Checked on the CPU by taking training steps on the meta device.
     generator = torch.Generator
 
     class OnTheHostForMeta:  # torch.Generator(device="meta") does not exist; its draws are the host's
@@ -447,14 +447,21 @@ def test_the_v2_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
     monkeypatch.setattr(torch, "autocast", lambda device_type=None, *a, **k: contextlib.nullcontext()
                         if device_type == "meta" else autocast(device_type, *a, **k))
     cfg = prior_preset("v2")
+    net = Generator(cfg.generator).to("meta")
+    adam = torch.optim.Adam(net.parameters(), lr=1e-3)
     rng = generator().manual_seed(2)
-    for _ in range(2):  # a crop batch and a whole-photo batch (crop_share 0.5)
+    crops = set()
+    for _ in range(3):  # a training step as PriorTrainer takes it: batch, network, loss, backward, Adam
         with _HostReads() as probe:
             photos, maps, info = sample_batch(cfg, rng, device="meta")
-            terms = prior_loss(maps.clone().requires_grad_(), maps, cfg, rng)
+            terms = prior_loss(net(photos).float(), maps, cfg, rng)
+            adam.zero_grad(set_to_none=True)
             terms["total"].backward()
+            adam.step()
         assert photos.device.type == "meta" and photos.shape == (cfg.batch, 3, cfg.size, cfg.size)
         assert probe.found == [], probe.found[:5]
+        crops.add(info["crop"])
+    assert crops == {True, False}  # crops of larger photos and whole photos
 
 
 def test_the_host_read_probe_sees_what_it_looks_for():
