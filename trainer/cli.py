@@ -123,7 +123,8 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--width", type=float, help="generator width multiplier (default 0.25, the fast preset's)")
     p.add_argument("--lr", type=float, help="peak Adam learning rate (default 5e-4, cosine decay)")
     p.add_argument("--seed", type=int, help="seed of the weights and the material stream (default 0)")
-    p.add_argument("--checkpoint-every", type=int, metavar="N", help="iterations between checkpoints (default 100)")
+    p.add_argument("--checkpoint-every", type=int, metavar="N",
+                   help="iterations between checkpoints (default 100; v2: 2000; with --resume: the new interval)")
     p.add_argument("--resume", nargs="?", const=True, metavar="CKPT",
                    help="continue the run saved in --out (or in CKPT; the run then saves into --out) where it stopped")
     p.add_argument("--minutes", type=float, help="wall-clock limit: save the checkpoint and stop after this many "
@@ -251,6 +252,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             config.eval_every = args.eval_every
         if args.material_reuse is not None:
             config.material_reuse = args.material_reuse
+        if args.checkpoint_every is not None:  # how the run is kept, not what it learns: a resume may change it
+            config.checkpoint_every = args.checkpoint_every
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")

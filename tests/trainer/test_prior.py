@@ -496,6 +496,22 @@ def test_cli_time_limit_resume_from_a_file_and_bad_input(tmp_path, capsys):
     assert "no checkpoint to resume from" in capsys.readouterr().err
 
 
+def test_a_resume_takes_a_new_checkpoint_interval(tmp_path, monkeypatch):
+    # A background run on a CPU resumes a GPU chunk's checkpoint (v2: every 2000 iterations) and must save often
+    # enough to lose little when the session ends.
+    out = tmp_path / "v2"
+    args = ["prior", "--preset", "v2", "--out", str(out), "--size", "32", "--photo-size", "64", "--batch", "1",
+            "--threads", "1", "--iters", "1", "--log-every", "1", "--eval-every", "0", "--material-reuse", "1"]
+    assert cli.main(args) == 0
+    saved = []
+    real = PriorTrainer.save
+    monkeypatch.setattr(PriorTrainer, "save", lambda self, *a, **k: saved.append(self.step) or real(self, *a, **k))
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "5", "--checkpoint-every", "2",
+                     "--threads", "1"]) == 0
+    assert saved == [2, 4, 5]
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["checkpoint_every"] == 2
+
+
 def test_material_reuse_photographs_the_same_materials_anew(monkeypatch):
     from svbrdf.trainer import prior as prior_mod
 
