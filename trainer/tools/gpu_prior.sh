@@ -70,6 +70,30 @@ if torch.cuda.is_available():
     from collections import Counter  # where they come from (the Python line that called the synchronising op)
     for place, count in Counter(where).most_common(12):
         print(f"gpu_prior:   {count:3d} x {place}")
+    try:  # the rest of a training step (network, loss, backward, Adam), as PriorTrainer._step takes it
+        from svbrdf.trainer.models import Generator
+        from svbrdf.trainer.prior import prior_loss
+        net = Generator(cfg.generator).to("cuda")
+        adam = torch.optim.Adam(net.parameters(), lr=1e-4)
+        for watch in (False, True):  # the first step warms up kernels and allocators
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                torch.cuda.set_sync_debug_mode("warn" if watch else "default")
+                with torch.autocast("cuda", dtype=torch.bfloat16):
+                    pred = net(photos)
+                terms = prior_loss(pred.float(), maps, cfg, rng)
+                adam.zero_grad(set_to_none=True)
+                terms["total"].backward()
+                adam.step()
+                torch.cuda.set_sync_debug_mode("default")
+        torch.cuda.synchronize()
+        where = [f"{w.filename.split('/svbrdf/')[-1]}:{w.lineno}" for w in caught if "synchroniz" in str(w.message)]
+        print(f"gpu_prior: one step's network, loss and update: {len(where)} host synchronisations")
+        for place, count in Counter(where).most_common(12):
+            print(f"gpu_prior:   {count:3d} x {place}")
+        del net, adam, pred, terms
+    except Exception as e:  # the preflight informs; it never stops the chunk
+        print(f"gpu_prior: the step check failed: {type(e).__name__}: {e}")
 EOF
 fi
 
