@@ -304,32 +304,58 @@ def _worley(u: torch.Tensor, v: torch.Tensor, cells: int, g: torch.Generator, ji
     return near[0], near[1], idx.gather(0, order[:1])[0]
 
 
+#: Pixels (segments x window) rasterised at once by :func:`_segments`: bounds the memory on a CPU.
+SEGMENT_CHUNK_PIXELS = 1 << 20
+
+
 def _segments(size: int, g: torch.Generator, n: int, angle: float, spread: float, length: Tuple[float, float],
               width_px: Tuple[float, float]) -> torch.Tensor:
     """(H, W) mask in [0, 1] of ``n`` thin line segments (anti-aliased, random depth in [0.4, 1]).
 
     Directions are ``angle + spread * N(0, 1)``; lengths uniform in ``length`` (fraction of the image); widths
-    (half-widths, px) uniform in ``width_px``. Each segment is rasterised in its bounding box only.
+    (half-widths, px) uniform in ``width_px``. Each segment is rasterised in its bounding box, many at once: the
+    segments (smallest boxes first) go in chunks of at most :data:`SEGMENT_CHUNK_PIXELS` pixels, each segment in a
+    window of its chunk's largest box at its own box's corner, and the image keeps the largest value per pixel. A
+    window's pixels outside its segment's box are 0 (farther than the width from the segment) and those outside the
+    image are dropped, so the mask is the same as one box at a time; a chunk is about 30 operations on the device
+    whatever its size (a box at a time was about 45 per segment, the largest share of a batch's launches on a GPU).
     """
     out = torch.zeros(size, size)
-    r = torch.rand(n, 6, generator=g, device="cpu")  # read on the host: segment boxes
-    th = angle + spread * torch.randn(n, generator=g, device="cpu")
-    for i in range(n):
-        cx, cy = float(r[i, 0]) * size, float(r[i, 1]) * size
-        half = 0.5 * size * (length[0] + (length[1] - length[0]) * float(r[i, 2]))
-        w = width_px[0] + (width_px[1] - width_px[0]) * float(r[i, 3])
-        depth = 0.4 + 0.6 * float(r[i, 4])
-        dx, dy = math.cos(float(th[i])) * half, math.sin(float(th[i])) * half
+    r = torch.rand(n, 6, generator=g, device="cpu").tolist()  # host numbers: the segment boxes
+    th = (angle + spread * torch.randn(n, generator=g, device="cpu")).tolist()
+    boxes = []  # (area, y0, x0, height, width, cy - dy, cx - dx, dx, dy, 4 half^2 + 1e-9, w, depth), host floats
+    for (ru, rv, rl, rw, rd, _), theta in zip(r, th):
+        cx, cy = ru * size, rv * size
+        half = 0.5 * size * (length[0] + (length[1] - length[0]) * rl)
+        w = width_px[0] + (width_px[1] - width_px[0]) * rw
+        depth = 0.4 + 0.6 * rd
+        dx, dy = math.cos(theta) * half, math.sin(theta) * half
         x0, x1 = int(max(0, math.floor(cx - abs(dx) - w - 1))), int(min(size, math.ceil(cx + abs(dx) + w + 2)))
         y0, y1 = int(max(0, math.floor(cy - abs(dy) - w - 1))), int(min(size, math.ceil(cy + abs(dy) + w + 2)))
-        if x1 <= x0 or y1 <= y0:
-            continue
-        ys = torch.arange(y0, y1, dtype=torch.float32)[:, None] + 0.5 - (cy - dy)
-        xs = torch.arange(x0, x1, dtype=torch.float32)[None, :] + 0.5 - (cx - dx)
-        t = ((xs * 2 * dx + ys * 2 * dy) / (4 * half * half + 1e-9)).clamp(0.0, 1.0)
+        if x1 > x0 and y1 > y0:
+            boxes.append(((y1 - y0) * (x1 - x0), y0, x0, y1 - y0, x1 - x0, cy - dy, cx - dx, dx, dy,
+                          4 * half * half + 1e-9, w, depth))
+    boxes.sort(key=lambda b: b[0])
+    flat = out.view(-1)
+    start = 0
+    while start < len(boxes):
+        end, bh, bw = start, 0, 0
+        while end < len(boxes) and (end == start or (end + 1 - start) * max(bh, boxes[end][3]) * max(
+                bw, boxes[end][4]) <= SEGMENT_CHUNK_PIXELS):
+            bh, bw, end = max(bh, boxes[end][3]), max(bw, boxes[end][4]), end + 1
+        corner = to_device([b[1:3] for b in boxes[start:end]], flat.device, torch.int64)  # (k, 2) box corners
+        prm = to_device([b[5:] for b in boxes[start:end]], flat.device, torch.float64).float()  # (k, 7)
+        c0, c1, dx, dy, span, w, depth = (prm[:, i, None, None] for i in range(7))
+        rows = corner[:, 0, None, None] + torch.arange(bh)[None, :, None]  # (k, bh, 1) pixel rows
+        cols = corner[:, 1, None, None] + torch.arange(bw)[None, None, :]  # (k, 1, bw) pixel columns
+        ys, xs = rows.float() + 0.5 - c0, cols.float() + 0.5 - c1
+        t = ((xs * 2 * dx + ys * 2 * dy) / span).clamp(0.0, 1.0)
         dist = torch.hypot(xs - t * 2 * dx, ys - t * 2 * dy)
         m = (1.0 - dist / w).clamp(0.0, 1.0) * depth
-        out[y0:y1, x0:x1] = torch.maximum(out[y0:y1, x0:x1], m)
+        inside = (rows < size) & (cols < size)  # the image's pixels (the box is clipped to it at the low side)
+        index = torch.where(inside, rows * size + cols, 0)
+        flat.scatter_reduce_(0, index.reshape(-1), torch.where(inside, m, 0.0).reshape(-1), reduce="amax")
+        start = end
     return out
 
 

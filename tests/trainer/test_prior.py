@@ -403,12 +403,21 @@ class _HostReads(TorchDispatchMode):
                  if ("svbrdf" in f.filename or "/trainer/" in f.filename) and "/tests/" not in f.filename]
         self.found.append(f"{what} at {stack[-1].filename.rsplit('/', 1)[-1]}:{stack[-1].lineno}" if stack else what)
 
-    @staticmethod
-    def _from_python_code():
-        """Whether the op was called by a line of Python (``x[i] = 0.0``), not by autograd's backward."""
-        frames = [f for f in traceback.extract_stack() if "/torch/" not in f.filename and f.name != "__torch_dispatch__"
-                  and f.name != "_from_python_code"]
-        return bool(frames) and not frames[-1].line.rstrip().endswith(".backward()")
+    def __enter__(self):  # `x[i] = 0.5` on a CUDA tensor builds 0.5 on the host and copies it (a wait for a 0-d x[i])
+        setitem = self._setitem = torch.Tensor.__setitem__
+        probe = self
+
+        def checked(tensor, index, value):
+            if tensor.device.type == "meta" and isinstance(value, (bool, int, float)):
+                probe._note("a Python scalar written into a device tensor")
+            return setitem(tensor, index, value)
+
+        torch.Tensor.__setitem__ = checked
+        return super().__enter__()
+
+    def __exit__(self, *exc):
+        torch.Tensor.__setitem__ = self._setitem
+        return super().__exit__(*exc)
 
     def __torch_dispatch__(self, func, types, args=(), kwargs=None):
         kwargs = kwargs or {}
@@ -418,8 +427,6 @@ class _HostReads(TorchDispatchMode):
             self._note(name)
         elif name in ("index", "index_put_") and any(meta(i) and i.dtype == torch.bool for i in args[1] if i is not None):
             self._note(f"{name} with a boolean mask")
-        elif name == "scalar_tensor" and str(kwargs.get("device")) == "meta" and self._from_python_code():
-            self._note("a Python scalar written into a device tensor")  # (autograd's own scalars stay on the device)
         elif name in ("_to_copy", "copy_") and any(isinstance(a, torch.Tensor) and a.device.type == "cpu"
                                                   for a in args[:2]) and (
                 str(kwargs.get("device")) == "meta" or meta(args[0])):
