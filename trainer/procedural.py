@@ -318,7 +318,7 @@ def _segments(size: int, g: torch.Generator, n: int, angle: float, spread: float
     window of its chunk's largest box at its own box's corner, and the image keeps the largest value per pixel. A
     window's pixels outside its segment's box are 0 (farther than the width from the segment) and those outside the
     image are dropped, so the mask is the same as one box at a time; a chunk is about 30 operations on the device
-    whatever its size (a box at a time was about 45 per segment, the largest share of a batch's launches on a GPU).
+    whatever its size (a box at a time was about 50 per segment, the largest share of a batch's launches on a GPU).
     """
     out = torch.zeros(size, size)
     r = torch.rand(n, 6, generator=g, device="cpu").tolist()  # host numbers: the segment boxes
