@@ -79,3 +79,9 @@ def test_a_row_larger_than_the_panel_size_lines_up():
     row = before_after.row_image(rng.uniform(0, 1, (s, s, 3)).astype(np.float32), maps)
     assert row.shape == (s, 8 * s, 3)
 
+
+def test_presets_split_at_commas_outside_brackets():
+    assert before_after.split_presets('fast-v1,fast+anchor_maps=["normal","roughness"]+lr=1e-4,') == [
+        "fast-v1", 'fast+anchor_maps=["normal","roughness"]+lr=1e-4']
+    name, settings = before_after._preset_spec('fast+anchor_maps=["normal","roughness"]')
+    assert name == "fast" and settings == {"anchor_maps": ["normal", "roughness"]}

@@ -42,6 +42,19 @@ def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:
     return np.concatenate([np.asarray(p, np.float32) for p in parts], axis=1)
 
 
+def split_presets(text: str) -> List[str]:
+    """``--presets`` as a list: split at the commas outside brackets, so a setting may hold a JSON list
+    (``fast,fast+anchor_maps=["normal","roughness"]`` is two presets)."""
+    parts, depth, start = [], 0, 0
+    for i, ch in enumerate(text):
+        depth += {"[": 1, "{": 1, "]": -1, "}": -1}.get(ch, 0)
+        if ch == "," and depth == 0:
+            parts.append(text[start:i])
+            start = i + 1
+    parts.append(text[start:])
+    return [p for p in parts if p]
+
+
 def _preset_spec(spec: str) -> Tuple[str, Dict[str, Any]]:
     """``"fast+flash_trend=false+lr=1e-4"`` -> ``("fast", {"flash_trend": False, "lr": 0.0001})``
     (:func:`svbrdf.trainer.config.parse_settings`)."""
@@ -66,7 +79,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
     p.add_argument("photos", nargs="+", type=Path)
     p.add_argument("--presets", default="fast-v1,fast",
                    help="comma list, one row per preset (default fast-v1,fast); a preset may carry settings after "
-                        "'+', e.g. fast+flash_trend=false (JSON values)")
+                        "'+', e.g. fast+flash_trend=false or fast+anchor_maps=[\"normal\",\"roughness\"] (JSON values)")
     p.add_argument("--iters", type=int, default=600, help="fine-tune iterations (default 600)")
     p.add_argument("--size", type=int, default=256, help="side of the centre square, px (default 256)")
     p.add_argument("--init", type=Path, default=None, help="stage-one checkpoint (default: the packaged model's)")
@@ -84,7 +97,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         if init is None:
             raise SvbrdfError("no stage-one checkpoint: pass --init CKPT")
         ckpt = load_checkpoint(init)
-        presets = [s for s in args.presets.split(",") if s]
+        presets = split_presets(args.presets)
         rows: List[np.ndarray] = []
         record = {"command": " ".join(["python -m svbrdf.trainer.tools.before_after"] + list(argv or sys.argv[1:])),
                   "init": str(init), "iters": args.iters, "presets": presets, "rows": []}

@@ -64,12 +64,16 @@ if torch.cuda.is_available():
         photos, maps, _ = sample_batch(cfg, rng, device="cuda")
         torch.cuda.set_sync_debug_mode("default")
         torch.cuda.synchronize()
-    where = [f"{w.filename.split('/svbrdf/')[-1]}:{w.lineno}" for w in caught if "synchroniz" in str(w.message)]
-    print(f"gpu_prior: one v2 batch {tuple(photos.shape)} on cuda in {time.perf_counter() - t0:.3f} s, "
-          f"{len(where)} host synchronisations")
-    from collections import Counter  # where they come from (the Python line that called the synchronising op)
-    for place, count in Counter(where).most_common(12):
-        print(f"gpu_prior:   {count:3d} x {place}")
+    from collections import Counter
+
+    def report(what, caught):
+        """How many synchronisations ``caught`` holds and where they come from (the calling Python line)."""
+        where = [f"{w.filename.split('/svbrdf/')[-1]}:{w.lineno}" for w in caught if "synchroniz" in str(w.message)]
+        print(f"gpu_prior: {what}, {len(where)} host synchronisations")
+        for place, count in Counter(where).most_common(12):
+            print(f"gpu_prior:   {count:3d} x {place}")
+
+    report(f"one v2 batch {tuple(photos.shape)} on cuda in {time.perf_counter() - t0:.3f} s", caught)
     try:  # the rest of a training step (network, loss, backward, Adam), as PriorTrainer._step takes it
         from svbrdf.trainer.models import Generator
         from svbrdf.trainer.prior import prior_loss
@@ -87,10 +91,7 @@ if torch.cuda.is_available():
                 adam.step()
                 torch.cuda.set_sync_debug_mode("default")
         torch.cuda.synchronize()
-        where = [f"{w.filename.split('/svbrdf/')[-1]}:{w.lineno}" for w in caught if "synchroniz" in str(w.message)]
-        print(f"gpu_prior: one step's network, loss and update: {len(where)} host synchronisations")
-        for place, count in Counter(where).most_common(12):
-            print(f"gpu_prior:   {count:3d} x {place}")
+        report("one step's network, loss and update", caught)
         del net, adam, pred, terms
     except Exception as e:  # the preflight informs; it never stops the chunk
         print(f"gpu_prior: the step check failed: {type(e).__name__}: {e}")
