@@ -138,6 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="start over in an existing output folder")
     p.add_argument("--threads", type=int, help="CPU threads (default: all cores)")
     p.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
+    p.add_argument("--compile", action="store_true",
+                   help="torch.compile the loss's renderings (a v2 step on one CPU thread: about 1.5x faster after "
+                        "about 2 minutes of compiling; falls back to eager if it fails)")
     p.add_argument("--quiet", action="store_true", help="print errors only")
     p.add_argument("--verbose", action="store_true", help="print a traceback on errors")
     kw = dict(parents=[common], epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
@@ -232,7 +235,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
     if args.minutes is not None and not args.minutes > 0:
         parser.error(f"--minutes must be > 0, got {args.minutes}")
-    kw = dict(device=args.device, threads=args.threads, checkpoint_path=ckpt_path, log_path=out / LOG)
+    kw = dict(device=args.device, threads=args.threads, checkpoint_path=ckpt_path, log_path=out / LOG,
+              compile=args.compile)
     if args.resume:
         source = ckpt_path if args.resume is True else Path(args.resume)
         if not source.is_file():
@@ -299,6 +303,9 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
 
     def progress(tr, rec) -> bool:
         bar.update(rec["step"], **loss_postfix(rec))
+        if tr.compile_note and not state.get("compile_said"):
+            state["compile_said"] = True
+            log(f"note: {tr.compile_note}")
         if "s_per_iter" in rec and time.perf_counter() - state["said"] >= SPEED_LINE_SECONDS:
             state["said"] = time.perf_counter()
             total = "nan" if rec.get("total") is None else f"{rec['total']:.4f}"

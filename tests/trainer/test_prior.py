@@ -5,6 +5,7 @@ import dataclasses
 import json
 import math
 import os
+import shutil
 import signal
 import traceback
 
@@ -549,3 +550,85 @@ def test_a_non_finite_loss_in_the_batched_stream_leaves_the_weights_finite_and_i
     t.run()
     assert t.history[-1]["skipped"] == 1 and t.history[-1]["total"] is not None
     assert all(torch.isfinite(p).all() for p in t.generator.parameters())
+
+
+def test_on_a_cpu_the_generator_trains_channels_last_with_the_same_result():
+    cfg = tiny(iters=2, checkpoint_every=0, eval_every=0)
+    fast = PriorTrainer(cfg, threads=1, device="cpu")
+    assert fast.memory_format == torch.channels_last
+    conv = next(p for p in fast.generator.parameters() if p.dim() == 4 and p.shape[-1] > 1)
+    assert conv.is_contiguous(memory_format=torch.channels_last) and not conv.is_contiguous()
+    plain = PriorTrainer(cfg, threads=1, device="cpu")
+    plain.memory_format = torch.contiguous_format
+    plain.generator.to(memory_format=torch.contiguous_format)
+    fast.run()
+    plain.run()
+    assert [h["total"] for h in fast.history] == pytest.approx([h["total"] for h in plain.history], rel=1e-4)
+    for (k, a), (_, b) in zip(fast.generator.state_dict().items(), plain.generator.state_dict().items()):
+        torch.testing.assert_close(a, b, rtol=1e-3, atol=1e-5, msg=k)
+
+
+def _relit_inputs(requires_grad=True):
+    from svbrdf.trainer.render import plane_grid, point_light_vectors
+
+    g = torch.Generator().manual_seed(3)
+    pred = torch.rand(2, 8, 16, 16, generator=g)
+    pred[:, SLICES["normal"]] = torch.nn.functional.normalize(pred[:, SLICES["normal"]] + torch.tensor(
+        [-0.5, -0.5, 1.0])[None, :, None, None], dim=1)
+    target = torch.rand(2, 8, 16, 16, generator=g)
+    cam = torch.tensor([[0.0, 0.0, 2.0], [0.1, -0.1, 1.8]])
+    v, l, d2 = point_light_vectors(plane_grid(16, 16), cam, cam)
+    rc = resolve("fast").render_config.replace(falloff=True)
+    return pred.requires_grad_(requires_grad), target, v, l, rc, d2
+
+
+@pytest.mark.skipif(not any(shutil.which(c) for c in ("g++", "c++", "clang++")),
+                    reason="torch.compile on a CPU needs a C++ compiler")
+def test_the_compiled_relighting_equals_the_plain_one_with_its_gradient():
+    from svbrdf.trainer.prior import CompiledRelit, relit_pair
+
+    pred, target, v, l, rc, d2 = _relit_inputs()
+    plain = relit_pair(pred, target, v, l, rc, d2)
+    (g_plain,) = torch.autograd.grad(plain, pred)
+    compiled = CompiledRelit()
+    fused = compiled(pred, target, v, l, rc, d2)
+    (g_fused,) = torch.autograd.grad(fused, pred)
+    assert compiled.note is None and compiled.compiled is not None  # it compiled, it did not fall back
+    torch.testing.assert_close(fused, plain, rtol=1e-5, atol=1e-7)
+    torch.testing.assert_close(g_fused, g_plain, rtol=1e-3, atol=1e-7)
+
+
+def test_a_failed_compile_falls_back_to_the_plain_relighting_with_a_note():
+    from svbrdf.trainer.prior import CompiledRelit, relit_pair
+
+    def broken(*a, **k):
+        raise RuntimeError("no C++ compiler\nmore lines")
+
+    compiled = CompiledRelit()
+    compiled.compiled = broken
+    args = _relit_inputs(requires_grad=False)
+    assert torch.equal(compiled(*args), relit_pair(*args))
+    assert compiled.compiled is None and compiled.note.startswith("torch.compile failed (RuntimeError: no C++ compiler)")
+    with pytest.raises(Exception):  # an error of the inputs themselves still surfaces
+        compiled(torch.zeros(2, 3), *args[1:])
+
+
+def test_cli_compile_flag_compiles_the_relighting_and_says_when_it_falls_back(tmp_path, capsys, monkeypatch):
+    import svbrdf.trainer.prior as prior_mod
+
+    made = []
+
+    class Failing(prior_mod.CompiledRelit):  # compiling fails at once: the note, then eager training
+        def __init__(self):
+            made.append(self)
+            self.compiled, self.note = (lambda *a, **k: (_ for _ in ()).throw(RuntimeError("no compiler"))), None
+
+    monkeypatch.setattr(prior_mod, "CompiledRelit", Failing)
+    args = ["prior", "--size", "32", "--photo-size", "64", "--batch", "1", "--width", "0.125", "--threads", "1",
+            "--iters", "2"]
+    assert cli.main([*args, "--out", str(tmp_path / "a")]) == 0
+    assert not made and "torch.compile" not in capsys.readouterr().err
+    assert cli.main([*args, "--out", str(tmp_path / "b"), "--compile"]) == 0
+    err = capsys.readouterr().err
+    assert len(made) == 1 and err.count("note: torch.compile failed (RuntimeError: no compiler); running eager") == 1
+    assert ckpt_io.load_checkpoint(tmp_path / "b" / "checkpoint.pt")["step"] == 2

@@ -129,3 +129,14 @@ def test_batched_point_light_vectors_equal_the_numpy_geometry(light):
     v, l, d2 = point_light_vectors(plane_grid(12, 20), cam, lp)
     for got, want in ((v, v_np), (l, l_np), (d2, d2_np)):
         np.testing.assert_allclose(got[0].permute(1, 2, 0).numpy(), want, atol=1e-6)
+
+
+def test_unpack_gives_each_map_of_the_packed_layout_as_a_view():
+    from svbrdf.trainer.render import unpack
+
+    x = torch.arange(2 * 8 * 3 * 4, dtype=torch.float32).reshape(2, 8, 3, 4)
+    m = unpack(x)
+    for name in ("diffuse", "specular", "roughness"):
+        assert torch.equal(m[name], x[:, SLICES[name]]), name
+        assert m[name].data_ptr() == x[:, SLICES[name]].data_ptr()  # a view, no copy
+    assert torch.equal(torch.cat(m["normal"], dim=1), x[:, SLICES["normal"]])
