@@ -25,9 +25,14 @@ def _radius2(height: int, width: int, device: torch.device) -> torch.Tensor:
     return to_device(torch.from_numpy(radius2(height, width))[..., 0][None, None], device)
 
 
+def frame_radius2(height: int, width: int, device=None) -> torch.Tensor:
+    """(1, 1, H, W) float32 :func:`svbrdf.runtime.camera.radius2` of a whole frame on ``device`` (cached)."""
+    return _radius2(int(height), int(width), torch.device(device if device is not None else "cpu"))
+
+
 def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Tensor, shot: torch.Tensor,
                  read: torch.Tensor, generator: Optional[torch.Generator] = None,
-                 quantize: bool = True) -> torch.Tensor:
+                 quantize: bool = True, radius2_map: Optional[torch.Tensor] = None) -> torch.Tensor:
     """The photos cameras record of ``radiance``.
 
     Args:
@@ -35,13 +40,15 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
         ev, vignetting, shot, read: (B,) camera parameters (see :class:`svbrdf.runtime.camera.Camera`).
         generator: noise generator on ``radiance``'s device (None: torch's default one).
         quantize: store as 8-bit sRGB and decode back.
+        radius2_map: (B or 1, 1, H, W) squared distance from the frame's centre (:func:`svbrdf.runtime.camera.radius2`)
+            of each pixel, for renderings that are crops of a larger frame; default: ``radiance`` is the frame.
 
     Returns:
         (B, 3, H, W) float32 linear photos in [0, 1].
     """
     b, _, h, w = radiance.shape
     col = lambda t: to_device(t, radiance.device, torch.float32).view(b, 1, 1, 1)  # noqa: E731
-    r2 = _radius2(h, w, radiance.device)
+    r2 = _radius2(h, w, radiance.device) if radius2_map is None else radius2_map
     img = radiance.float() * torch.exp2(col(ev)) * (1.0 - col(vignetting) * r2)
     var = col(shot) * img.clamp_min(0.0) + col(read) ** 2
     noise = torch.randn(img.shape, generator=generator, device=img.device, dtype=img.dtype)
@@ -51,4 +58,4 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
     return img
 
 
-__all__ = ["expose_batch"]
+__all__ = ["expose_batch", "frame_radius2"]

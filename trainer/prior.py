@@ -54,7 +54,7 @@ from svbrdf.runtime.render import RenderConfig, light_vectors, physical_config
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
 from svbrdf.runtime.render import camera_position
-from svbrdf.trainer.camera import expose_batch
+from svbrdf.trainer.camera import expose_batch, frame_radius2
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
 from svbrdf.trainer.losses import DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, supervised_maps_loss
 from svbrdf.trainer.models import Generator, GeneratorConfig
@@ -333,15 +333,21 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
         draws.append({"fov_deg": fov, "light": light, "physical": phys,
                       "camera": Camera(**cam, quantize=True).to_dict()})
     seed = int(torch.randint(0, 2 ** 31 - 1, (), generator=rng))
+    pos, r2, maps = plane_grid(h, w, dev), None, maps.float()
     if crop is not None and crop < h:
         for _ in range(b):
             boxes.append((int(torch.randint(0, h - crop + 1, (), generator=rng)),
                           int(torch.randint(0, w - crop + 1, (), generator=rng))))
-    v, l, d2 = point_light_vectors(plane_grid(h, w, dev), to_device(np.stack(cams), dev),
+        # Only the crops are photographed: their pixels' positions in the whole photo (flash geometry) and in the
+        # frame (vignetting) are kept, so they equal crops of the whole photographs up to the noise's draw.
+        span = torch.arange(crop)
+        rows = to_device(torch.tensor([y for y, _ in boxes])[:, None] + span, dev)
+        cols = to_device(torch.tensor([x for _, x in boxes])[:, None] + span, dev)
+        pos, r2, maps = (_windows(t, rows, cols) for t in (pos, frame_radius2(h, w, dev), maps))
+    v, l, d2 = point_light_vectors(pos, to_device(np.stack(cams), dev),
                                    to_device(np.asarray(lights, dtype=np.float32), dev))
-    maps = maps.float()
     with torch.no_grad():
-        radiance = torch.empty(b, 3, h, w, device=dev)
+        radiance = torch.empty(b, 3, *maps.shape[-2:], device=dev)
         for flag in (False, True):
             idx = [i for i in range(b) if physical[i] == flag]
             if idx:
@@ -350,11 +356,16 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
                 radiance[sel] = render_maps(maps[sel], v[sel], l[sel], rc, d2[sel])
         noise = torch.Generator(device=dev).manual_seed(seed)
         param = {k: torch.tensor([c[k] for c in cam_draws]) for k in ("ev", "vignetting", "shot", "read")}
-        photos = expose_batch(radiance, generator=noise, **param)
-    if boxes:
-        photos = torch.stack([photos[i, :, y:y + crop, x:x + crop] for i, (y, x) in enumerate(boxes)])
-        maps = torch.stack([maps[i, :, y:y + crop, x:x + crop] for i, (y, x) in enumerate(boxes)])
+        photos = expose_batch(radiance, generator=noise, radius2_map=r2, **param)
     return photos.contiguous(), maps.contiguous(), draws
+
+
+def _windows(t: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor) -> torch.Tensor:
+    """(B, C, c, c) windows of ``t`` (B or 1, C, H, W), window i on rows ``rows[i]`` and columns ``cols[i]``
+    ((B, c) index tensors on ``t``'s device), gathered in one op."""
+    b = rows.shape[0]
+    idx = torch.arange(b, device=t.device) if t.shape[0] > 1 else torch.zeros(b, dtype=torch.long, device=t.device)
+    return t[idx[:, None, None], :, rows[:, :, None], cols[:, None, :]].permute(0, 3, 1, 2).contiguous()
 
 
 def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None,

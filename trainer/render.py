@@ -115,7 +115,7 @@ def point_light_vectors(positions: torch.Tensor, camera: torch.Tensor, light: to
     """Batched torch form of :func:`svbrdf.runtime.render.light_vectors`: one camera and one point light per photo.
 
     Args:
-        positions: (1, 3, H, W) pixel positions on the plane (:func:`plane_grid`).
+        positions: (1 or B, 3, H, W) pixel positions on the plane (:func:`plane_grid`, or windows of it).
         camera: (B, 3) camera positions (``runtime.render.camera_position`` of each photo's configuration).
         light: (B, 3) light positions (the camera's for a flash).
 

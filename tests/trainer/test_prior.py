@@ -632,3 +632,24 @@ def test_cli_compile_flag_compiles_the_relighting_and_says_when_it_falls_back(tm
     err = capsys.readouterr().err
     assert len(made) == 1 and err.count("note: torch.compile failed (RuntimeError: no compiler); running eager") == 1
     assert ckpt_io.load_checkpoint(tmp_path / "b" / "checkpoint.pt")["step"] == 2
+
+
+def test_batched_crops_are_photographed_alone_and_equal_crops_of_the_whole_photos():
+    """A crop batch renders only its windows, with their positions in the whole photo (flash geometry) and in the
+    frame (vignetting): without noise, each crop equals the same window of the whole photograph."""
+    from svbrdf.trainer.prior import draw_materials, simulate_photos_batched
+
+    quiet = {k: (v if k in ("ev", "vignetting") else (0.0, 0.0)) for k, v in prior_preset("v2").camera.items()}
+    cfg = tiny_v2(crop_share=1.0, camera=quiet, batch=3)
+    maps, _, crop = draw_materials(cfg, torch.Generator().manual_seed(8))
+    assert crop and maps.shape[-1] == 64
+    crops, cmaps, draws = simulate_photos_batched(maps, cfg, torch.Generator().manual_seed(9), crop=32)
+    whole, _, wdraws = simulate_photos_batched(maps, cfg, torch.Generator().manual_seed(9))
+    assert crops.shape == (3, 3, 32, 32) and cmaps.shape == (3, 8, 32, 32) and draws == wdraws
+    assert any(d["camera"]["vignetting"] > 0 for d in draws)
+    for i in range(3):  # where the window is: the maps are gathered exactly
+        hits = [(y, x) for y in range(33) for x in range(33) if torch.equal(maps[i, :, y:y + 32, x:x + 32], cmaps[i])]
+        assert len(hits) == 1
+        y, x = hits[0]
+        ref = whole[i, :, y:y + 32, x:x + 32]
+        assert (crops[i] - ref).abs().max() < 1e-2 and (crops[i] - ref).abs().mean() < 1e-4  # (8-bit rounding)
