@@ -139,7 +139,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--threads", type=int, help="CPU threads (default: all cores)")
     p.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
     p.add_argument("--compile", action="store_true",
-                   help="torch.compile the loss's renderings (a v2 step on one CPU thread: 11.9 -> 10.3 s after "
+                   help="torch.compile the loss's renderings (a v2 step on one CPU thread: 11.8 -> 8.8 s after "
                         "1-2 minutes of compiling; falls back to eager if it fails; not measured on a GPU)")
     p.add_argument("--quiet", action="store_true", help="print errors only")
     p.add_argument("--verbose", action="store_true", help="print a traceback on errors")

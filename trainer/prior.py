@@ -340,9 +340,7 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
                           int(torch.randint(0, w - crop + 1, (), generator=rng))))
         # Only the crops are photographed: their pixels' positions in the whole photo (flash geometry) and in the
         # frame (vignetting) are kept, so they equal crops of the whole photographs up to the noise's draw.
-        span = torch.arange(crop)
-        rows = to_device(torch.tensor([y for y, _ in boxes])[:, None] + span, dev)
-        cols = to_device(torch.tensor([x for _, x in boxes])[:, None] + span, dev)
+        rows, cols = (to_device(torch.tensor(boxes)[:, k, None] + torch.arange(crop), dev) for k in (0, 1))
         pos, r2, maps = (_windows(t, rows, cols) for t in (pos, frame_radius2(h, w, dev), maps))
     v, l, d2 = point_light_vectors(pos, to_device(np.stack(cams), dev),
                                    to_device(np.asarray(lights, dtype=np.float32), dev))
@@ -361,8 +359,9 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
 
 
 def _windows(t: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor) -> torch.Tensor:
-    """(B, C, c, c) windows of ``t`` (B or 1, C, H, W), window i on rows ``rows[i]`` and columns ``cols[i]``
-    ((B, c) index tensors on ``t``'s device), gathered in one op."""
+    """(B, C, c, c) contiguous windows of ``t`` (B or 1, C, H, W), window i on rows ``rows[i]`` and columns
+    ``cols[i]`` ((B, c) index tensors on ``t``'s device), gathered in one op (the crops of :func:`photograph` and
+    :func:`simulate_photos_batched`)."""
     b = rows.shape[0]
     idx = torch.arange(b, device=t.device) if t.shape[0] > 1 else torch.zeros(b, dtype=torch.long, device=t.device)
     return t[idx[:, None, None], :, rows[:, :, None], cols[:, None, :]].permute(0, 3, 1, 2).contiguous()
@@ -403,10 +402,10 @@ def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, fa
         whole, maps, draws = simulate(maps, config, rng)
         s, n = config.size, maps.shape[-1] - config.size + 1
         origins = torch.tensor([[int(torch.randint(0, n, (), generator=rng)) for _ in range(2)] for _ in draws])
-        photos = torch.stack([whole[i, :, y:y + s, x:x + s] for i, (y, x) in enumerate(origins.tolist())])
-        maps = torch.stack([maps[i, :, y:y + s, x:x + s] for i, (y, x) in enumerate(origins.tolist())])
+        rows, cols = (to_device(origins[:, k, None] + torch.arange(s), whole.device) for k in (0, 1))
+        photos, maps = _windows(whole, rows, cols), _windows(maps, rows, cols)
         info.update(whole=whole, origins=origins)
-        return photos.contiguous(), maps.contiguous(), {**info, "draws": draws}
+        return photos, maps, {**info, "draws": draws}
     photos, maps, draws = simulate(maps, config, rng, crop=config.size if crop else None)
     return photos, maps, {**info, "draws": draws}
 
@@ -428,12 +427,12 @@ def relit_pair(pred: torch.Tensor, target: torch.Tensor, view: torch.Tensor, lig
 
 
 class CompiledRelit:
-    """:func:`relit_pair` through ``torch.compile`` (one fused kernel per pass instead of about 80 elementwise ops),
+    """:func:`relit_pair` through ``torch.compile`` (a few fused kernels instead of dozens of elementwise ops),
     falling back to the plain function for good when compiling fails (no C++ compiler, an unsupported backend).
 
-    On one CPU thread the v2 loss's ten renderings then take about a third of the time (a (32, 8, 256, 256) pair,
-    forward and backward: 1.0 -> 0.31 s; gradients equal to 3e-6 of 7e-4); compiling costs about 40 s per geometry
-    kind (point lights, distant ones) at the first step. Not measured on a GPU.
+    On one CPU thread a (32, 8, 256, 256) pair, forward and backward, takes 1.0 -> 0.31 s (gradients equal to 3e-6
+    of 7e-4); compiling the point-light pair took 41 s there, at its first call (a distant pair compiles again). Not
+    measured on a GPU.
     """
 
     def __init__(self):
@@ -538,7 +537,7 @@ class PriorTrainer:
         self.callback = callback
         torch.manual_seed(config.seed)
         #: The networks' memory layout: channels-last on a CPU, where oneDNN's convolutions (forward and backward)
-        #: take half the time in it (one thread, v2 batch: 6.2 -> 3.2 s a step); as is on a GPU (not measured).
+        #: take half the time in it (one thread, v2 batch: 5.6-6.2 -> 3.2 s a step, profiled); as is on a GPU (not measured).
         self.memory_format = torch.channels_last if self.device.type == "cpu" else torch.contiguous_format
         self.generator = Generator(config.generator).to(self.device, memory_format=self.memory_format)
         self.optimizer = torch.optim.Adam([p for p in self.generator.parameters() if p.requires_grad],
