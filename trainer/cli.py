@@ -138,6 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="start over in an existing output folder")
     p.add_argument("--threads", type=int, help="CPU threads (default: all cores)")
     p.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
+    p.add_argument("--height-activation", choices=("tanh", "linear"),
+                   help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
+                        "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
     p.add_argument("--compile", action="store_true",
                    help="torch.compile the loss's renderings (a v2 step on one CPU thread: 11.8 -> 8.8 s after "
                         "1-2 minutes of compiling; falls back to eager if it fails; not measured on a GPU)")
@@ -270,6 +273,13 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         trainer.load_resume(ckpt, source)
         log(f"resuming {source} at iteration {trainer.step}/{config.iters}"
             + ("" if source == ckpt_path else f"; saving into {ckpt_path}"))
+        was = config.generator.height_activation
+        if args.height_activation == "linear" and was == "tanh":
+            k = trainer.linearise_height()
+            log(f"height: tanh -> linear at iteration {trainer.step} (the normals' slope kept: the height layer "
+                f"scaled by {k:.4f}, the tanh's mean slope there)")
+        elif args.height_activation == "tanh" and was == "linear":
+            raise _Fail(f"{source}: its height is linear; it cannot be turned back into a tanh")
     else:
         if out.exists() and (not out.is_dir() or any(out.iterdir())):
             if not out.is_dir():
@@ -285,8 +295,10 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             from svbrdf.trainer.prior import prior_preset
 
             config = prior_preset(args.preset)
-            if args.width is not None:
-                over["generator"] = dataclasses.replace(config.generator, width=args.width)
+            gen = {k: v for k, v in (("width", args.width), ("height_activation", args.height_activation))
+                   if v is not None}
+            if gen:
+                over["generator"] = dataclasses.replace(config.generator, **gen)
             config = dataclasses.replace(config, **over)
         except ValueError as e:
             parser.error(str(e))

@@ -26,7 +26,7 @@ export and its part graphs run it unchanged.
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass, fields, replace
 from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
 
 import torch
@@ -53,6 +53,8 @@ def _from_dict(cls, d: Mapping):
 
 #: Generator architectures (:attr:`GeneratorConfig.arch`).
 ARCHS: Tuple[str, ...] = ("wen", "unet")
+#: :attr:`GeneratorConfig.height_activation` values.
+HEIGHT_ACTIVATIONS: Tuple[str, ...] = ("tanh", "linear")
 
 
 @dataclass
@@ -70,6 +72,13 @@ class GeneratorConfig:
         arch: ``"wen"`` (the published generator above, the default: every preset and checkpoint before issue 26)
             or ``"unet"`` (the U-Net with a global track; ``decoder_blocks`` is then its number of resolution
             levels below the full one, channels ``32 * 2**level * width`` capped at ``512 * width``).
+        height_activation: how the height channel leaves the decoder: ``"tanh"`` (Zhao's, the default: every
+            checkpoint before it existed) bounds it to [0, 1] with ``(tanh(y) + 1) / 2``; ``"linear"`` gives
+            ``(y + 1) / 2``, the same slope at y = 0 and no bound. Only the height's differences make the normals,
+            so a bound buys nothing, and it traps training: both stage ones drove their height into the tanh's tail,
+            where the normals' gradient is 3 % (v2 at 4745 iterations: pre-tanh mean -2.5) and 15 % (v1, whose
+            height is also a constant: spread 0.003) of its unsaturated value, and their normals stayed flat
+            (``docs/benchmarks/prior-v2/height/``). :func:`linearise_height` converts a trained tanh model.
     """
 
     width: float = 1.0
@@ -77,6 +86,7 @@ class GeneratorConfig:
     height_scale: float = 32.0
     train_encoder: bool = False
     arch: str = "wen"
+    height_activation: str = "tanh"
 
     def __post_init__(self) -> None:
         if not self.width > 0:
@@ -87,6 +97,9 @@ class GeneratorConfig:
             raise ValueError(f"height_scale must be > 0, got {self.height_scale}")
         if self.arch not in ARCHS:
             raise ValueError(f"arch must be one of {', '.join(ARCHS)}, got {self.arch!r}")
+        if self.height_activation not in HEIGHT_ACTIVATIONS:
+            raise ValueError(f"height_activation must be one of {', '.join(HEIGHT_ACTIVATIONS)}, "
+                             f"got {self.height_activation!r}")
 
     def to_dict(self) -> dict:
         return asdict(self)
@@ -567,8 +580,12 @@ class Generator(nn.Module):
         h, w = size
         out: Dict[str, torch.Tensor] = {}
         if want & set(DECODER_MAPS["decoder_nr"]):
-            y = self._unit(self._decoded("decoder_nr", latent) + self.out_offset[0:2].view(1, 2, 1, 1))[..., :h, :w]
-            out["normal"] = height_to_normal(y[:, 0:1], self.cfg.height_scale)
+            pre = self._decoded("decoder_nr", latent) + self.out_offset[0:2].view(1, 2, 1, 1)
+            y = self._unit(pre)[..., :h, :w]
+            height = y[:, 0:1]
+            if self.cfg.height_activation == "linear":
+                height = (pre[:, 0:1].to(y.dtype)[..., :h, :w] + 1.0) * 0.5
+            out["normal"] = height_to_normal(height, self.cfg.height_scale)
             out["roughness"] = y[:, 1:2]
         if want & set(DECODER_MAPS["decoder_ds"]):
             y = self._unit(self._decoded("decoder_ds", latent) + self.out_offset[2:6].view(1, 4, 1, 1))[..., :h, :w]
@@ -609,6 +626,40 @@ class Discriminator(nn.Module):
         return self.net(x)
 
 
+@torch.no_grad()
+def linearise_height(generator: Generator, photos: torch.Tensor) -> float:
+    """Switch a ``height_activation="tanh"`` generator to ``"linear"`` at its operating point, in place.
+
+    The tanh height ``(tanh(y) + 1) / 2`` has the slope ``sech(y)**2 / 2`` in ``y``; the linear one ``1 / 2``. The
+    height channel of ``decoder_nr``'s last convolution (weights and bias) and its ``out_offset`` are multiplied by
+    ``k``, the mean of ``sech(y)**2`` over ``photos``' pixels, so the new height's differences, hence the normals,
+    are those of the tanh model's linearisation around where it works: equal where its height varies little around
+    one level, steeper where it was pressed flat by the tanh's tail (those differences now reach the normals).
+    Everything else (roughness, diffuse, specular) is untouched.
+
+    Args:
+        generator: a tanh-height generator (its ``cfg.height_activation`` becomes ``"linear"``).
+        photos: (B, 3, H, W) linear photos the slope is averaged over (e.g. a validation batch).
+
+    Returns:
+        ``k``, the mean slope ratio applied (1 for an unsaturated model, near 0 for a saturated one).
+    """
+    if generator.cfg.height_activation != "tanh":
+        raise ValueError(f"the generator's height is already {generator.cfg.height_activation!r}")
+    was_training = generator.training
+    generator.eval()
+    pre = generator._decoded("decoder_nr", generator.forward_features(photos))[:, 0] + generator.out_offset[0]
+    generator.train(was_training)
+    k = float((1.0 - torch.tanh(pre.float()) ** 2).mean())
+    last = [m for m in generator.decoder_nr.modules() if isinstance(m, nn.Conv2d)][-1]
+    last.weight[0].mul_(k)
+    if last.bias is not None:
+        last.bias[0].mul_(k)
+    generator.out_offset[0].mul_(k)
+    generator.cfg = replace(generator.cfg, height_activation="linear")
+    return k
+
+
 def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
     """Number of parameters of ``module`` (only those with ``requires_grad`` if ``trainable_only``)."""
     return sum(p.numel() for p in module.parameters() if p.requires_grad or not trainable_only)
@@ -617,5 +668,5 @@ def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
 __all__ = [
     "OFFSET_CHANNELS", "ARCHS", "UNetEncoder", "UNetDecoder", "flash_cue", "PhotoContext",
     "GeneratorConfig", "DiscriminatorConfig", "MODEL_PRESETS", "DISC_PRESETS", "DECODER_MAPS", "Generator",
-    "Discriminator", "height_to_normal", "pack_maps", "count_parameters",
+    "Discriminator", "height_to_normal", "pack_maps", "count_parameters", "linearise_height", "HEIGHT_ACTIVATIONS",
 ]

@@ -57,7 +57,7 @@ from svbrdf.runtime.render import camera_position
 from svbrdf.trainer.camera import expose_batch, frame_radius2
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
 from svbrdf.trainer.losses import DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, supervised_maps_loss
-from svbrdf.trainer.models import Generator, GeneratorConfig
+from svbrdf.trainer.models import Generator, GeneratorConfig, linearise_height
 from svbrdf.trainer.procedural import FAMILIES, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
 
@@ -742,6 +742,14 @@ class PriorTrainer:
             raise ValueError("no checkpoint path")
         return ckpt_io.save_checkpoint(path, self.checkpoint())
 
+    def linearise_height(self) -> float:
+        """Switch the generator's height to ``"linear"`` where it stands (:func:`~svbrdf.trainer.models.linearise_height`
+        at the validation batch) and record it in ``config.generator``, so checkpoints resume linear. Returns the slope
+        ratio ``k``. For a run resumed from a checkpoint whose tanh height saturated (the v2 run at 4745 iterations)."""
+        k = linearise_height(self.generator, self.eval_set()[0])
+        self.config = dataclasses.replace(self.config, generator=self.generator.cfg)
+        return k
+
     def load_resume(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
         """Continue exactly where ``ckpt`` stood (weights, Adam, step, history, stream and torch RNG states)."""
         from svbrdf.runtime.errors import ModelError
@@ -812,7 +820,7 @@ def resume_prior(checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optio
 PRIOR_PRESETS: Dict[str, Callable[[], PriorConfig]] = {
     "v1": PriorConfig,
     "v2": lambda: PriorConfig(
-        generator=GeneratorConfig(width=0.25, decoder_blocks=4, train_encoder=True, arch="unet"),
+        generator=GeneratorConfig(width=0.25, decoder_blocks=4, train_encoder=True, arch="unet", height_activation="linear"),
         size=256, photo_size=512, batch=32, iters=40000, lr=1e-3, lr_min=2e-5, render_lights=3, render_views=6,
         grazing_share=0.5, lambda_grad=1.0, lambda_amount=2.0, amount_maps=("roughness",), amount_windows=(32,),
         batched=True, bf16=True, log_every=50, compact_checkpoint=True, checkpoint_every=2000, eval_every=500,

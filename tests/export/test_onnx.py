@@ -208,12 +208,14 @@ def test_cli(tmp_path, capsys):
     assert main(["--opset"]) == 2
 
 
-def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path):
+@pytest.mark.parametrize("height", ["tanh", "linear"])
+def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path, height):
     from svbrdf.trainer.models import GeneratorConfig
 
     with torch.random.fork_rng():
         torch.manual_seed(2)
-        generator = Generator(GeneratorConfig(width=0.125, decoder_blocks=3, arch="unet")).eval()
+        generator = Generator(GeneratorConfig(width=0.125, decoder_blocks=3, arch="unet",
+                                              height_activation=height)).eval()
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", FutureWarning)
         report = export_generator(generator, tmp_path / "unet.onnx", sizes=SIZES)
@@ -221,6 +223,7 @@ def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path):
     assert all(p["max_abs_diff"] <= export_onnx.PARITY_ATOL for p in report["parts"].values())
     manifest = json.loads((tmp_path / "unet.json").read_text())
     assert manifest["training"]["generator_config"]["arch"] == "unet"
+    assert manifest["training"]["generator_config"]["height_activation"] == height
     sess = ort.InferenceSession(str(tmp_path / "unet.onnx"), providers=["CPUExecutionProvider"])
     x = np.random.default_rng(3).random((1, 3, 37, 53), dtype=np.float32)  # not a multiple of 8: padded inside
     with torch.inference_mode():

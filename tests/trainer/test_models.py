@@ -5,7 +5,7 @@ import torch.nn.functional as F
 from svbrdf.runtime.maps import MAP_NAMES, N_CHANNELS, SLICES
 from svbrdf.trainer.models import (
     DISC_PRESETS, MODEL_PRESETS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
-    count_parameters, flash_cue, height_to_normal, pack_maps,
+    count_parameters, flash_cue, height_to_normal, linearise_height, pack_maps,
 )
 
 
@@ -321,3 +321,70 @@ def test_unet_gradients_reach_every_trainable_part_and_the_encoder_can_be_frozen
     assert all(p.grad is None for p in g.encoder.parameters())
     for name in ("decoder_nr", "decoder_ds"):
         assert all(p.grad is not None and torch.isfinite(p.grad).all() for p in getattr(g, name).parameters())
+
+
+# --------------------------------------------------------------------------- the height's activation (stage one v2)
+
+def _height_grad(g, photo):
+    """Norm of the normals' gradient on the height channel's last convolution."""
+    g.zero_grad(set_to_none=True)
+    n = g(photo)[:, SLICES["normal"]]
+    (n[:, :2] ** 2).sum().backward()
+    return float(g.decoder_nr.out.weight.grad[0].norm())
+
+
+def test_a_linear_height_keeps_the_normals_gradient_where_a_tanh_height_saturates():
+    photo = torch.rand(1, 3, 32, 32)
+    grads = {}
+    for act in ("tanh", "linear"):
+        g = _unet(height_activation=act).train()
+        with torch.no_grad():
+            g.out_offset[0] = -4.0  # deep in the tanh's tail, where both stage ones' heights ended
+        grads[act] = _height_grad(g, photo)
+    assert grads["linear"] > 0
+    assert grads["tanh"] < 0.01 * grads["linear"]  # sech(4)**2 ~ 1.3e-3 of the gradient survives the tanh
+
+
+def test_the_linear_height_has_the_tanh_heights_slope_at_zero_and_no_bound():
+    photo = torch.rand(1, 3, 32, 32)
+    a, b = _unet(), _unet(height_activation="linear")
+    with torch.no_grad():
+        for g in (a, b):
+            g.decoder_nr.out.weight.mul_(1e-3)  # pre-activation heights near 0
+            g.decoder_nr.out.bias.zero_()
+        na, nb = a(photo)[:, SLICES["normal"]], b(photo)[:, SLICES["normal"]]
+        torch.testing.assert_close(na, nb, atol=1e-5, rtol=0)
+        rest = [s for n, s in SLICES.items() if n != "normal"]
+        for s in rest:
+            torch.testing.assert_close(a(photo)[:, s], b(photo)[:, s], atol=0, rtol=0)
+        b.out_offset[0] = 50.0  # a tanh would be a constant 1 here; the linear height only shifts
+        torch.testing.assert_close(b(photo)[:, SLICES["normal"]], nb, atol=1e-4, rtol=0)
+
+
+def test_linearise_height_keeps_a_saturated_models_normals_and_records_the_switch():
+    photo = torch.rand(2, 3, 32, 32)
+    g = _unet()
+    with torch.no_grad():
+        g.decoder_nr.out.weight[0].mul_(0.05)  # small variation of the height around a saturated level
+        g.decoder_nr.out.bias[0] = 0.0
+        g.out_offset[0] = -2.5
+        before = g(photo)
+    k = linearise_height(g, photo)
+    assert g.cfg.height_activation == "linear"
+    assert 0.02 < k < 0.05  # sech(2.5)**2 = 0.027 around the level
+    with torch.no_grad():
+        after = g(photo)
+    assert float(before[:, SLICES["normal"]][:, :2].abs().max()) > 1e-4  # the check sees tilted normals
+    torch.testing.assert_close(after[:, SLICES["normal"]], before[:, SLICES["normal"]], atol=2e-4, rtol=0.05)
+    other = [c for c in range(N_CHANNELS) if c not in range(*SLICES["normal"].indices(N_CHANNELS))]
+    torch.testing.assert_close(after[:, other], before[:, other], atol=0, rtol=0)
+    with pytest.raises(ValueError, match="already"):
+        linearise_height(g, photo)
+
+
+def test_height_activation_is_validated_and_old_configs_read_as_tanh():
+    with pytest.raises(ValueError, match="height_activation"):
+        GeneratorConfig(height_activation="relu")
+    d = GeneratorConfig(arch="unet").to_dict()
+    del d["height_activation"]
+    assert GeneratorConfig.from_dict(d).height_activation == "tanh"

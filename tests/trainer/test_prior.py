@@ -653,3 +653,33 @@ def test_batched_crops_are_photographed_alone_and_equal_crops_of_the_whole_photo
         y, x = hits[0]
         ref = whole[i, :, y:y + 32, x:x + 32]
         assert (crops[i] - ref).abs().max() < 1e-2 and (crops[i] - ref).abs().mean() < 1e-4  # (8-bit rounding)
+
+
+def test_v2_trains_a_linear_height_and_a_resume_converts_a_tanh_checkpoint_once(tmp_path, capsys):
+    # The v2 run at 4745 iterations had its tanh height at a pre-activation of -2.5 (3 % of the normals' gradient
+    # left); a resume with --height-activation linear switches it where it stands and the checkpoints keep it.
+    fresh = tmp_path / "fresh"
+    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
+            "--eval-every", "0", "--material-reuse", "1"]
+    assert cli.main(["prior", "--preset", "v2", "--out", str(fresh), "--iters", "1", *args]) == 0
+    assert ckpt_io.load_checkpoint(fresh / "checkpoint.pt")["generator_config"]["height_activation"] == "linear"
+    old = tmp_path / "old"
+    assert cli.main(["prior", "--preset", "v2", "--height-activation", "tanh", "--out", str(old), "--iters", "1",
+                     *args]) == 0
+    ckpt = ckpt_io.load_checkpoint(old / "checkpoint.pt")
+    assert ckpt["generator_config"]["height_activation"] == "tanh"
+    capsys.readouterr()
+    assert cli.main(["prior", "--out", str(old), "--resume", "--iters", "2", "--height-activation", "linear",
+                     "--threads", "1"]) == 0
+    assert "height: tanh -> linear at iteration 1" in capsys.readouterr().err
+    after = ckpt_io.load_checkpoint(old / "checkpoint.pt")
+    assert after["step"] == 2
+    assert after["generator_config"]["height_activation"] == "linear"
+    assert after["prior_config"]["generator"]["height_activation"] == "linear"
+    # the next resume stays linear without the flag and refuses to go back
+    assert cli.main(["prior", "--out", str(old), "--resume", "--iters", "3", "--threads", "1"]) == 0
+    assert "tanh -> linear" not in capsys.readouterr().err
+    assert cli.main(["prior", "--out", str(old), "--resume", "--iters", "4", "--height-activation", "tanh",
+                     "--threads", "1"]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "Traceback" not in "\n".join(err) and "cannot be turned back into a tanh" in err[-1]
