@@ -412,7 +412,10 @@ class UNetDecoder(nn.Module):
         """Encoder latent -> (B, outc, H, W) pre-tanh outputs; ``tracks``: the global vector of every level (a
         :class:`PhotoContext`'s) instead of the latent's own track."""
         out = self._levels(latent, tracks)
-        return self.out(out)
+        # The 1x1 output conv runs in float32 even under bf16 autocast: a linear height's normals are 16 times the
+        # differences of neighbouring outputs, which bf16's 8-bit mantissa would round to steps of degrees.
+        with torch.autocast(device_type=out.device.type, enabled=False):
+            return self.out(out.float())
 
     def tracks(self, latent: Tuple[Tuple[torch.Tensor, ...], torch.Tensor]) -> Tuple[torch.Tensor, ...]:
         """The global vector each level takes (deepest first) for this latent; skips the full-resolution level,

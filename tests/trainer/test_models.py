@@ -388,3 +388,16 @@ def test_height_activation_is_validated_and_old_configs_read_as_tanh():
     d = GeneratorConfig(arch="unet").to_dict()
     del d["height_activation"]
     assert GeneratorConfig.from_dict(d).height_activation == "tanh"
+
+
+def test_the_unet_output_conv_stays_float32_under_bf16_autocast():
+    # a linear height's normals are 16x the differences of neighbouring outputs: bf16 would round them to degrees
+    g = _unet(height_activation="linear")
+    x = torch.rand(1, 3, 32, 32)
+    with torch.no_grad(), torch.autocast("cpu", dtype=torch.bfloat16):
+        latent = g.forward_features(x)
+        feats = g.decoder_nr._levels((latent[0], latent[1]))
+        y = g.decoder_nr((latent[0], latent[1]))
+    assert feats.dtype == torch.bfloat16 and y.dtype == torch.float32
+    want = F.conv2d(feats.float(), g.decoder_nr.out.weight, g.decoder_nr.out.bias)
+    torch.testing.assert_close(y, want, atol=1e-6, rtol=1e-6)
