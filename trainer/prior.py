@@ -56,7 +56,8 @@ from svbrdf.trainer.config import resolve
 from svbrdf.runtime.render import camera_position
 from svbrdf.trainer.camera import expose_batch, frame_radius2
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
-from svbrdf.trainer.losses import DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, supervised_maps_loss
+from svbrdf.trainer.losses import (DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, slope_correlation_loss,
+                                    supervised_maps_loss)
 from svbrdf.trainer.models import Generator, GeneratorConfig, linearise_height
 from svbrdf.trainer.procedural import FAMILIES, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
@@ -103,6 +104,8 @@ class PriorConfig:
         lambda_amount: weight of :func:`~svbrdf.trainer.losses.detail_amount_loss` on the ``amount_maps`` (asks
             for as much local variation as the truth has; 0 = off, the v1 and first v2 loss).
         amount_maps: the maps of that term (names of :data:`svbrdf.runtime.maps.SLICES`).
+        lambda_slope: weight of :func:`~svbrdf.trainer.losses.slope_correlation_loss` (the pattern of the normals'
+            slopes at any scale; 0 = off, the loss before the eighth session of 2026-11-26).
         amount_windows: its window sides, px (:data:`~svbrdf.trainer.losses.DETAIL_WINDOWS` by default; a window
             the image's size or more lets blobs stand in for detail).
         families: procedural families to draw from (None = all).
@@ -156,6 +159,7 @@ class PriorConfig:
     log_every: int = 1
     compact_checkpoint: bool = False
     material_reuse: int = 1
+    lambda_slope: float = 0.0
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -186,8 +190,8 @@ class PriorConfig:
         need(self.light_offset >= 0 and self.render_lights >= 0 and self.lambda_render >= 0,
              "light_offset, render_lights and lambda_render must be >= 0")
         need(set(self.camera) == set(REALISTIC), f"camera ranges need exactly the keys {sorted(REALISTIC)}")
-        need(self.render_views >= 0 and self.lambda_grad >= 0 and self.lambda_amount >= 0,
-             "render_views, lambda_grad and lambda_amount must be >= 0")
+        need(self.render_views >= 0 and self.lambda_grad >= 0 and self.lambda_amount >= 0 and self.lambda_slope >= 0,
+             "render_views, lambda_grad, lambda_amount and lambda_slope must be >= 0")
         need(bool(self.amount_maps) and set(self.amount_maps) <= set(SLICES),
              f"amount_maps must be some of {', '.join(SLICES)}, got {self.amount_maps}")
         need(bool(self.amount_windows) and min(self.amount_windows) >= 2,
@@ -453,7 +457,9 @@ class CompiledRelit:
 def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rng: torch.Generator,
                relit: Callable[..., torch.Tensor] = relit_pair) -> Dict[str, torch.Tensor]:
     """The prior's loss terms: per-map L1 (``maps/*``), relighting (``render``), detail (``grad``), amount of detail
-    (``amount``, with ``config.lambda_amount > 0``: :func:`~svbrdf.trainer.losses.detail_amount_loss`) and ``total``.
+    (``amount``, with ``config.lambda_amount > 0``: :func:`~svbrdf.trainer.losses.detail_amount_loss`), pattern of
+    the normals' slopes (``slope``, with ``config.lambda_slope > 0``: :func:`~svbrdf.trainer.losses.slope_correlation_loss`)
+    and ``total``.
 
     Relighting renders both map sets with the fine-tune's renderer settings under the flash and
     ``config.render_lights`` random lights (:func:`lights_for`), on the training image as a whole photo, and
@@ -496,6 +502,9 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
     if config.lambda_amount > 0:
         out["amount"] = detail_amount_loss(pred, target, config.amount_maps, config.amount_windows)
         total = total + config.lambda_amount * out["amount"]
+    if config.lambda_slope > 0:
+        out["slope"] = slope_correlation_loss(pred, target)
+        total = total + config.lambda_slope * out["slope"]
     out["total"] = total
     return out
 

@@ -436,3 +436,68 @@ def test_detail_amount_loss_asks_for_variation_wherever_it_lies_in_the_window():
     before.backward()
     assert torch.isfinite(x.grad).all()
     assert float(detail_amount_loss(x.detach() - 10.0 * x.grad, target)) < float(before.detach())
+
+
+# ---- slope correlation (the stage one's normals) ----
+
+def _relief_maps(height: torch.Tensor, scale: float = 32.0) -> torch.Tensor:
+    """(B, 8, H, W) packed maps with the normals of ``height`` (B, 1, H, W) and grey other maps."""
+    from svbrdf.trainer.models import height_to_normal
+
+    b, _, h, w = height.shape
+    maps = torch.full((b, 8, h, w), 0.5)
+    maps[:, SLICES["normal"]] = height_to_normal(height, scale)
+    return maps
+
+
+def test_slope_correlation_is_the_benchmarks_slope_correlation():
+    from svbrdf.trainer.bench.metrics import _corr, _slopes
+    from svbrdf.trainer.losses import slope_correlation_loss
+
+    g = torch.Generator().manual_seed(0)
+    h = torch.rand(1, 1, 24, 20, generator=g) * 0.05
+    truth = _relief_maps(h)
+    pred = _relief_maps(0.5 * h + torch.rand(1, 1, 24, 20, generator=g) * 0.03)  # partly right
+    want = _corr(_slopes(pred[0, SLICES["normal"]].permute(1, 2, 0).numpy()),
+                 _slopes(truth[0, SLICES["normal"]].permute(1, 2, 0).numpy()))
+    assert 0.05 < want < 0.95
+    assert float(slope_correlation_loss(pred, truth)) == pytest.approx(1.0 - want, abs=1e-5)
+
+
+def test_slope_correlation_ignores_the_scale_and_leaves_out_flat_truths():
+    from svbrdf.trainer.losses import slope_correlation_loss
+
+    g = torch.Generator().manual_seed(1)
+    h = torch.rand(2, 1, 16, 16, generator=g)
+    truth = _relief_maps(h * 0.05)
+    assert float(slope_correlation_loss(truth, truth)) == pytest.approx(0.0, abs=1e-5)
+    assert float(slope_correlation_loss(_relief_maps(h * 0.0005), truth)) == pytest.approx(0.0, abs=1e-3)  # 100x flatter
+    assert float(slope_correlation_loss(_relief_maps(-h * 0.05), truth)) == pytest.approx(2.0, abs=1e-3)  # inverted relief
+    # a flat truth has no pattern: the image is left out, not scored 1
+    flat = truth.clone()
+    flat[1, SLICES["normal"]] = torch.tensor([0.0, 0.0, 1.0]).view(3, 1, 1)
+    pred = truth.clone()
+    pred[1] = _relief_maps(torch.rand(1, 1, 16, 16, generator=g) * 0.05)[0]
+    assert float(slope_correlation_loss(pred, flat)) == pytest.approx(0.0, abs=1e-5)
+    flat[0] = flat[1]
+    assert float(slope_correlation_loss(pred, flat)) == 0.0
+
+
+def test_slope_correlation_reaches_a_flattened_network_where_the_l1_does_not():
+    # the normals' L1 pushes a nearly flat height's pattern as little as its scale; this term does not shrink with it
+    from svbrdf.trainer.losses import slope_correlation_loss, supervised_maps_loss
+
+    g = torch.Generator().manual_seed(2)
+    truth = _relief_maps(torch.rand(1, 1, 16, 16, generator=g) * 0.05)
+    pattern = torch.rand(1, 1, 16, 16, generator=g)
+    grads = {}
+    for scale in (1e-2, 1e-4):
+        p = pattern.clone().requires_grad_(True)
+        pred = _relief_maps(p * scale)
+        l1 = supervised_maps_loss(pred, truth)["normal"]
+        (g_l1,) = torch.autograd.grad(l1, p, retain_graph=True)
+        (g_sc,) = torch.autograd.grad(slope_correlation_loss(pred, truth), p)
+        grads[scale] = float(g_l1.norm()), float(g_sc.norm())
+    assert grads[1e-4][0] < 0.02 * grads[1e-2][0]  # the L1's push on the pattern falls with the scale
+    assert grads[1e-4][1] == pytest.approx(grads[1e-2][1], rel=1e-3)  # this one does not depend on the scale
+    assert grads[1e-4][1] > 0

@@ -683,3 +683,18 @@ def test_v2_trains_a_linear_height_and_a_resume_converts_a_tanh_checkpoint_once(
                      "--threads", "1"]) == 1
     err = capsys.readouterr().err.strip().splitlines()
     assert "Traceback" not in "\n".join(err) and "cannot be turned back into a tanh" in err[-1]
+
+
+def test_the_slope_term_joins_the_prior_loss_at_its_weight():
+    cfg = tiny_v2()
+    maps, _ = sample_materials(2, 32, torch.Generator().manual_seed(3))
+    other = maps.flip(-1)
+    base = prior_loss(other, maps, cfg, torch.Generator().manual_seed(1))
+    assert "slope" not in base and cfg.lambda_slope == 0.0
+    with_term = prior_loss(other, maps, dataclasses.replace(cfg, lambda_slope=0.5), torch.Generator().manual_seed(1))
+    assert float(with_term["slope"]) > 0.1
+    assert float(with_term["total"]) == pytest.approx(float(base["total"]) + 0.5 * float(with_term["slope"]), rel=1e-5)
+    assert float(prior_loss(maps, maps, dataclasses.replace(cfg, lambda_slope=0.5),
+                            torch.Generator().manual_seed(1))["slope"]) == pytest.approx(0.0, abs=1e-5)
+    with pytest.raises(ValueError, match="lambda_slope"):
+        tiny(lambda_slope=-1.0)

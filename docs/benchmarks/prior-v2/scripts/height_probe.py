@@ -38,7 +38,8 @@ for c, name in enumerate(("height", "roughness")):
     y = pre[:, c]
     report[name] = {"pre_mean": round(float(y.mean()), 3), "pre_std_within_photo": round(float(y.flatten(1).std(1).mean()), 4),
                     "pre_min": round(float(y.min()), 3), "pre_max": round(float(y.max()), 3),
-                    "tanh_mean_slope": round(float((1 - torch.tanh(y) ** 2).mean()), 4)}
+                    "tanh_mean_slope": (round(float((1 - torch.tanh(y) ** 2).mean()), 4)
+                                        if name == "roughness" or g.cfg.height_activation == "tanh" else None)}
 report["tilt_deg"] = round(tilt(out[:, SLICES["normal"]]), 3)
 report["truth_tilt_deg"] = round(tilt(maps[:, SLICES["normal"]]), 3)
 print(json.dumps(report, indent=1))

@@ -38,7 +38,8 @@ def evaluate(step):
     with torch.no_grad():
         p = tr.generator(photos)
     rec = {"tag": tag, "at": step, **{k: round(v, 4) for k, v in map_errors(p, maps).items()},
-           "tilt": round(tilt(p[:, SLICES["normal"]]), 3), "truth_tilt": round(tilt(maps[:, SLICES["normal"]]), 3)}
+           "tilt": round(tilt(p[:, SLICES["normal"]]), 3), "truth_tilt": round(tilt(maps[:, SLICES["normal"]]), 3),
+           "slope_corr": round(1.0 - float(L.slope_correlation_loss(p, maps)), 4)}
     print(json.dumps(rec), flush=True)
     with open(out, "a") as f:
         f.write(json.dumps(rec) + "\n")
