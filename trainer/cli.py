@@ -138,6 +138,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--force", action="store_true", help="start over in an existing output folder")
     p.add_argument("--threads", type=int, help="CPU threads (default: all cores)")
     p.add_argument("--device", help="torch device, e.g. cpu or cuda (default: cuda if available)")
+    p.add_argument("--slope-weight", type=float, metavar="W",
+                   help="weight of the slope-correlation term (the pattern of the normals at any scale; v1 and v2: 0); "
+                        "with --resume it changes the run's loss from there on")
     p.add_argument("--height-activation", choices=("tanh", "linear"),
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
                         "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
@@ -234,6 +237,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         v = getattr(args, flag)
         if v is not None and v < 1:
             parser.error(f"--{flag.replace('_', '-')} must be >= 1, got {v}")
+    if args.slope_weight is not None and not args.slope_weight >= 0:
+        parser.error(f"--slope-weight must be >= 0, got {args.slope_weight}")
     if args.eval_every is not None and args.eval_every < 0:
         parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
     if args.minutes is not None and not args.minutes > 0:
@@ -261,6 +266,9 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             config.material_reuse = args.material_reuse
         if args.checkpoint_every is not None:  # how the run is kept, not what it learns: a resume may change it
             config.checkpoint_every = args.checkpoint_every
+        if args.slope_weight is not None and args.slope_weight != config.lambda_slope:
+            log(f"note: the slope term's weight {config.lambda_slope:g} -> {args.slope_weight:g} from here on")
+            config.lambda_slope = args.slope_weight
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")
@@ -291,6 +299,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         over = {k: getattr(args, k) for k in ("iters", "batch", "size", "photo_size", "lr", "seed",
                                               "checkpoint_every", "log_every", "eval_every", "material_reuse")
                 if getattr(args, k) is not None}
+        if args.slope_weight is not None:
+            over["lambda_slope"] = args.slope_weight
         try:
             from svbrdf.trainer.prior import prior_preset
 

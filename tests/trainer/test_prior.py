@@ -698,3 +698,18 @@ def test_the_slope_term_joins_the_prior_loss_at_its_weight():
                             torch.Generator().manual_seed(1))["slope"]) == pytest.approx(0.0, abs=1e-5)
     with pytest.raises(ValueError, match="lambda_slope"):
         tiny(lambda_slope=-1.0)
+
+
+def test_cli_slope_weight_starts_a_run_with_the_term_and_changes_it_on_a_resume(tmp_path, capsys):
+    out = tmp_path / "v2"
+    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
+            "--eval-every", "0", "--material-reuse", "1"]
+    assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", "--slope-weight", "0.5", *args]) == 0
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["lambda_slope"] == 0.5
+    capsys.readouterr()
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--slope-weight", "1", "--threads", "1"]) == 0
+    assert "slope term's weight 0.5 -> 1 from here on" in capsys.readouterr().err
+    ckpt = ckpt_io.load_checkpoint(out / "checkpoint.pt")
+    assert ckpt["prior_config"]["lambda_slope"] == 1.0 and ckpt["history"][-1]["slope"] >= 0
+    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--slope-weight", "-1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
