@@ -10,7 +10,6 @@ The JSON holds PriorConfig overrides and ``"weights"`` (:data:`svbrdf.trainer.lo
 import dataclasses
 import json
 import sys
-import time
 
 import torch
 
@@ -18,6 +17,7 @@ import svbrdf.trainer.losses as L
 from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer.checkpoint import load_checkpoint
 from svbrdf.trainer.prior import PriorConfig, PriorTrainer, map_errors
+from height_common import tilt, train_and_evaluate
 
 src, tag, n, batch, out = sys.argv[1], sys.argv[2], int(sys.argv[3]), int(sys.argv[4]), sys.argv[5]
 over = json.loads(sys.argv[6]) if len(sys.argv) > 6 else {}
@@ -27,10 +27,6 @@ cfg = dataclasses.replace(PriorConfig.from_dict(ckpt["prior_config"]), batch=bat
 tr = PriorTrainer(cfg, device="cpu", threads=1)
 tr.load_resume(ckpt, src)
 photos, maps = tr.eval_set()
-
-
-def tilt(m):
-    return float(torch.rad2deg(torch.acos(m[:, 2].clamp(-1, 1))).mean())
 
 
 def evaluate(step):
@@ -48,10 +44,4 @@ def evaluate(step):
 if tr.config.generator.height_activation == "tanh":
     evaluate("tanh")
     print("k", tr.linearise_height(), flush=True)
-evaluate(0)
-t0 = time.time()
-for i in range(1, n + 1):
-    tr.iteration()
-    if i % 50 == 0:
-        print(f"{i} steps, {time.time() - t0:.0f} s", flush=True)
-        evaluate(i)
+train_and_evaluate(tr, n, evaluate)

@@ -12,7 +12,6 @@ detail or amount terms) and ``"slopes": true`` (decoder_nr gives two slope chann
 import dataclasses
 import json
 import sys
-import time
 from pathlib import Path
 
 import torch
@@ -29,6 +28,7 @@ L.SUPERVISED_WEIGHTS.update(over.pop("weights", {}))
 
 from svbrdf.runtime.maps import SLICES  # noqa: E402
 from svbrdf.trainer.prior import PriorTrainer, map_errors, prior_preset  # noqa: E402
+from height_common import tilt, train_and_evaluate  # noqa: E402
 
 cfg = prior_preset("v2")
 cfg = dataclasses.replace(cfg, generator=dataclasses.replace(cfg.generator, height_activation=height), size=128,
@@ -38,10 +38,6 @@ tr = PriorTrainer(cfg, device="cpu", threads=1)
 photos, maps = tr.eval_set()
 flat = maps.clone()
 flat[:, SLICES["normal"]] = torch.tensor([0.0, 0.0, 1.0]).view(1, 3, 1, 1)
-
-
-def tilt(m):
-    return float(torch.rad2deg(torch.acos(m[:, 2].clamp(-1, 1))).mean())
 
 
 def evaluate(step):
@@ -57,10 +53,4 @@ def evaluate(step):
         f.write(json.dumps(rec) + "\n")
 
 
-evaluate(0)
-t0 = time.time()
-for i in range(1, n + 1):
-    tr.iteration()
-    if i % 50 == 0:
-        print(f"{i} steps, {time.time() - t0:.0f} s", flush=True)
-        evaluate(i)
+train_and_evaluate(tr, n, evaluate)
