@@ -481,6 +481,10 @@ def test_slope_correlation_ignores_the_scale_and_leaves_out_flat_truths():
     assert float(slope_correlation_loss(pred, flat)) == pytest.approx(0.0, abs=1e-5)
     flat[0] = flat[1]
     assert float(slope_correlation_loss(pred, flat)) == 0.0
+    # ridges along one axis (slopes in x only) still have a pattern
+    ridge = torch.linspace(0, 3, 16).sin().view(1, 1, 1, 16).expand(1, 1, 16, 16).contiguous() * 0.05
+    assert float(slope_correlation_loss(_relief_maps(ridge), _relief_maps(ridge))) == pytest.approx(0.0, abs=1e-5)
+    assert float(slope_correlation_loss(_relief_maps(-ridge), _relief_maps(ridge))) > 1.5
 
 
 def test_slope_correlation_reaches_a_flattened_network_where_the_l1_does_not():
