@@ -1,8 +1,9 @@
 """The realistic photo model of :mod:`svbrdf.runtime.camera` on batched torch tensors, on any device.
 
 Same steps and order as :func:`svbrdf.runtime.camera.expose` (exposure ``2 ** ev``, vignetting
-``1 - v (r / r_corner)^2``, Poisson-Gaussian noise of variance ``shot * x + read^2``, clip to [0, 1], 8-bit sRGB
-storage), one camera per photo, for the procedural prior's batched stream (``PriorConfig.batched``). The noise comes
+``1 - v (r / r_corner)^2``, Poisson-Gaussian noise of variance ``shot * x + read^2``, the highlight roll-off
+:func:`svbrdf.runtime.camera.roll_off`, clip to [0, 1], 8-bit sRGB storage), one camera per photo, for the
+procedural prior's batched stream (``PriorConfig.batched``). The noise comes
 from a generator on the photos' device seeded by the caller, so a GPU never waits for the host. Checked against the
 numpy model in ``tests/trainer/test_camera.py``.
 """
@@ -14,7 +15,7 @@ from typing import Optional
 
 import torch
 
-from svbrdf.runtime.camera import radius2
+from svbrdf.runtime.camera import radius2, roll_off
 from svbrdf.trainer.colour import linear_to_srgb, srgb_to_linear
 from svbrdf.trainer.device import to_device
 
@@ -32,7 +33,8 @@ def frame_radius2(height: int, width: int, device=None) -> torch.Tensor:
 
 def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Tensor, shot: torch.Tensor,
                  read: torch.Tensor, generator: Optional[torch.Generator] = None,
-                 quantize: bool = True, radius2_map: Optional[torch.Tensor] = None) -> torch.Tensor:
+                 quantize: bool = True, radius2_map: Optional[torch.Tensor] = None,
+                 white: Optional[torch.Tensor] = None) -> torch.Tensor:
     """The photos cameras record of ``radiance``.
 
     Args:
@@ -42,6 +44,7 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
         quantize: store as 8-bit sRGB and decode back.
         radius2_map: (B or 1, 1, H, W) squared distance from the frame's centre (:func:`svbrdf.runtime.camera.radius2`)
             of each pixel, for renderings that are crops of a larger frame; default: ``radiance`` is the frame.
+        white: (B,) white points of the highlight roll-off (>= 1; None or all 1: none).
 
     Returns:
         (B, 3, H, W) float32 linear photos in [0, 1].
@@ -52,7 +55,10 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
     img = radiance.float() * torch.exp2(col(ev)) * (1.0 - col(vignetting) * r2)
     var = col(shot) * img.clamp_min(0.0) + col(read) ** 2
     noise = torch.randn(img.shape, generator=generator, device=img.device, dtype=img.dtype)
-    img = (img + noise * var.sqrt()).clamp(0.0, 1.0)
+    img = img + noise * var.sqrt()
+    if white is not None and bool((white != 1.0).any()):
+        img = roll_off(img.clamp_min(0.0), col(white))
+    img = img.clamp(0.0, 1.0)
     if quantize:
         img = srgb_to_linear(torch.round(linear_to_srgb(img) * 255.0) / 255.0).clamp(0.0, 1.0)
     return img

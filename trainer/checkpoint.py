@@ -9,6 +9,9 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     train_config                TrainConfig.to_dict()
     stage, step, iters          "pretrain" | "finetune" | "fit", iterations done, iterations planned
     generator, discriminator    state dicts (discriminator may be None in a cleaned checkpoint)
+    generator_ema               a prior run's moving average of the generator's weights (``PriorConfig.ema``), or
+                                absent: where present it is the model (:func:`model_weights`), ``generator`` what a
+                                resume trains on
     optimizers                  {"nr", "ds", "d"} (+ "cam"): Adam state dicts, or None (cleaned)
     history                     one dict of loss terms per iteration (None for a non-finite value)
     photo                       {"name", "sha256", "height", "width"} of the training photo
@@ -163,11 +166,17 @@ def load_checkpoint(path: PathLike) -> Dict[str, Any]:
     return ckpt
 
 
+def model_weights(ckpt: Mapping[str, Any]) -> Dict[str, torch.Tensor]:
+    """The generator weights a checkpoint's model is: its weights' moving average (``generator_ema``, a prior run
+    with ``ema``) where it has one, else ``generator``."""
+    return ckpt["generator_ema"] if ckpt.get("generator_ema") is not None else ckpt["generator"]
+
+
 def generator_from_checkpoint(ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> Generator:
-    """Build the generator of a loaded checkpoint dict (CPU, eval mode)."""
+    """Build the generator of a loaded checkpoint dict (CPU, eval mode; :func:`model_weights`)."""
     try:
         gen = Generator(GeneratorConfig.from_dict(ckpt["generator_config"]))
-        gen.load_state_dict(ckpt["generator"])
+        gen.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in model_weights(ckpt).items()})
     except (ValueError, TypeError, KeyError, RuntimeError) as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
         raise ModelError(f"{source}: generator weights do not match its configuration ({first[:160]})") from None
@@ -186,13 +195,14 @@ def load_generator(path: PathLike) -> Tuple[Generator, Dict[str, Any]]:
     """
     ckpt = load_checkpoint(path)
     gen = generator_from_checkpoint(ckpt, path)
-    meta = {k: v for k, v in ckpt.items() if k not in ("generator", "discriminator", "optimizers", "rng")}
+    meta = {k: v for k, v in ckpt.items() if k not in ("generator", "generator_ema", "discriminator", "optimizers", "rng")}
     return gen, meta
 
 
 def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool = False,
                      force: bool = False) -> Path:
-    """Copy a checkpoint without optimiser states and RNG states (and the discriminator unless kept), for shipping.
+    """Copy a checkpoint without optimiser states and RNG states (and the discriminator unless kept), for shipping;
+    its weights are the model's (:func:`model_weights`: a prior run's moving average replaces the trained weights).
 
     Raises:
         ModelError: unreadable ``src``, or ``dst`` exists and ``force`` is False.
@@ -205,6 +215,9 @@ def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool =
     ckpt["rng"] = None
     ckpt["eval_maps"] = None
     ckpt["anchor"] = None
+    ckpt["generator"] = model_weights(ckpt)
+    ckpt.pop("generator_ema", None)
+    ckpt.pop("ema_updates", None)
     if not keep_discriminator:
         ckpt["discriminator"] = None
     return save_checkpoint(dst, ckpt)
@@ -314,7 +327,7 @@ def load_resume(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint
 def _load_models(trainer, ckpt: Mapping[str, Any], source: PathLike) -> None:
     for key, cfg, net in (("generator", trainer.config.generator, trainer.generator),
                           ("discriminator", trainer.config.discriminator, trainer.discriminator)):
-        state = ckpt.get(key)
+        state = model_weights(ckpt) if key == "generator" else ckpt.get(key)
         if state is None:
             continue
         stored = ckpt.get(f"{key}_config") or {}
@@ -364,5 +377,5 @@ def save_trainer(trainer, path: PathLike) -> Path:
 
 
 __all__ = ["FORMAT", "default_checkpoint", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint",
-           "load_generator", "generator_from_checkpoint", "clean_checkpoint", "library_versions", "last_good_path",
-           "load_init", "load_resume", "trainer_checkpoint", "save_trainer"]
+           "load_generator", "generator_from_checkpoint", "model_weights", "clean_checkpoint", "library_versions",
+           "last_good_path", "load_init", "load_resume", "trainer_checkpoint", "save_trainer"]

@@ -141,6 +141,13 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--slope-weight", type=float, metavar="W",
                    help="weight of the slope-correlation term (the pattern of the normals at any scale; v1 and v2: 0); "
                         "with --resume it changes the run's loss from there on")
+    p.add_argument("--roll-off", type=float, metavar="WHITE",
+                   help="photograph the materials through a highlight roll-off (a phone's tone curve) whose white "
+                        "point is drawn in [1, WHITE] per photo (1 = a linear camera: v1, v2 so far); with --resume it "
+                        "changes the run's photos from there on")
+    p.add_argument("--ema", type=float, metavar="DECAY",
+                   help="keep a moving average of the weights with this decay (e.g. 0.998; 0 = none: v1, v2 so far); "
+                        "the average is the model the checkpoint gives; with --resume it starts at the resumed weights")
     p.add_argument("--height-activation", choices=("tanh", "linear"),
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
                         "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
@@ -239,6 +246,10 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             parser.error(f"--{flag.replace('_', '-')} must be >= 1, got {v}")
     if args.slope_weight is not None and not args.slope_weight >= 0:
         parser.error(f"--slope-weight must be >= 0, got {args.slope_weight}")
+    if args.ema is not None and not 0 <= args.ema < 1:
+        parser.error(f"--ema must be in [0, 1), got {args.ema}")
+    if args.roll_off is not None and not args.roll_off >= 1:
+        parser.error(f"--roll-off must be >= 1 (1 = none), got {args.roll_off}")
     if args.eval_every is not None and args.eval_every < 0:
         parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
     if args.minutes is not None and not args.minutes > 0:
@@ -269,6 +280,14 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         if args.slope_weight is not None and args.slope_weight != config.lambda_slope:
             log(f"note: the slope term's weight {config.lambda_slope:g} -> {args.slope_weight:g} from here on")
             config.lambda_slope = args.slope_weight
+        if args.roll_off is not None and (1.0, args.roll_off) != config.camera["white"]:
+            log(f"note: the camera's highlight roll-off white point {list(config.camera['white'])} -> "
+                f"[1, {args.roll_off:g}] from here on")
+            config.camera = {**config.camera, "white": (1.0, float(args.roll_off))}
+        if args.ema is not None and args.ema != config.ema:
+            log(f"note: the weights' moving average (decay {config.ema:g} -> {args.ema:g}) from here on; it is the "
+                "model the checkpoint gives")
+            config.ema = args.ema
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")
@@ -309,6 +328,10 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                    if v is not None}
             if gen:
                 over["generator"] = dataclasses.replace(config.generator, **gen)
+            if args.ema is not None:
+                over["ema"] = args.ema
+            if args.roll_off is not None:
+                over["camera"] = {**config.camera, "white": (1.0, float(args.roll_off))}
             config = dataclasses.replace(config, **over)
         except ValueError as e:
             parser.error(str(e))

@@ -29,6 +29,13 @@ per record), and ``compact_checkpoint`` stores weights in float16 and Adam's mom
 resumes the checkpoint on any device. :data:`PRIOR_PRESETS` names the settings: ``v1`` (the shipped recipe) and
 ``v2`` (the U-Net candidate with all of the above, for a GPU).
 
+Weight averaging (``ema`` > 0): beside the weights it trains, the trainer keeps an exponential moving average of
+them (:class:`torch.optim.swa_utils.AveragedModel`, updated after every optimiser step); that average is the model:
+the held-out evaluations, :attr:`PriorTrainer.model`, and every consumer of the checkpoint
+(:func:`svbrdf.trainer.checkpoint.generator_from_checkpoint`, the fine-tune's ``--init``, the export,
+:func:`~svbrdf.trainer.checkpoint.clean_checkpoint`) use it; the checkpoint keeps the trained weights too
+(``generator``, what a resume continues) and the average as ``generator_ema``.
+
 :class:`PriorTrainer` writes resumable, atomic checkpoints in the project's checkpoint format
 (:mod:`svbrdf.trainer.checkpoint`): ``stage="prior"``, no discriminator, ``train_config`` = the fine-tune preset
 that starts from it (so ``svbrdf-train finetune --init``, ``svbrdf-preview --refine`` and the benchmark use it as
@@ -47,7 +54,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 import numpy as np
 import torch
 
-from svbrdf.runtime.camera import REALISTIC, Camera, expose
+from svbrdf.runtime.camera import CAMERA_KEYS, REALISTIC, Camera, expose
 from svbrdf.runtime.manifest import PRIOR_STAGE
 from svbrdf.runtime.maps import SLICES
 from svbrdf.runtime.render import RenderConfig, light_vectors, physical_config
@@ -93,7 +100,10 @@ class PriorConfig:
         fov_deg: range of the photos' horizontal field of view, degrees (uniform).
         light_offset: the flash sits up to this far from the lens, in each of x and y (half photo widths).
         physical_share: fraction of photos rendered with :func:`~svbrdf.runtime.render.physical_config`.
-        camera: ranges of the camera model (default :data:`svbrdf.runtime.camera.REALISTIC`).
+        camera: ranges of the camera model (default :data:`svbrdf.runtime.camera.REALISTIC`). ``white`` (the
+            highlight roll-off's white point, :func:`svbrdf.runtime.camera.roll_off`) may be left out: (1, 1), a
+            linear camera, as every run before it existed; it is drawn only when its range is not (1, 1), so such
+            a run's stream of draws is unchanged.
         lambda_render: weight of the relighting loss.
         render_lights: random point lights of the relighting loss (besides the flash).
         render_views: further renderings of the relighting loss, each under a random distant view and a random
@@ -118,6 +128,9 @@ class PriorConfig:
         log_every: iterations per log record (their mean); 1 = every iteration (v1).
         compact_checkpoint: store the weights in float16 and Adam's moments in bfloat16, and only the log
             records in the history (about a third of the float32 size; resuming casts them back).
+        ema: decay of the weights' exponential moving average (0 = none, v1 and v2 before the ninth session of
+            2026-11-26): the average is the model (see the module docstring). A resume that turns it on starts the
+            average at the weights it resumes.
         material_reuse: iterations that photograph the same materials anew (new flash, field of view, camera and
             crop each time) before new ones are drawn; > 1 where drawing materials bounds the speed (a GPU waiting
             for the host's many small kernel launches). The time limit stops a run only where a new draw starts,
@@ -160,6 +173,7 @@ class PriorConfig:
     compact_checkpoint: bool = False
     material_reuse: int = 1
     lambda_slope: float = 0.0
+    ema: float = 0.0
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -167,7 +181,7 @@ class PriorConfig:
         self.grazing_deg = tuple(float(f) for f in self.grazing_deg)
         self.amount_maps = tuple(self.amount_maps)
         self.amount_windows = tuple(int(w) for w in self.amount_windows)
-        self.camera = {k: tuple(float(x) for x in v) for k, v in self.camera.items()}
+        self.camera = {k: tuple(float(x) for x in v) for k, v in {"white": (1.0, 1.0), **self.camera}.items()}
         if self.families is not None:
             self.families = tuple(self.families)
         self.validate()
@@ -190,6 +204,8 @@ class PriorConfig:
         need(self.light_offset >= 0 and self.render_lights >= 0 and self.lambda_render >= 0,
              "light_offset, render_lights and lambda_render must be >= 0")
         need(set(self.camera) == set(REALISTIC), f"camera ranges need exactly the keys {sorted(REALISTIC)}")
+        need(all(len(v) == 2 and v[0] <= v[1] for v in self.camera.values()), "camera ranges must be (lo, hi), lo <= hi")
+        need(self.camera["white"][0] >= 1.0, f"the camera's white range must be >= 1, got {self.camera['white']}")
         need(self.render_views >= 0 and self.lambda_grad >= 0 and self.lambda_amount >= 0 and self.lambda_slope >= 0,
              "render_views, lambda_grad, lambda_amount and lambda_slope must be >= 0")
         need(bool(self.amount_maps) and set(self.amount_maps) <= set(SLICES),
@@ -200,6 +216,7 @@ class PriorConfig:
         need(0.0 < self.grazing_deg[0] <= self.grazing_deg[1] < 90.0, f"bad grazing_deg range {self.grazing_deg}")
         need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
         need(self.material_reuse >= 1, f"material_reuse must be >= 1, got {self.material_reuse}")
+        need(0.0 <= self.ema < 1.0, f"ema must be in [0, 1), got {self.ema}")
         unknown = set(self.families or ()) - set(FAMILIES)
         need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
         resolve(self.finetune_preset)  # raises on an unknown preset
@@ -230,6 +247,13 @@ class PriorConfig:
 
 def _uniform(rng: torch.Generator, lo: float, hi: float) -> float:
     return float(lo + (hi - lo) * torch.rand((), generator=rng).item())
+
+
+def _draw_camera(config: PriorConfig, rng: torch.Generator) -> Dict[str, float]:
+    """One photo's camera parameters from ``config.camera``'s ranges (:data:`~svbrdf.runtime.camera.CAMERA_KEYS`,
+    in order); ``white`` is drawn only when its range is not (1, 1), else it is 1 and nothing is drawn for it."""
+    keys = CAMERA_KEYS if config.camera["white"] != (1.0, 1.0) else CAMERA_KEYS[:-1]
+    return {"white": 1.0, **{k: _uniform(rng, *config.camera[k]) for k in keys}}
 
 
 def lights_for(config: RenderConfig, n: int, rng: torch.Generator) -> List[Tuple[float, float, float]]:
@@ -295,8 +319,7 @@ def simulate_photos(maps: torch.Tensor, config: PriorConfig, rng: torch.Generato
         v, l, d2 = _geometry(h, w, light, rc)
         with torch.no_grad():
             radiance = render_maps(maps[i:i + 1].float(), v, l, rc, d2)[0].permute(1, 2, 0).numpy()
-        cam = Camera(**{k: _uniform(rng, *config.camera[k]) for k in ("ev", "vignetting", "shot", "read")},
-                     quantize=True)
+        cam = Camera(**_draw_camera(config, rng), quantize=True)
         seed = int(torch.randint(0, 2 ** 31 - 1, (), generator=rng))
         photo = torch.from_numpy(expose(radiance, cam, seed=seed)).permute(2, 0, 1)
         m = maps[i]
@@ -329,7 +352,7 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
         rc = base.replace(fov_deg=fov)
         o = config.light_offset
         light = (_uniform(rng, -o, o), _uniform(rng, -o, o), rc.camera_distance)
-        cam = {k: _uniform(rng, *config.camera[k]) for k in ("ev", "vignetting", "shot", "read")}
+        cam = _draw_camera(config, rng)
         cams.append(camera_position(rc))
         lights.append(light)
         physical.append(phys)
@@ -357,7 +380,7 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
                 sel = to_device(torch.tensor(idx), dev)
                 radiance[sel] = render_maps(maps[sel], v[sel], l[sel], rc, d2[sel])
         noise = torch.Generator(device=dev).manual_seed(seed)
-        param = {k: torch.tensor([c[k] for c in cam_draws]) for k in ("ev", "vignetting", "shot", "read")}
+        param = {k: torch.tensor([c[k] for c in cam_draws]) for k in CAMERA_KEYS}
         photos = expose_batch(radiance, generator=noise, radius2_map=r2, **param)
     return photos.contiguous(), maps.contiguous(), draws
 
@@ -566,6 +589,23 @@ class PriorTrainer:
         self._relit: Callable[..., torch.Tensor] = CompiledRelit() if compile else relit_pair
         self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
         self._materials: Optional[Tuple[torch.Tensor, List[str], bool]] = None
+        self.averaged: Optional[torch.optim.swa_utils.AveragedModel] = None
+        self._average()
+
+    def _average(self) -> None:
+        """(Re)start the weights' moving average at the current weights (``config.ema`` > 0), else none."""
+        from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
+
+        self.averaged = (AveragedModel(self.generator, multi_avg_fn=get_ema_multi_avg_fn(self.config.ema),
+                                       use_buffers=True) if self.config.ema > 0 else None)
+
+    @property
+    def model(self) -> Generator:
+        """The model this run has learned: the weights' moving average with ``ema`` > 0 (once it has been updated),
+        else the trained weights."""
+        if self.averaged is None or int(self.averaged.n_averaged) == 0:
+            return self.generator
+        return self.averaged.module
 
     # ------------------------------------------------------------------ schedule
     def lr_at(self, step: int) -> float:
@@ -610,6 +650,8 @@ class PriorTrainer:
             if not skipped:
                 terms["total"].backward()
                 self.optimizer.step()
+        if self.averaged is not None:
+            self.averaged.update_parameters(self.generator)
         self.step += 1
         facts = {"step": self.step, "lr": self.lr_at(self.step - 1), "crop": info["crop"], "data_seconds": t_data,
                  "seconds": time.perf_counter() - t0, "skipped": skipped}
@@ -660,10 +702,10 @@ class PriorTrainer:
 
     @torch.no_grad()
     def evaluate(self) -> Dict[str, float]:
-        """Map errors on the validation batch (:func:`map_errors`)."""
+        """Map errors of :attr:`model` on the validation batch (:func:`map_errors`)."""
         photos, maps = self.eval_set()
-        self.generator.eval()
-        return map_errors(self.generator(photos), maps)
+        self.model.eval()
+        return map_errors(self.model(photos), maps)
 
     def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
         """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback.
@@ -740,6 +782,10 @@ class PriorTrainer:
         ckpt["prior_config"] = self.config.to_dict()
         ckpt["evals"] = [dict(e) for e in self.evals]
         ckpt["seconds"] = float(self.seconds)
+        if self.averaged is not None:
+            ckpt["generator_ema"] = {k: v.detach().float().cpu().clone() if v.is_floating_point() else v.cpu().clone()
+                                     for k, v in self.averaged.module.state_dict().items()}
+            ckpt["ema_updates"] = int(self.averaged.n_averaged)
         if self.config.compact_checkpoint:
             compact(ckpt)
         return ckpt
@@ -757,6 +803,7 @@ class PriorTrainer:
         ratio ``k``. For a run resumed from a checkpoint whose tanh height saturated (the v2 run at 4745 iterations)."""
         k = linearise_height(self.generator, self.eval_set()[0])
         self.config = dataclasses.replace(self.config, generator=self.generator.cfg)
+        self._average()  # the average restarts at the converted weights
         return k
 
     def load_resume(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
@@ -773,6 +820,15 @@ class PriorTrainer:
             self.optimizer.load_state_dict(ckpt["optimizers"]["g"])
         except (KeyError, ValueError, RuntimeError) as e:
             raise ModelError(f"{source}: does not fit this configuration ({str(e).splitlines()[0][:120]})") from None
+        if self.averaged is not None and ckpt.get("generator_ema") is not None:
+            try:
+                self.averaged.module.load_state_dict({k: v.float() if v.is_floating_point() else v
+                                                      for k, v in ckpt["generator_ema"].items()})
+            except (KeyError, ValueError, RuntimeError) as e:
+                raise ModelError(f"{source}: its averaged weights do not fit ({str(e).splitlines()[0][:120]})") from None
+            self.averaged.n_averaged.fill_(int(ckpt.get("ema_updates", 1)))
+        elif self.averaged is not None:  # turned on at this resume: the average starts at the resumed weights
+            self._average()
         self.step = int(ckpt["step"])
         self.history = [dict(h) for h in ckpt.get("history", [])]
         self.evals = [dict(e) for e in ckpt.get("evals", [])]
@@ -782,11 +838,13 @@ class PriorTrainer:
 
 
 def compact(ckpt: Dict[str, Any]) -> Dict[str, Any]:
-    """Shrink a prior checkpoint in place for ``compact_checkpoint``: float32 weights -> float16, Adam's moments
-    (``exp_avg``, ``exp_avg_sq``) -> bfloat16 (float16 would flush small second moments to zero). Loading casts
+    """Shrink a prior checkpoint in place for ``compact_checkpoint``: float32 weights (and their average) -> float16,
+    Adam's moments (``exp_avg``, ``exp_avg_sq``) -> bfloat16 (float16 would flush small second moments to zero). Loading casts
     them back to the parameters' float32 (``load_state_dict`` of the module and of Adam). About 6 bytes per
     parameter instead of 12: the resumed run differs from an uninterrupted one by these roundings only."""
-    ckpt["generator"] = {k: (v.half() if v.dtype == torch.float32 else v) for k, v in ckpt["generator"].items()}
+    for key in ("generator", "generator_ema"):
+        if ckpt.get(key) is not None:
+            ckpt[key] = {k: (v.half() if v.dtype == torch.float32 else v) for k, v in ckpt[key].items()}
     for opt in (ckpt.get("optimizers") or {}).values():
         for state in opt["state"].values():
             for k in ("exp_avg", "exp_avg_sq"):

@@ -55,3 +55,32 @@ def test_bad_camera_is_refused():
         Camera(vignetting=1.0)
     with pytest.raises(ValueError):
         Camera(shot=-1.0)
+
+
+def test_roll_off_keeps_the_darks_brings_white_to_one_and_rises():
+    from svbrdf.runtime.camera import roll_off
+
+    x = np.linspace(0.0, 6.0, 601)
+    assert roll_off(x, 1.0) is x  # a linear camera: the identity
+    for white in (1.5, 2.0, 4.0):
+        y = roll_off(x, white)
+        assert np.all(np.diff(y) > 0)  # never reverses an order of brightness
+        assert y[1] == pytest.approx(x[1], rel=0.02)  # slope 1 at 0: the darks stay
+        assert roll_off(np.array(white), white) == pytest.approx(1.0)
+        assert np.all(y[(x > 0) & (x < white)] < x[(x > 0) & (x < white)])  # below white, brights come down
+    # a highlight 2x over the clip keeps a shape with white 4 where a linear camera clips it flat
+    spot = np.array([[[0.5], [1.0], [1.5], [2.0]]]).repeat(3, axis=2)
+    assert np.unique(expose(spot, Camera())).size == 2
+    assert np.all(np.diff(expose(spot, Camera(white=4.0))[0, :, 0]) > 0)
+
+
+def test_a_camera_without_roll_off_is_as_before_and_white_is_checked():
+    x = np.random.default_rng(1).uniform(0, 2, (8, 8, 3))
+    cam = Camera(ev=0.3, vignetting=0.1, shot=1e-3, read=2e-3, quantize=True)
+    same = Camera(**{**cam.to_dict(), "white": 1.0})
+    assert cam.white == 1.0 and np.array_equal(expose(x, cam, seed=5), expose(x, same, seed=5))
+    assert sample_camera(7).white == 1.0  # the benchmark's synthetic inputs stay linear
+    assert sample_camera(7, {**REALISTIC, "white": (2.0, 3.0)}).ev == sample_camera(7).ev  # drawn last
+    assert 2.0 <= sample_camera(7, {**REALISTIC, "white": (2.0, 3.0)}).white <= 3.0
+    with pytest.raises(ValueError):
+        Camera(white=0.9)

@@ -28,6 +28,18 @@ def test_noise_free_exposure_equals_the_numpy_camera(quantize):
     assert got.max() == 1.0  # bright pixels clip
 
 
+def test_the_batched_roll_off_equals_the_numpy_camera_per_photo():
+    rng = np.random.default_rng(2)
+    radiance = rng.random((3, 3, 8, 8)).astype(np.float32) * 3.0
+    cams = [Camera(ev=0.2, white=1.0), Camera(ev=-0.1, vignetting=0.1, white=2.5), Camera(white=4.0)]
+    got = expose_batch(torch.from_numpy(radiance), *(torch.tensor([getattr(c, k) for c in cams])
+                                                      for k in ("ev", "vignetting", "shot", "read")),
+                       quantize=False, white=torch.tensor([c.white for c in cams])).numpy()
+    for i, cam in enumerate(cams):
+        assert np.abs(got[i] - expose(radiance[i].transpose(1, 2, 0), cam).transpose(2, 0, 1)).max() < 2e-6
+    assert (got[0] == 1.0).mean() > (got[2] == 1.0).mean()  # the roll-off keeps highlights below the clip
+
+
 def test_noise_has_the_model_variance_and_follows_the_seed():
     x = torch.full((1, 3, 64, 64), 0.25)
     args = (torch.zeros(1), torch.zeros(1), torch.tensor([1e-3]), torch.tensor([2e-3]))

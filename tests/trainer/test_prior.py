@@ -639,7 +639,7 @@ def test_batched_crops_are_photographed_alone_and_equal_crops_of_the_whole_photo
     frame (vignetting): without noise, each crop equals the same window of the whole photograph."""
     from svbrdf.trainer.prior import draw_materials, simulate_photos_batched
 
-    quiet = {k: (v if k in ("ev", "vignetting") else (0.0, 0.0)) for k, v in prior_preset("v2").camera.items()}
+    quiet = {k: (v if k in ("ev", "vignetting", "white") else (0.0, 0.0)) for k, v in prior_preset("v2").camera.items()}
     cfg = tiny_v2(crop_share=1.0, camera=quiet, batch=3)
     maps, _, crop = draw_materials(cfg, torch.Generator().manual_seed(8))
     assert crop and maps.shape[-1] == 64
@@ -712,4 +712,127 @@ def test_cli_slope_weight_starts_a_run_with_the_term_and_changes_it_on_a_resume(
     ckpt = ckpt_io.load_checkpoint(out / "checkpoint.pt")
     assert ckpt["prior_config"]["lambda_slope"] == 1.0 and ckpt["history"][-1]["slope"] >= 0
     assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--slope-weight", "-1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
+
+
+def test_a_roll_off_range_is_drawn_per_photo_alike_in_both_streams_and_none_leaves_the_stream_as_it_was():
+    """``camera["white"]`` (the highlight roll-off): left out or (1, 1), nothing is drawn for it (a run's stream as
+    before it existed); a range draws it last per photo, the same in the photo-by-photo and the batched stream."""
+    from svbrdf.trainer.prior import draw_materials, simulate_photos, simulate_photos_batched
+
+    old = prior_preset("v2").to_dict()
+    old["camera"].pop("white")
+    assert PriorConfig.from_dict(old).camera["white"] == (1.0, 1.0)  # a checkpoint from before
+    quiet = {k: (v if k in ("ev", "vignetting") else (0.0, 0.0)) for k, v in prior_preset("v2").camera.items()}
+    lin = tiny_v2(crop_share=0.0, camera={**quiet, "white": (1.0, 1.0)}, batch=3)
+    rolled = dataclasses.replace(lin, camera={**quiet, "white": (2.0, 4.0)})
+    maps, _, _ = draw_materials(lin, torch.Generator().manual_seed(3))
+    maps = maps.clone()
+    maps[:, 0:3] = 1.0  # a bright white material under the flash: the centre clips
+    a, _, da = simulate_photos_batched(maps, lin, torch.Generator().manual_seed(5))
+    b, _, db = simulate_photos_batched(maps, rolled, torch.Generator().manual_seed(5))
+    _, _, d1 = simulate_photos_batched(maps[:1], rolled, torch.Generator().manual_seed(5))
+    s, _, ds = simulate_photos(maps[:1], rolled, torch.Generator().manual_seed(5))  # (its later draws interleave)
+    assert [d["camera"]["white"] for d in da] == [1.0] * 3
+    assert all(2.0 <= d["camera"]["white"] <= 4.0 for d in db) and d1 == ds
+    assert da[0]["camera"]["ev"] == db[0]["camera"]["ev"]  # white is drawn after the others
+    assert float((a >= 1.0).float().mean()) > float((b >= 1.0).float().mean())  # fewer clipped pixels
+    s_lin, _, _ = simulate_photos(maps[:1], lin, torch.Generator().manual_seed(5))
+    assert float((s_lin >= 1.0).float().mean()) > float((s >= 1.0).float().mean())  # the numpy camera's roll-off
+    with pytest.raises(ValueError):
+        tiny_v2(camera={**quiet, "white": (0.5, 2.0)})
+
+
+def test_cli_roll_off_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path, capsys):
+    out = tmp_path / "v2"
+    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
+            "--eval-every", "0", "--material-reuse", "1"]
+    assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", *args]) == 0
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["camera"]["white"] == [1.0, 1.0]
+    capsys.readouterr()
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--roll-off", "4", "--threads", "1"]) == 0
+    assert "highlight roll-off white point [1.0, 1.0] -> [1, 4] from here on" in capsys.readouterr().err
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["camera"]["white"] == [1.0, 4.0]
+    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "r"), "--iters", "1", "--roll-off", "3",
+                     *args]) == 0
+    assert ckpt_io.load_checkpoint(tmp_path / "r" / "checkpoint.pt")["prior_config"]["camera"]["white"] == [1.0, 3.0]
+    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--roll-off", "0.5"]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
+
+
+def _floats(module) -> dict:
+    return {k: v.detach().clone() for k, v in module.state_dict().items() if v.is_floating_point()}
+
+
+def test_the_moving_average_is_the_ema_of_the_trained_weights_and_what_the_checkpoint_gives(tmp_path):
+    """``ema``: after every step average = decay * average + (1 - decay) * weights (the first step copies); it is
+    :attr:`PriorTrainer.model`, the checkpoint's ``generator_ema`` and what every consumer of the checkpoint loads."""
+    tr = PriorTrainer(tiny_v2(ema=0.75, iters=3), threads=1)
+    assert tr.model is tr.generator  # nothing averaged yet
+    want = None
+    for _ in range(3):
+        tr.iteration()
+        w = _floats(tr.generator)
+        want = w if want is None else {k: 0.75 * want[k] + 0.25 * w[k] for k in w}
+    got = _floats(tr.model)
+    assert tr.model is tr.averaged.module
+    for k in want:
+        torch.testing.assert_close(got[k], want[k], rtol=1e-5, atol=1e-6)
+    assert max(float((got[k] - w[k]).abs().max()) for k in w) > 0  # not the trained weights
+    path = tr.save(tmp_path / "c.pt")
+    ckpt = ckpt_io.load_checkpoint(path)
+    assert ckpt["ema_updates"] == 3
+    loaded = _floats(ckpt_io.generator_from_checkpoint(ckpt))
+    for k in want:  # (v2 checkpoints are compact: float16 weights)
+        torch.testing.assert_close(loaded[k], got[k], rtol=2e-3, atol=1e-4)
+    clean = ckpt_io.load_checkpoint(ckpt_io.clean_checkpoint(path, tmp_path / "clean.pt"))
+    assert "generator_ema" not in clean
+    k = next(iter(want))
+    torch.testing.assert_close(clean["generator"][k].float(), got[k], rtol=2e-3, atol=1e-4)
+    with torch.no_grad():
+        assert tr.evaluate() == map_errors(tr.model(tr.eval_set()[0]), tr.eval_set()[1])
+    plain = PriorTrainer(tiny_v2(iters=1), threads=1)
+    plain.iteration()
+    assert plain.averaged is None and plain.model is plain.generator and "generator_ema" not in plain.checkpoint()
+
+
+def test_a_resume_keeps_the_average_and_a_resume_that_turns_it_on_starts_it_at_the_resumed_weights(tmp_path):
+    cfg = tiny_v2(ema=0.75, iters=4, compact_checkpoint=False)  # (compact: float16 weights, not exact)
+    whole = PriorTrainer(cfg, threads=1)
+    whole.run()
+    first = PriorTrainer(cfg, threads=1, checkpoint_path=tmp_path / "a.pt")
+    for _ in range(2):
+        first.iteration()
+    first.save()
+    resumed = resume_prior(tmp_path / "a.pt", threads=1)
+    a, b = _floats(whole.model), _floats(resumed.model)
+    assert resumed.step == 4 and max(float((a[k] - b[k]).abs().max()) for k in a) < 1e-5
+    off = PriorTrainer(tiny_v2(iters=4), threads=1, checkpoint_path=tmp_path / "b.pt")
+    off.iteration()
+    off.save()
+    ckpt = ckpt_io.load_checkpoint(tmp_path / "b.pt")
+    on = PriorTrainer(tiny_v2(ema=0.75, iters=4), threads=1)
+    on.load_resume(ckpt, tmp_path / "b.pt")
+    assert on.model is on.generator  # until its first update
+    on.iteration()
+    w, m = _floats(on.generator), _floats(on.model)
+    assert all(torch.equal(w[k], m[k]) for k in w)  # the first update copies the weights it resumed and trained
+
+
+def test_cli_ema_starts_a_run_with_an_average_and_turns_it_on_at_a_resume(tmp_path, capsys):
+    out = tmp_path / "v2"
+    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
+            "--eval-every", "0", "--material-reuse", "1"]
+    assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", *args]) == 0
+    ckpt = ckpt_io.load_checkpoint(out / "checkpoint.pt")
+    assert ckpt["prior_config"]["ema"] == 0.0 and "generator_ema" not in ckpt
+    capsys.readouterr()
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--ema", "0.9", "--threads", "1"]) == 0
+    assert "moving average (decay 0 -> 0.9) from here on" in capsys.readouterr().err
+    ckpt = ckpt_io.load_checkpoint(out / "checkpoint.pt")
+    assert ckpt["prior_config"]["ema"] == 0.9 and ckpt["ema_updates"] == 1
+    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "e"), "--iters", "1", "--ema", "0.5",
+                     *args]) == 0
+    assert ckpt_io.load_checkpoint(tmp_path / "e" / "checkpoint.pt")["ema_updates"] == 1
+    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--ema", "1"]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
