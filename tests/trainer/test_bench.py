@@ -311,6 +311,16 @@ def test_cli_quick_writes_every_output(tmp_path, capsys):
     assert main(["--report", str(out), "--report", str(tmp_path / "other.json"), "--out", str(merged_out),
                  "--force", "--quiet"]) == 0
     assert json.loads((merged_out / "results.json").read_text())["records"] == merged["records"]
+    # A gzipped results.json (how the repository keeps large raw records), or its folder, reads the same.
+    import gzip
+
+    packed = tmp_path / "packed"
+    packed.mkdir()
+    with gzip.open(packed / "results.json.gz", "wt", encoding="utf-8") as f:
+        f.write((out / "results.json").read_text())
+    for src in (packed, packed / "results.json.gz"):
+        assert main(["--report", str(src), "--out", str(tmp_path / "unpacked"), "--force", "--quiet"]) == 0
+        assert json.loads((tmp_path / "unpacked" / "results.json").read_text())["records"] == doc["records"]
     (tmp_path / "broken.json").write_text("{")
     capsys.readouterr()
     for bad in (tmp_path / "missing", tmp_path / "broken.json"):

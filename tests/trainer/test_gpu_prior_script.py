@@ -45,3 +45,26 @@ def test_a_chunk_returns_its_checkpoint_and_log_and_the_next_call_resumes_it(tmp
     assert ckpt_io.load_checkpoint(tmp_path / "out2" / "resume.pt")["step"] == 6
     steps = [json.loads(line)["step"] for line in (tmp_path / "out2" / "train_log.jsonl").read_text().splitlines()]
     assert steps == [4, 6]  # this chunk's records only, realigned on log_every
+
+
+#: The device call sends the checkout's tracked and untracked-not-ignored files, 64 MiB at most; this leaves room for
+#: a resume file that grows and a chunk's logs.
+TREE_BUDGET_MIB = 58.0
+
+
+def test_the_working_tree_a_device_call_sends_stays_under_its_limit():
+    if shutil.which("git") is None or not (ROOT / ".git").exists():
+        pytest.skip("not a git checkout")
+    listed = subprocess.run(["git", "ls-files", "-z", "--cached", "--others", "--exclude-standard"], cwd=ROOT,
+                            capture_output=True, check=True).stdout.split(b"\0")
+    sizes = {}
+    for name in filter(None, listed):
+        p = ROOT / os.fsdecode(name)
+        if p.is_file() and not p.is_symlink():
+            sizes[p.relative_to(ROOT).as_posix()] = p.stat().st_size
+    total = sum(sizes.values()) / 2 ** 20
+    biggest = ", ".join(f"{k} ({v / 2 ** 20:.1f})" for k, v in sorted(sizes.items(), key=lambda kv: -kv[1])[:5])
+    assert total < TREE_BUDGET_MIB, (
+        f"the working tree is {total:.1f} MiB: a GPU device call sends at most 64 MiB (guarded at {TREE_BUDGET_MIB}); "
+        f"gzip raw records (svbrdf-bench --report reads results.json.gz) or drop superseded artefacts; "
+        f"largest: {biggest}")

@@ -390,11 +390,18 @@ def _report_folder(path: str) -> Path:
 
 
 def _read_report(path: str) -> dict:
-    """An earlier run's results.json (or the folder that holds it), or a one-line :class:`SvbrdfError`."""
+    """An earlier run's results.json (or the folder that holds it), or a one-line :class:`SvbrdfError`. A gzipped
+    one (``results.json.gz``: how the repository keeps large raw records) reads the same."""
     p = Path(path)
     if p.is_dir():
-        p = p / "results.json"
+        p = p / "results.json" if (p / "results.json").exists() or not (p / "results.json.gz").exists() \
+            else p / "results.json.gz"
     try:
+        if p.suffix == ".gz":
+            import gzip
+
+            with gzip.open(p, "rt", encoding="utf-8") as f:
+                return json.load(f)
         return json.loads(p.read_text(encoding="utf-8"))
     except OSError as e:
         raise SvbrdfError(f"{p}: cannot read the run's results ({e.strerror or e})") from None
