@@ -27,7 +27,7 @@ per = int(sys.argv[4]) if len(sys.argv) > 4 else 8
 ckpt = load_checkpoint(src)
 tr = PriorTrainer(PriorConfig.from_dict(ckpt["prior_config"]), device="cpu", threads=1)
 tr.load_resume(ckpt, src)
-tr.generator.eval()
+tr.model.eval()
 
 
 def angle(n_pred: torch.Tensor, n_true: torch.Tensor) -> float:
@@ -60,7 +60,7 @@ with open(out, "a") as f:
         cfg = dataclasses.replace(tr.config, crop_share=0.0, families=(fam,))
         photos, maps, _ = sample_batch(cfg, torch.Generator().manual_seed(31_337_001 + i), batch=per)
         with torch.no_grad():
-            p = tr.generator(photos)
+            p = tr.model(photos)
         preds.append(p)
         truths.append(maps)
         rec = record(fam, p, maps)

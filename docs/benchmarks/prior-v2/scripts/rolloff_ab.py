@@ -4,7 +4,8 @@ then scored on real flash photos that no benchmark table reports and on held-out
     OMP_NUM_THREADS=1 python docs/benchmarks/prior-v2/scripts/rolloff_ab.py CKPT TAG N B WHITE OUT.jsonl
 
 WHITE 1 is the control (the run's camera), WHITE > 1 draws the white point in [1, WHITE] per photo. N = 0 scores
-the checkpoint as it is. Scores, on the network's own maps (no runtime post-processing):
+the checkpoint as it is. Scores, on the model's own maps (`PriorTrainer.model`: the weights' moving average where
+the checkpoint has one; no runtime post-processing):
 - ``burn_*``: the label-free burn-in (:func:`svbrdf.runtime.burn_in.burn_in_scores`, centred on the photo's
   highlight) of the 39 real photos of ``deschaintre18-real``, ``weiyi-auxrender/test_data/real`` and
   ``xuejiao-lgd/dataset`` (256 px centre squares; the network shown the photo as it is, as it was trained): mean and
@@ -55,18 +56,18 @@ held_out = {w: sample_batch(dataclasses.replace(cfg, crop_share=0.0, camera={**c
 
 
 def evaluate(step: int) -> None:
-    tr.generator.eval()
+    tr.model.eval()
     rec = {"tag": tag, "white": white, "at": step}
     with torch.no_grad():
         for k, ps in photos.items():
             scores = []
             for p in ps:
-                y = tr.generator(torch.from_numpy(p).permute(2, 0, 1)[None].float())[0]
+                y = tr.model(torch.from_numpy(p).permute(2, 0, 1)[None].float())[0]
                 maps = Maps.unpack(y.permute(1, 2, 0).numpy())
                 scores.append(burn_in_scores(maps, highlight_centre(p))["burn_in"])
             rec[f"burn_{k}"] = [round(float(np.mean(scores)), 4), round(float(np.median(scores)), 4)]
-        e = map_errors(tr.generator(held_out[1.0][0]), held_out[1.0][1])
-        r = map_errors(tr.generator(held_out[3.0][0]), held_out[3.0][1])
+        e = map_errors(tr.model(held_out[1.0][0]), held_out[1.0][1])
+        r = map_errors(tr.model(held_out[3.0][0]), held_out[3.0][1])
     rec.update({k: round(v, 4) for k, v in e.items()})
     rec.update({f"rolled_{k}": round(v, 4) for k, v in r.items()})
     print(json.dumps(rec), flush=True)
