@@ -195,7 +195,8 @@ def load_generator(path: PathLike) -> Tuple[Generator, Dict[str, Any]]:
     """
     ckpt = load_checkpoint(path)
     gen = generator_from_checkpoint(ckpt, path)
-    meta = {k: v for k, v in ckpt.items() if k not in ("generator", "generator_ema", "discriminator", "optimizers", "rng")}
+    weights = ("generator", "generator_ema", "discriminator", "optimizers", "rng")
+    meta = {k: v for k, v in ckpt.items() if k not in weights}
     return gen, meta
 
 

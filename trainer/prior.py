@@ -204,7 +204,8 @@ class PriorConfig:
         need(self.light_offset >= 0 and self.render_lights >= 0 and self.lambda_render >= 0,
              "light_offset, render_lights and lambda_render must be >= 0")
         need(set(self.camera) == set(REALISTIC), f"camera ranges need exactly the keys {sorted(REALISTIC)}")
-        need(all(len(v) == 2 and v[0] <= v[1] for v in self.camera.values()), "camera ranges must be (lo, hi), lo <= hi")
+        need(all(len(v) == 2 and v[0] <= v[1] for v in self.camera.values()),
+             "camera ranges must be (lo, hi), lo <= hi")
         need(self.camera["white"][0] >= 1.0, f"the camera's white range must be >= 1, got {self.camera['white']}")
         need(self.render_views >= 0 and self.lambda_grad >= 0 and self.lambda_amount >= 0 and self.lambda_slope >= 0,
              "render_views, lambda_grad, lambda_amount and lambda_slope must be >= 0")
@@ -825,7 +826,8 @@ class PriorTrainer:
                 self.averaged.module.load_state_dict({k: v.float() if v.is_floating_point() else v
                                                       for k, v in ckpt["generator_ema"].items()})
             except (KeyError, ValueError, RuntimeError) as e:
-                raise ModelError(f"{source}: its averaged weights do not fit ({str(e).splitlines()[0][:120]})") from None
+                first = str(e).splitlines()[0][:120]
+                raise ModelError(f"{source}: its averaged weights do not fit ({first})") from None
             self.averaged.n_averaged.fill_(int(ckpt.get("ema_updates", 1)))
         elif self.averaged is not None:  # turned on at this resume: the average starts at the resumed weights
             self._average()
@@ -839,9 +841,10 @@ class PriorTrainer:
 
 def compact(ckpt: Dict[str, Any]) -> Dict[str, Any]:
     """Shrink a prior checkpoint in place for ``compact_checkpoint``: float32 weights (and their average) -> float16,
-    Adam's moments (``exp_avg``, ``exp_avg_sq``) -> bfloat16 (float16 would flush small second moments to zero). Loading casts
-    them back to the parameters' float32 (``load_state_dict`` of the module and of Adam). About 6 bytes per
-    parameter instead of 12: the resumed run differs from an uninterrupted one by these roundings only."""
+    Adam's moments (``exp_avg``, ``exp_avg_sq``) -> bfloat16 (float16 would flush small second moments to zero).
+    Loading casts them back to the parameters' float32 (``load_state_dict`` of the module and of Adam). About 6 bytes
+    per parameter instead of 12 (8 with the average): the resumed run differs from an uninterrupted one by these
+    roundings only."""
     for key in ("generator", "generator_ema"):
         if ckpt.get(key) is not None:
             ckpt[key] = {k: (v.half() if v.dtype == torch.float32 else v) for k, v in ckpt[key].items()}

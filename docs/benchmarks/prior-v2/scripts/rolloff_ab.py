@@ -49,7 +49,8 @@ def square(photo: np.ndarray) -> np.ndarray:
     return photo[(h - s) // 2:(h - s) // 2 + s, (w - s) // 2:(w - s) // 2 + s]
 
 
-photos = {k: [square(read_image(f, max_size=256)) for f in sorted(glob.glob(p, recursive=True))] for k, p in SETS.items()}
+photos = {k: [square(read_image(f, max_size=256)) for f in sorted(glob.glob(p, recursive=True))]
+          for k, p in SETS.items()}
 # the trainer's validation materials (its seed for them), photographed by a linear camera and through a roll-off
 held_out = {w: sample_batch(dataclasses.replace(cfg, crop_share=0.0, camera={**cfg.camera, "white": (w, w)}),
                             torch.Generator().manual_seed(10_000_019 + cfg.seed), batch=32)[:2] for w in (1.0, 3.0)}

@@ -54,8 +54,8 @@ def square(photo: np.ndarray) -> np.ndarray:
 if mode == "henzler":
     for p in ["2003/IMG_9392", "2008/IMG_9399", "0281/IMG_0790", "2058/IMG_9482"]:
         s = scores(read_image(f"{D}/henzler-flash/test/{p}.JPG", max_size=size))
-        print(p.split("/")[1], " | ".join(f"{k}: {v['burn_in']:.2f} (r{v['ring_roughness']:.2f} d{v['ring_diffuse']:.2f})"
-                                          for k, v in s.items()), flush=True)
+        cells = [f"{k}: {v['burn_in']:.2f} (r{v['ring_roughness']:.2f} d{v['ring_diffuse']:.2f})" for k, v in s.items()]
+        print(p.split("/")[1], " | ".join(cells), flush=True)
 else:
     names = ("as is", "expand .5", "expand .8")
     if mode == "real":
