@@ -25,6 +25,7 @@ import torch
 
 from svbrdf.runtime.burn_in import burn_in_scores, highlight_centre
 from svbrdf.runtime.imageio import read_image
+from svbrdf.trainer.bench.cases import centre_square
 from svbrdf.runtime.maps import Maps
 from svbrdf.trainer.checkpoint import load_checkpoint
 from svbrdf.trainer.prior import PriorConfig, PriorTrainer, map_errors, sample_batch
@@ -43,13 +44,8 @@ tr = PriorTrainer(cfg, device="cpu", threads=1)
 tr.load_resume(ckpt, src)
 
 
-def square(photo: np.ndarray) -> np.ndarray:
-    h, w = photo.shape[:2]
-    s = min(h, w)
-    return photo[(h - s) // 2:(h - s) // 2 + s, (w - s) // 2:(w - s) // 2 + s]
 
-
-photos = {k: [square(read_image(f, max_size=256)) for f in sorted(glob.glob(p, recursive=True))]
+photos = {k: [centre_square(read_image(f, max_size=256)) for f in sorted(glob.glob(p, recursive=True))]
           for k, p in SETS.items()}
 # the trainer's validation materials (its seed for them), photographed by a linear camera and through a roll-off
 held_out = {w: sample_batch(dataclasses.replace(cfg, crop_share=0.0, camera={**cfg.camera, "white": (w, w)}),

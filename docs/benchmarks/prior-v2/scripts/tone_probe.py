@@ -24,6 +24,7 @@ import numpy as np
 import svbrdf.runtime.session as session
 from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.imageio import read_image
+from svbrdf.trainer.bench.cases import centre_square
 
 warnings.filterwarnings("ignore")
 model, mode = sys.argv[1], sys.argv[2]
@@ -45,11 +46,6 @@ def scores(photo: np.ndarray, names=TRANSFORMS) -> dict:
     return out
 
 
-def square(photo: np.ndarray) -> np.ndarray:
-    h, w = photo.shape[:2]
-    s = min(h, w)
-    return photo[(h - s) // 2:(h - s) // 2 + s, (w - s) // 2:(w - s) // 2 + s]
-
 
 if mode == "henzler":
     for p in ["2003/IMG_9392", "2008/IMG_9399", "0281/IMG_0790", "2058/IMG_9482"]:
@@ -61,7 +57,8 @@ else:
     if mode == "real":
         sets = {"henzler": f"{D}/henzler-flash/test/*/*.JPG", "des18": f"{D}/deschaintre18-real/*.png",
                 "weiyi": f"{D}/weiyi-auxrender/test_data/real/*.png", "xuejiao": f"{D}/xuejiao-lgd/dataset/**/*.png"}
-        photo_sets = {k: [square(read_image(f, max_size=256)) for f in sorted(glob.glob(p, recursive=True))]
+        photo_sets = {k: [centre_square(read_image(f, max_size=256))
+                          for f in sorted(glob.glob(p, recursive=True))]
                       for k, p in sets.items()}
     else:
         import dataclasses
