@@ -148,6 +148,10 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--ema", type=float, metavar="DECAY",
                    help="keep a moving average of the weights with this decay (e.g. 0.998; 0 = none: v1, v2 so far); "
                         "the average is the model the checkpoint gives; with --resume it starts at the resumed weights")
+    p.add_argument("--flat-share", type=float, metavar="P",
+                   help="make the normals of this fraction of the drawn materials flat (polished, lacquered, paper: no "
+                        "relief; 0 = none: v1, v2 before 2026-11-27); with --resume it changes the run's materials from "
+                        "there on")
     p.add_argument("--height-activation", choices=("tanh", "linear"),
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
                         "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
@@ -250,6 +254,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         parser.error(f"--ema must be in [0, 1), got {args.ema}")
     if args.roll_off is not None and not args.roll_off >= 1:
         parser.error(f"--roll-off must be >= 1 (1 = none), got {args.roll_off}")
+    if args.flat_share is not None and not 0 <= args.flat_share < 1:
+        parser.error(f"--flat-share must be in [0, 1), got {args.flat_share}")
     if args.eval_every is not None and args.eval_every < 0:
         parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
     if args.minutes is not None and not args.minutes > 0:
@@ -288,6 +294,10 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             log(f"note: the weights' moving average (decay {config.ema:g} -> {args.ema:g}) from here on; it is the "
                 "model the checkpoint gives")
             config.ema = args.ema
+        if args.flat_share is not None and args.flat_share != config.flat_share:
+            log(f"note: the share of materials with flat normals {config.flat_share:g} -> {args.flat_share:g} from "
+                "here on")
+            config.flat_share = args.flat_share
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")
@@ -332,6 +342,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                 over["ema"] = args.ema
             if args.roll_off is not None:
                 over["camera"] = {**config.camera, "white": (1.0, float(args.roll_off))}
+            if args.flat_share is not None:
+                over["flat_share"] = args.flat_share
             config = dataclasses.replace(config, **over)
         except ValueError as e:
             parser.error(str(e))

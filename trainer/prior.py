@@ -136,6 +136,12 @@ class PriorConfig:
             for the host's many small kernel launches). The time limit stops a run only where a new draw starts,
             so that it resumes exactly (the materials in use are not stored); make ``log_every`` and
             ``checkpoint_every`` multiples of it for the same after an interrupt or a crash.
+        flat_share: fraction of the drawn materials whose normals are made flat (0, 0, 1) before they are
+            photographed: polished stone, lacquer, glossy paint and paper have no relief, and every procedural family
+            has some (its mean normal angle drawn in :data:`svbrdf.trainer.procedural.PARAMS` ``normal_angle_deg``,
+            2-25 degrees), so a network trained on them alone gives every photo a relief (docs/benchmarks/prior-v2/
+            flat/). 0 = none (every run before 2026-11-27): no draw is made, the stream is
+            unchanged. The validation batch never has them (its figures stay comparable along a run).
     """
 
     generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
@@ -174,6 +180,7 @@ class PriorConfig:
     material_reuse: int = 1
     lambda_slope: float = 0.0
     ema: float = 0.0
+    flat_share: float = 0.0
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -218,6 +225,7 @@ class PriorConfig:
         need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
         need(self.material_reuse >= 1, f"material_reuse must be >= 1, got {self.material_reuse}")
         need(0.0 <= self.ema < 1.0, f"ema must be in [0, 1), got {self.ema}")
+        need(0.0 <= self.flat_share < 1.0, f"flat_share must be in [0, 1), got {self.flat_share}")
         unknown = set(self.families or ()) - set(FAMILIES)
         need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
         resolve(self.finetune_preset)  # raises on an unknown preset
@@ -414,7 +422,21 @@ def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[in
     crop = _uniform(rng, 0.0, 1.0) < config.crop_share
     side = config.photo_size if crop else config.size
     maps, families = sample_materials(n, side, rng, config.families, device=device if config.batched else None)
+    if config.flat_share > 0:
+        maps = flatten_normals(maps, torch.rand(n, generator=rng) < config.flat_share)
     return maps, families, crop
+
+
+def flatten_normals(maps: torch.Tensor, chosen: torch.Tensor) -> torch.Tensor:
+    """``maps`` (B, 8, H, W) with the normals of the ``chosen`` materials ((B,) bool, on the host) made flat
+    (0, 0, 1); the others unchanged. Tensor ops on ``maps``' device only (nothing read back from a GPU)."""
+    if not bool(chosen.any()):
+        return maps
+    pick = to_device(chosen.to(torch.float32), maps.device)[:, None, None, None]
+    up = to_device(torch.tensor([0.0, 0.0, 1.0]), maps.device)[None, :, None, None]
+    sl = SLICES["normal"]
+    normal = maps[:, sl] * (1.0 - pick) + up * pick
+    return torch.cat([maps[:, :sl.start], normal, maps[:, sl.stop:]], 1)
 
 
 def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, families: List[str], crop: bool
@@ -691,7 +713,7 @@ class PriorTrainer:
         """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch)."""
         if self._eval_set is None:
             rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
-            cfg = dataclasses.replace(self.config, crop_share=0.0)
+            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0)
             photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch, device=self.device)
             self._eval_set = photos.to(self.device), maps.to(self.device)
         return self._eval_set

@@ -760,6 +760,58 @@ def test_cli_roll_off_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path, 
     assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
 
 
+def test_flat_share_makes_the_chosen_materials_flat_and_none_leaves_the_stream_as_it_was():
+    """``flat_share`` (materials without relief): the chosen materials' normals are (0, 0, 1), everything else of
+    theirs and the other materials as drawn; at 0 nothing is drawn for it; the validation batch never has them."""
+    from svbrdf.trainer.prior import draw_materials, flatten_normals
+
+    cfg = tiny_v2(crop_share=0.0, batch=12)
+    flat = dataclasses.replace(cfg, flat_share=0.5)
+    a, _, _ = draw_materials(cfg, torch.Generator().manual_seed(7))
+    g = torch.Generator().manual_seed(7)
+    b, _, _ = draw_materials(flat, g)
+    after_flat = torch.rand(3, generator=g)
+    g0 = torch.Generator().manual_seed(7)
+    draw_materials(cfg, g0)
+    torch.rand(12, generator=g0)  # the flat share's one draw per material, made after the materials
+    assert torch.equal(after_flat, torch.rand(3, generator=g0))
+    sl = SLICES["normal"]
+    up = torch.tensor([0.0, 0.0, 1.0])[None, :, None, None]
+    is_flat = (b[:, sl] == up).flatten(1).all(1)
+    was_flat = (a[:, sl] == up).flatten(1).all(1)
+    assert not was_flat.any() and 0 < int(is_flat.sum()) < 12  # seed 7: some of the 12, not all
+    assert torch.equal(b[~is_flat], a[~is_flat]) and torch.equal(b[:, :sl.start], a[:, :sl.start])
+    a2, _, _ = draw_materials(cfg, torch.Generator().manual_seed(7))
+    assert torch.equal(a, a2)  # share 0: the stream of a run before it existed
+    chosen = torch.tensor([True, False] * 6)
+    c = flatten_normals(a, chosen)
+    assert (c[chosen][:, sl] == up).all() and torch.equal(c[~chosen], a[~chosen])
+    assert flatten_normals(a, torch.zeros(12, dtype=torch.bool)) is a
+    t1 = PriorTrainer(cfg, device="cpu", threads=1)
+    t2 = PriorTrainer(dataclasses.replace(cfg, flat_share=0.9), device="cpu", threads=1)
+    assert all(torch.equal(x, y) for x, y in zip(t1.eval_set(), t2.eval_set()))
+    with pytest.raises(ValueError):
+        tiny_v2(flat_share=1.0)
+
+
+def test_cli_flat_share_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path, capsys):
+    out = tmp_path / "v2"
+    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
+            "--eval-every", "0", "--material-reuse", "1"]
+    assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", *args]) == 0
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["flat_share"] == 0.0
+    capsys.readouterr()
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--flat-share", "0.1",
+                     "--threads", "1"]) == 0
+    assert "flat normals 0 -> 0.1 from here on" in capsys.readouterr().err
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["flat_share"] == 0.1
+    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "f"), "--iters", "1", "--flat-share", "0.2",
+                     *args]) == 0
+    assert ckpt_io.load_checkpoint(tmp_path / "f" / "checkpoint.pt")["prior_config"]["flat_share"] == 0.2
+    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--flat-share", "1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
+
+
 def _floats(module) -> dict:
     return {k: v.detach().clone() for k, v in module.state_dict().items() if v.is_floating_point()}
 
