@@ -15,23 +15,21 @@ import sys
 import torch
 
 from svbrdf.runtime.maps import SLICES
-from svbrdf.trainer.checkpoint import load_checkpoint
+from svbrdf.trainer.checkpoint import load_generator
 from svbrdf.trainer.procedural import FAMILIES
-from svbrdf.trainer.prior import PriorConfig, PriorTrainer, draw_materials, flatten_normals, photograph
+from svbrdf.trainer.prior import PriorConfig, draw_materials, flatten_normals, photograph
 
 from height_common import tilt
 
 src, tag, out = sys.argv[1], sys.argv[2], sys.argv[3]
 per = int(sys.argv[4]) if len(sys.argv) > 4 else 4
-ckpt = load_checkpoint(src)
-tr = PriorTrainer(PriorConfig.from_dict(ckpt["prior_config"]), device="cpu", threads=1)
-tr.load_resume(ckpt, src)
-tr.model.eval()
+model, meta = load_generator(src)  # the moving average where the run keeps one
+config = PriorConfig.from_dict(meta["prior_config"])
 sl = SLICES["normal"]
 acc = {"relief": [], "flat": [], "truth": []}
 with open(out, "a") as f:
     for i, fam in enumerate(FAMILIES):
-        cfg = dataclasses.replace(tr.config, crop_share=0.0, families=(fam,), flat_share=0.0)
+        cfg = dataclasses.replace(config, crop_share=0.0, families=(fam,), flat_share=0.0)
         rec = {"tag": tag, "family": fam, "n": per}
         for kind in ("relief", "flat"):
             rng = torch.Generator().manual_seed(31_337_001 + i)
@@ -40,7 +38,7 @@ with open(out, "a") as f:
                 maps = flatten_normals(maps, torch.ones(per, dtype=torch.bool))
             photos, maps, _ = photograph(cfg, rng, maps, fams, crop)
             with torch.no_grad():
-                p = tr.model(photos)
+                p = model(photos)
             rec[f"tilt_{kind}"] = round(tilt(p[:, sl]), 3)
             acc[kind].append(rec[f"tilt_{kind}"])
             if kind == "relief":

@@ -11,15 +11,13 @@ import sys
 import torch
 
 from svbrdf.runtime.maps import SLICES
-from svbrdf.trainer.checkpoint import load_checkpoint
+from svbrdf.trainer.checkpoint import load_generator
 from svbrdf.trainer.models import height_to_normal
-from svbrdf.trainer.prior import PriorConfig, PriorTrainer, draw_materials, photograph, prior_loss
+from svbrdf.trainer.prior import PriorConfig, draw_materials, photograph, prior_loss
 
-ck = load_checkpoint(sys.argv[1])
-tr = PriorTrainer(PriorConfig.from_dict(ck["prior_config"]), device="cpu", threads=1)
-tr.load_resume(ck, sys.argv[1])
-tr.model.eval()
-cfg = dataclasses.replace(tr.config, crop_share=0.0, flat_share=0.0)
+model, meta = load_generator(sys.argv[1])  # the moving average where the run keeps one
+config = PriorConfig.from_dict(meta["prior_config"])
+cfg = dataclasses.replace(config, crop_share=0.0, flat_share=0.0)
 R = SLICES["roughness"]
 print("(1) the network's roughness on 24 held-out materials (seed 424242) with one roughness everywhere")
 for rough in (0.1, 0.2, 0.3, 0.5, 0.7, 0.9):
@@ -28,7 +26,7 @@ for rough in (0.1, 0.2, 0.3, 0.5, 0.7, 0.9):
     maps[:, R] = rough
     photos, maps, _ = photograph(cfg, rng, maps, fams, crop)
     with torch.no_grad():
-        pr = tr.model(photos)[:, R]
+        pr = model(photos)[:, R]
     print(f"  truth {rough}: predicted mean {float(pr.mean()):.3f}, RMSE {float(((pr - rough) ** 2).mean().sqrt()):.3f}",
           flush=True)
 

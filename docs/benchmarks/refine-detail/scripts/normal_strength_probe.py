@@ -20,10 +20,10 @@ import torch
 
 from svbrdf.runtime.maps import SLICES
 from svbrdf.runtime.render import physical_config
-from svbrdf.trainer.checkpoint import load_checkpoint
+from svbrdf.trainer.checkpoint import load_generator
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.procedural import FAMILIES
-from svbrdf.trainer.prior import PriorConfig, PriorTrainer, _geometry, sample_batch
+from svbrdf.trainer.prior import PriorConfig, _geometry, sample_batch
 from svbrdf.trainer.render import render_maps
 
 KS = (0.0, 0.25, 0.5, 0.75, 1.0, 1.5, 2.0)
@@ -54,17 +54,15 @@ def photo_error(render: torch.Tensor, photo: torch.Tensor) -> float:
 def main() -> None:
     src, tag, out = sys.argv[1], sys.argv[2], sys.argv[3]
     per = int(sys.argv[4]) if len(sys.argv) > 4 else 8
-    ckpt = load_checkpoint(src)
-    tr = PriorTrainer(PriorConfig.from_dict(ckpt["prior_config"]), device="cpu", threads=1)
-    tr.load_resume(ckpt, src)
-    tr.model.eval()
-    base = resolve(tr.config.finetune_preset).render_config.replace(falloff=True)
+    model, meta = load_generator(src)  # the moving average where the run keeps one
+    config = PriorConfig.from_dict(meta["prior_config"])
+    base = resolve(config.finetune_preset).render_config.replace(falloff=True)
     rows = []
     for i, fam in enumerate(FAMILIES):
-        cfg = dataclasses.replace(tr.config, crop_share=0.0, families=(fam,))
+        cfg = dataclasses.replace(config, crop_share=0.0, families=(fam,))
         photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(31_337_001 + i), batch=per)
         with torch.no_grad():
-            p = tr.model(photos)
+            p = model(photos)
         n_p, n_t = p[:, SLICES["normal"]], maps[:, SLICES["normal"]]
         for j, d in enumerate(info["draws"]):
             rc = base.replace(fov_deg=d["fov_deg"])
