@@ -454,7 +454,7 @@ def test_the_v2_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
     autocast = torch.autocast
     monkeypatch.setattr(torch, "autocast", lambda device_type=None, *a, **k: contextlib.nullcontext()
                         if device_type == "meta" else autocast(device_type, *a, **k))
-    cfg = prior_preset("v2")
+    cfg = dataclasses.replace(prior_preset("v2"), flat_share=0.5)  # the flat materials' path too
     net = Generator(cfg.generator).to("meta")
     adam = torch.optim.Adam(net.parameters(), lr=1e-3)
     rng = generator().manual_seed(2)
