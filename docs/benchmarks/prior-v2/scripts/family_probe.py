@@ -57,7 +57,7 @@ def record(name: str, p: torch.Tensor, m: torch.Tensor) -> dict:
 preds, truths = [], []
 with open(out, "a") as f:
     for i, fam in enumerate(FAMILIES):
-        cfg = dataclasses.replace(tr.config, crop_share=0.0, families=(fam,))
+        cfg = dataclasses.replace(tr.config, crop_share=0.0, families=(fam,), flat_share=0.0)
         photos, maps, _ = sample_batch(cfg, torch.Generator().manual_seed(31_337_001 + i), batch=per)
         with torch.no_grad():
             p = tr.model(photos)

@@ -16,7 +16,7 @@ from svbrdf.trainer.prior import PriorConfig, PriorTrainer, prior_loss, sample_b
 
 torch.set_num_threads(1)
 ckpt = load_checkpoint(sys.argv[1])
-cfg = dataclasses.replace(PriorConfig.from_dict(ckpt["prior_config"]), batch=8, bf16=False, crop_share=0.0)
+cfg = dataclasses.replace(PriorConfig.from_dict(ckpt["prior_config"]), batch=8, bf16=False, crop_share=0.0, flat_share=0.0)
 trainer = PriorTrainer(cfg, device="cpu", threads=1)
 trainer.load_resume(ckpt, sys.argv[1])
 g = trainer.generator.train()

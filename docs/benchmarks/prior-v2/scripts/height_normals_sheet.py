@@ -5,7 +5,7 @@ from svbrdf.trainer.checkpoint import load_checkpoint, generator_from_checkpoint
 from svbrdf.trainer.prior import PriorConfig, sample_batch
 from svbrdf.runtime.maps import SLICES
 torch.set_num_threads(1)
-cfg = dataclasses.replace(PriorConfig.from_dict(load_checkpoint(sys.argv[1])["prior_config"]), crop_share=0.0)
+cfg = dataclasses.replace(PriorConfig.from_dict(load_checkpoint(sys.argv[1])["prior_config"]), crop_share=0.0, flat_share=0.0)
 photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(987654), batch=6)
 rows = []
 for path in sys.argv[1:3]:

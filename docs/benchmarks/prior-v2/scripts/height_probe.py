@@ -21,7 +21,7 @@ ckpt = load_checkpoint(sys.argv[1])
 n = int(sys.argv[2]) if len(sys.argv) > 2 else 8
 g = generator_from_checkpoint(ckpt).eval()
 cfg = PriorConfig.from_dict(ckpt["prior_config"]) if "prior_config" in ckpt else PriorConfig()
-cfg = dataclasses.replace(cfg, crop_share=0.0)
+cfg = dataclasses.replace(cfg, crop_share=0.0, flat_share=0.0)
 photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(987654), batch=n)
 with torch.no_grad():
     pre = g._decoded("decoder_nr", g.forward_features(photos)) + g.out_offset[0:2].view(1, 2, 1, 1)

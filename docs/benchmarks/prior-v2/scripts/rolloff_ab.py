@@ -48,7 +48,7 @@ tr.load_resume(ckpt, src)
 photos = {k: [centre_square(read_image(f, max_size=256)) for f in sorted(glob.glob(p, recursive=True))]
           for k, p in SETS.items()}
 # the trainer's validation materials (its seed for them), photographed by a linear camera and through a roll-off
-held_out = {w: sample_batch(dataclasses.replace(cfg, crop_share=0.0, camera={**cfg.camera, "white": (w, w)}),
+held_out = {w: sample_batch(dataclasses.replace(cfg, crop_share=0.0, flat_share=0.0, camera={**cfg.camera, "white": (w, w)}),
                             torch.Generator().manual_seed(10_000_019 + cfg.seed), batch=32)[:2] for w in (1.0, 3.0)}
 
 

@@ -69,7 +69,7 @@ else:
         from svbrdf.trainer.prior import PriorConfig, sample_batch
 
         cfg = dataclasses.replace(PriorConfig.from_dict(load_checkpoint("docs/benchmarks/prior-v2/resume.pt")
-                                                        ["prior_config"]), crop_share=0.0)
+                                                        ["prior_config"]), crop_share=0.0, flat_share=0.0)
         photos = sample_batch(cfg, torch.Generator().manual_seed(4242), batch=24)[0]
         photo_sets = {"sim": [p.permute(1, 2, 0).numpy().astype(np.float32) for p in photos]}
     for k, ps in photo_sets.items():

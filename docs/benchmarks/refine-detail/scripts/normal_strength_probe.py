@@ -59,7 +59,7 @@ def main() -> None:
     base = resolve(config.finetune_preset).render_config.replace(falloff=True)
     rows = []
     for i, fam in enumerate(FAMILIES):
-        cfg = dataclasses.replace(config, crop_share=0.0, families=(fam,))
+        cfg = dataclasses.replace(config, crop_share=0.0, families=(fam,), flat_share=0.0)
         photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(31_337_001 + i), batch=per)
         with torch.no_grad():
             p = model(photos)
