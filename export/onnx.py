@@ -109,6 +109,8 @@ def _provenance(meta: Mapping[str, Any], generator: nn.Module) -> Dict[str, Any]
         },
         "photo": {"name": photo.get("name"), "sha256": photo.get("sha256"),
                   "height": photo.get("height"), "width": photo.get("width")},
+        # what the runtime shows a stage one (svbrdf.runtime.manifest.recorded_even_lighting); absent: its default
+        **({"network_input": dict(meta["network_input"])} if meta.get("network_input") else {}),
     }
 
 

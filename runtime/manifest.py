@@ -55,6 +55,11 @@ MIN_SIZE = 8
 #: ``training.stage`` of a stage one (a prior trained on procedural materials, :mod:`svbrdf.trainer.prior`); any
 #: other stage is a model fine-tuned on one photo.
 PRIOR_STAGE = "prior"
+#: What a stage one is shown, recorded per model (checkpoint and manifest key ``network_input``, written when it is
+#: shipped: :func:`svbrdf.trainer.checkpoint.clean_checkpoint`): ``"even"`` the photo divided by its own smooth
+#: lighting (:func:`svbrdf.runtime.flash_trend.even_lighting`, measured better for v1), ``"photo"`` the photo as it
+#: is (measured better for the v2 run, docs/benchmarks/prior-v2/chunks/eval-7050/).
+NETWORK_INPUTS = ("even", "photo")
 
 
 @dataclass(frozen=True)
@@ -85,7 +90,8 @@ DECODERS: Tuple[Decoder, ...] = (
 PARTS: Mapping[str, Tuple[str, ...]] = {d.part: d.maps for d in DECODERS}
 
 __all__ = [
-    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "PRIOR_STAGE", "Decoder", "DECODERS", "PARTS",
+    "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "PRIOR_STAGE", "NETWORK_INPUTS",
+    "network_input", "recorded_even_lighting", "Decoder", "DECODERS", "PARTS",
     "part_file_name",
     "ModelInfo", "find_model",
     "manifest_path_for", "read_manifest", "sha256_file", "map_layout", "input_contract", "check_layout",
@@ -172,6 +178,35 @@ def input_contract() -> dict:
         "min_size": MIN_SIZE,
         "any_size": True,
     }
+
+
+def network_input(mode: str, width: float) -> dict:
+    """The ``network_input`` record of a model shown ``mode`` (one of :data:`NETWORK_INPUTS`): ``{"mode",
+    "even_lighting"}``, the low pass's width as a fraction of the photo width (0 for ``"photo"``)."""
+    if mode not in NETWORK_INPUTS:
+        raise ValueError(f"unknown network input {mode!r}; expected one of {', '.join(NETWORK_INPUTS)}")
+    return {"mode": mode, "even_lighting": float(width) if mode == "even" else 0.0}
+
+
+def recorded_even_lighting(meta: Mapping) -> Optional[float]:
+    """The width of even lighting a model's metadata (a manifest or a checkpoint) records for its network's
+    input: ``None`` when it records none (every model shipped before 2026-11-27: the runtime's default applies),
+    0.0 for the photo as it is.
+
+    Raises:
+        ModelError: a ``network_input`` record that is not ``{"mode": "even" | "photo", "even_lighting": w >= 0}``.
+    """
+    record = meta.get("network_input")
+    if record is None:
+        return None
+    try:
+        mode, width = record["mode"], float(record["even_lighting"])
+        ok = mode in NETWORK_INPUTS and width >= 0 and (mode == "even") == (width > 0)
+    except (TypeError, KeyError, ValueError):
+        ok = False
+    if not ok:
+        raise ModelError(f"invalid network_input in the model metadata: {record!r}")
+    return width
 
 
 def sha256_file(path: Union[str, Path], chunk: int = 1 << 20) -> str:

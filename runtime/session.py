@@ -58,6 +58,7 @@ from .imageio import RESIZE_FILTER, ImageWarning, image_info, read_image, resize
 from .maps import N_CHANNELS, SLICES, Maps, select_maps
 from .manifest import (
     INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, PRIOR_STAGE, ModelInfo, check_layout, find_model,
+    recorded_even_lighting,
 )
 from .render import ZHAO, RenderConfig
 from .tiling import DEFAULT_OVERLAP, block_mean, tile_boxes, tiled_apply
@@ -128,6 +129,10 @@ class PreviewSession:
         else:
             self.metadata = self._embedded_metadata(self._session(FULL))
             check_layout(self.metadata, str(info.path))
+        try:
+            self._recorded_input = recorded_even_lighting(self.metadata)
+        except ModelError as exc:
+            raise ModelError(f"{info.path}: {exc}") from None
         try:
             render = self.metadata.get("render_config")
             self.render_config = RenderConfig(**render) if render else ZHAO
@@ -201,13 +206,16 @@ class PreviewSession:
 
         A model fine-tuned on a photo (any stage but ``"prior"``) saw what its ``train_config.even_lighting``
         says (absent or 0, as in every export before it existed and in the paper's presets: the photo itself). A
-        stage one (``"prior"``, or no training record) learned on flash photos as they are, and is shown them
-        evenly lit at :data:`EVEN_LIGHTING` because that measured better (docs/benchmarks/refine-detail/flat-input/);
-        its ``train_config`` is the fine-tune preset meant for it, not its own input.
+        stage one (``"prior"``, or no training record) learned on flash photos as they are; it is shown what its
+        ``network_input`` record says (:func:`~svbrdf.runtime.manifest.recorded_even_lighting`, chosen by
+        measurement when it was shipped), and without one (v1) evenly lit at :data:`EVEN_LIGHTING`, which measured
+        better for v1 (docs/benchmarks/refine-detail/flat-input/); its ``train_config`` is the fine-tune preset
+        meant for it, not its own input.
         """
         training = self.metadata.get("training") or {}
         if training.get("stage") in (None, PRIOR_STAGE):
-            return EVEN_LIGHTING or None
+            recorded = self._recorded_input
+            return (recorded if recorded is not None else EVEN_LIGHTING) or None
         return float((training.get("train_config") or {}).get("even_lighting") or 0.0) or None
 
     @property
@@ -292,8 +300,8 @@ HIGHLIGHT_FILL = True
 #: The network sees the photo divided by its own smooth lighting (:func:`svbrdf.runtime.flash_trend.even_lighting`,
 #: a low pass of this standard deviation, a fraction of the width; ``None`` or 0: the photo as it is). The flash's
 #: fall-off and the broad part of its highlight are then not in the network's input, so it cannot paint them into
-#: the maps (docs/benchmarks/refine-detail/flat-input/). For a stage one; a fine-tuned model is shown what it was
-#: trained on (:attr:`PreviewSession.even_lighting`).
+#: the maps (docs/benchmarks/refine-detail/flat-input/). For a stage one that records no ``network_input`` of its
+#: own (v1); a fine-tuned model is shown what it was trained on (:attr:`PreviewSession.even_lighting`).
 EVEN_LIGHTING: Optional[float] = EVEN_LIGHTING_WIDTH
 #: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;
 #: at 1024 px the full-size quantile alone cost 0.1 s).

@@ -23,6 +23,8 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     camera                      the photo's learned camera ({"vignetting": tensor}) or None
     anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor``) or None
     versions, date              library versions, ISO date (UTC)
+    network_input               a shipped stage one's {"mode", "even_lighting"}: what the runtime shows its network
+                                (set by :func:`clean_checkpoint`; absent: the runtime's default)
 
 Files are written atomically (:func:`svbrdf.runtime.files.atomic_write`).
 """
@@ -40,6 +42,9 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.errors import ModelError
+from svbrdf.runtime.flash_trend import EVEN_LIGHTING_WIDTH
+from svbrdf.runtime.manifest import PRIOR_STAGE
+from svbrdf.runtime.manifest import network_input as input_record
 from svbrdf.runtime.files import atomic_write
 from svbrdf.trainer.models import Generator, GeneratorConfig
 
@@ -201,17 +206,33 @@ def load_generator(path: PathLike) -> Tuple[Generator, Dict[str, Any]]:
 
 
 def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool = False,
-                     force: bool = False) -> Path:
+                     force: bool = False, network_input: Optional[str] = None) -> Path:
     """Copy a checkpoint without optimiser states and RNG states (and the discriminator unless kept), for shipping;
     its weights are the model's (:func:`model_weights`: a prior run's moving average replaces the trained weights).
 
+    Args:
+        network_input: for a stage one, what the runtime shows its network, chosen by measurement when it is
+            shipped: ``"even"`` (the photo evenly lit at :data:`~svbrdf.runtime.flash_trend.EVEN_LIGHTING_WIDTH`)
+            or ``"photo"`` (as it is); recorded as the checkpoint's ``network_input``
+            (:func:`svbrdf.runtime.manifest.network_input`), which the export copies into the manifest, the preview
+            follows and ``fast``'s fine-tune input takes. None keeps what ``src`` records (nothing: the runtime's
+            default, v1's).
+
     Raises:
-        ModelError: unreadable ``src``, or ``dst`` exists and ``force`` is False.
+        ModelError: unreadable ``src``, ``dst`` exists and ``force`` is False, or ``network_input`` given for a
+            checkpoint that is not a stage one (a fine-tuned model is shown what it was trained on).
+        ValueError: an unknown ``network_input``.
     """
     dst = Path(dst)
+    record = None if network_input is None else input_record(network_input, EVEN_LIGHTING_WIDTH)
     if dst.exists() and not force:
         raise ModelError(f"{dst}: already exists (use force=True to overwrite)")
     ckpt = load_checkpoint(src)
+    if record is not None:
+        if ckpt.get("stage") != PRIOR_STAGE:
+            raise ModelError(f"{src}: a network input is chosen for a stage one only (stage {ckpt.get('stage')!r} "
+                             f"is shown what it was trained on)")
+        ckpt["network_input"] = record
     ckpt["optimizers"] = None
     ckpt["rng"] = None
     ckpt["eval_maps"] = None

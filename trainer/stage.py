@@ -23,6 +23,7 @@ from typing import Any, List, Mapping, Optional, Tuple, Union
 import torch
 
 from svbrdf.runtime.errors import ModelError
+from svbrdf.runtime.manifest import recorded_even_lighting
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import TrainConfig
 from svbrdf.trainer.models import DiscriminatorConfig, GeneratorConfig
@@ -33,7 +34,15 @@ CheckpointLike = Union[PathLike, Mapping[str, Any]]
 
 
 def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[TrainConfig, List[str]]:
-    """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept)."""
+    """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept).
+
+    A config that shows the generator an evenly lit photo (``even_lighting`` > 0: ``fast``) shows it what the stage
+    one's ``network_input`` record says when it has one (:func:`svbrdf.runtime.manifest.recorded_even_lighting`;
+    the photo as it is for a stage one shipped so), as the preview does; the paper's presets (0) keep the photo.
+
+    Raises:
+        ModelError: an invalid ``network_input`` record.
+    """
     gen = GeneratorConfig.from_dict({**init["generator_config"], "train_encoder": config.train_encoder})
     disc = config.discriminator
     if init.get("discriminator_config"):
@@ -43,6 +52,11 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[Train
         notes.append("model architecture taken from the initial checkpoint")
     d = config.to_dict()
     d.update(generator=gen.to_dict(), discriminator=disc.to_dict())
+    recorded = recorded_even_lighting(init)
+    if recorded is not None and config.even_lighting > 0 and recorded != config.even_lighting:
+        d["even_lighting"] = recorded
+        notes.append(f"network input taken from the initial checkpoint: "
+                     f"{'the photo as it is' if not recorded else f'evenly lit at {recorded:g}'}")
     return TrainConfig.from_dict(d), notes
 
 

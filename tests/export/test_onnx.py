@@ -208,6 +208,38 @@ def test_cli(tmp_path, capsys):
     assert main(["--opset"]) == 2
 
 
+def test_a_stage_ones_network_input_travels_to_the_manifest_the_preview_and_the_fine_tune(tmp_path, monkeypatch):
+    from svbrdf.runtime import session as session_module
+    from svbrdf.trainer.checkpoint import clean_checkpoint, load_checkpoint
+    from svbrdf.trainer.stage import finetune_config
+
+    raw = tmp_path / "run.pt"
+    save_checkpoint(raw, build_checkpoint(generator=_generator(), discriminator=None,
+                                          train_config=resolve("fast").to_dict(), stage="prior", step=5, iters=5))
+    clean_checkpoint(raw, tmp_path / "v2.pt", network_input="photo")
+    out = tmp_path / "v2.onnx"
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        export_generator(tmp_path / "v2.pt", out, check=False)
+    record = {"mode": "photo", "even_lighting": 0.0}
+    assert json.loads(out.with_suffix(".json").read_text())["network_input"] == record
+    props = {p.key: json.loads(p.value) for p in onnx.load(str(out)).metadata_props}
+    assert props["network_input"] == record
+    monkeypatch.setattr(session_module, "EVEN_LIGHTING", 0.25)  # the default a record overrides
+    session = session_module.load_session(out, threads=1)
+    assert session.even_lighting is None
+    photo = np.random.default_rng(0).uniform(0.1, 0.6, (32, 40, 3)).astype(np.float32)
+    assert session_module.estimate(photo, session).meta["even_lighting"] is None
+    assert finetune_config(resolve("fast"), load_checkpoint(tmp_path / "v2.pt"))[0].even_lighting == 0.0
+    # without a record (v1): the runtime's default and the preset's
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        export_generator(raw, tmp_path / "v1.onnx", check=False)
+    assert "network_input" not in json.loads((tmp_path / "v1.json").read_text())
+    assert session_module.load_session(tmp_path / "v1.onnx", threads=1).even_lighting == 0.25
+    assert finetune_config(resolve("fast"), load_checkpoint(raw))[0].even_lighting == resolve("fast").even_lighting
+
+
 @pytest.mark.parametrize("height", ["tanh", "linear"])
 def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path, height):
     from svbrdf.trainer.models import GeneratorConfig

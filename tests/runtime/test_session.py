@@ -10,7 +10,9 @@ import pytest
 from svbrdf.runtime.errors import ImageError, ModelError, SvbrdfError
 from svbrdf.runtime.imageio import write_image
 from svbrdf.runtime.maps import MAP_NAMES, Maps
-from svbrdf.runtime.manifest import MODEL_ENV, find_checkpoint, find_model, map_layout
+from svbrdf.runtime.manifest import (
+    MODEL_ENV, find_checkpoint, find_model, map_layout, network_input, recorded_even_lighting,
+)
 from svbrdf.runtime.tiling import tile_boxes
 
 from .conftest import TINY_FOV
@@ -132,6 +134,43 @@ def test_a_model_is_shown_the_input_it_was_trained_on(session, monkeypatch):
     assert session.even_lighting == 0.25
     monkeypatch.setattr(session_module, "EVEN_LIGHTING", None)
     assert session.even_lighting is None
+
+
+def test_a_stage_one_is_shown_what_its_network_input_record_says(session, monkeypatch):
+    from svbrdf.runtime import session as session_module
+
+    monkeypatch.setattr(session_module, "EVEN_LIGHTING", 0.25)  # the runtime's default: v1's, no record
+    training = {**session.metadata["training"], "stage": "prior"}
+    monkeypatch.setitem(session.metadata, "training", training)
+    for record, want in [({"mode": "photo", "even_lighting": 0.0}, None), ({"mode": "even", "even_lighting": 0.125},
+                                                                          0.125), (None, 0.25)]:
+        monkeypatch.setattr(session, "_recorded_input", recorded_even_lighting({"network_input": record}))
+        assert session.even_lighting == want, record
+    # a fine-tuned model is shown what it was trained on, whatever a record says
+    monkeypatch.setitem(session.metadata, "training", {**training, "stage": "finetune",
+                                                       "train_config": {"even_lighting": 0.5}})
+    monkeypatch.setattr(session, "_recorded_input", 0.0)
+    assert session.even_lighting == 0.5
+
+
+@pytest.mark.parametrize("record", [{"mode": "photo", "even_lighting": 0.25}, {"mode": "even", "even_lighting": 0},
+                                    {"mode": "dim", "even_lighting": 0.1}, {"mode": "even"}, "photo"])
+def test_an_invalid_network_input_record_is_refused_at_load(tiny_model, tmp_path, record):
+    shutil.copy(tiny_model, tmp_path / "m.onnx")
+    manifest = json.loads(tiny_model.with_suffix(".json").read_text())
+    manifest["network_input"] = record
+    (tmp_path / "m.json").write_text(json.dumps(manifest))
+    with pytest.raises(ModelError, match=r"m\.onnx: invalid network_input"):
+        load_session(tmp_path / "m.onnx", threads=1)
+
+
+def test_network_input_records():
+    assert network_input("photo", 0.25) == {"mode": "photo", "even_lighting": 0.0}
+    assert network_input("even", 0.25) == {"mode": "even", "even_lighting": 0.25}
+    assert recorded_even_lighting({}) is None
+    assert recorded_even_lighting({"network_input": network_input("photo", 0.25)}) == 0.0
+    with pytest.raises(ValueError, match="unknown network input 'raw'"):
+        network_input("raw", 0.25)
 
 
 def test_session_reads_the_manifest(session, tiny_model):

@@ -10,7 +10,7 @@
 # HALF1 / HALF2 (the two halves' --cases; default every shared set), ITERS (default 150), GRID (default 1; 0 skips
 # the grid), INPUT (default photo: the network is shown the photo as it is, in the preview and as the refine's
 # generator input, which measured better than evenly lit for the v2 run at 7050, chunks/eval-7050/; even: the
-# runtime's default for a stage one, evenly lit). Writes OUT/model (checkpoint, ONNX), OUT/preview, OUT/refine (merged reports) and OUT/grid_1024.png.
+# runtime's default for a stage one, evenly lit; recorded in the exported model as its network_input). Writes OUT/model (checkpoint, ONNX), OUT/preview, OUT/refine (merged reports) and OUT/grid_1024.png.
 set -euo pipefail
 OUT="${1:?usage: eval_chunk.sh OUT}"
 PY="${PY:-.venv/bin/python}"
@@ -22,26 +22,22 @@ GRID="${GRID:-1}"
 INPUT="${INPUT:-photo}"
 BIN="$(dirname "$PY")"
 export OMP_NUM_THREADS=1 OMP_WAIT_POLICY=PASSIVE
+case "$INPUT" in
+    photo|even) ;;
+    *) echo "eval_chunk.sh: INPUT must be photo or even, got $INPUT" >&2; exit 2 ;;
+esac
 mkdir -p "$OUT/model"
-"$PY" -c "import sys; from svbrdf.trainer.checkpoint import clean_checkpoint as c; c(sys.argv[1], sys.argv[2], force=True)" \
-    "$CKPT" "$OUT/model/v2.pt"
+# The choice is recorded in the checkpoint and the manifest (network_input): the preview, the refine's generator
+# input and the grid's fine-tunes all follow it.
+"$PY" -c "import sys; from svbrdf.trainer.checkpoint import clean_checkpoint as c; c(sys.argv[1], sys.argv[2], force=True, network_input=sys.argv[3])" \
+    "$CKPT" "$OUT/model/v2.pt" "$INPUT"
 "$BIN/svbrdf-export" "$OUT/model/v2.pt" -o "$OUT/model/v2.onnx" --force
-if [ "$INPUT" = photo ]; then
-    # the runtime's module setting, for this process only; the refine's generator input through --set
-    bench() { "$PY" -c "import sys; import svbrdf.runtime.session as s; s.EVEN_LIGHTING = None
-from svbrdf.trainer.bench.cli import main; sys.argv[0] = 'svbrdf-bench'; sys.exit(main())" \
-        --threads 1 --repeats 1 --quiet --presets fast --set even_lighting=0 "$@"; }
-elif [ "$INPUT" = even ]; then
-    bench() { "$BIN/svbrdf-bench" --threads 1 --repeats 1 --quiet --presets fast "$@"; }
-else
-    echo "eval_chunk.sh: INPUT must be photo or even, got $INPUT" >&2; exit 2
-fi
+bench() { "$BIN/svbrdf-bench" --threads 1 --repeats 1 --quiet --presets fast "$@"; }
 bench --methods baseline,preview --model "$OUT/model/v2.onnx" --cases "$HALF1,$HALF2" --out "$OUT/preview" --force
 bench --methods "finetune@$ITERS" --init "$OUT/model/v2.pt" --iters "0,$ITERS" --cases "$HALF1" --out "$OUT/refine-1" --force &
 bench --methods "finetune@$ITERS" --init "$OUT/model/v2.pt" --iters "0,$ITERS" --cases "$HALF2" --out "$OUT/refine-2" --force
 wait
 "$BIN/svbrdf-bench" --report "$OUT/refine-1" --report "$OUT/refine-2" --out "$OUT/refine" --force
-# (the grid runs the preset as it is: its generator input evenly lit, the preview column from the runtime default)
 if [ "$GRID" = 1 ]; then
     D=../shared/data/henzler-flash/test
     OMP_NUM_THREADS=2 "$PY" -m svbrdf.trainer.tools.before_after "$D/2003/IMG_9392.JPG" "$D/0281/IMG_0790.JPG" \
