@@ -15,8 +15,9 @@ Pipeline of :func:`estimate`:
    lanczos3. A file at least twice ``max_size`` is read in strips averaged over pixel blocks first, so memory
    does not grow with the file's size (:func:`~svbrdf.runtime.imageio.read_image`);
 3. divide the photo by its own smooth lighting (:func:`svbrdf.runtime.flash_trend.even_lighting`,
-   :data:`EVEN_LIGHTING`): the network sees the material evenly lit, not the flash's fall-off and broad highlight;
-   run the model on that (the full graph, or the part graph of the one decoder the requested maps need: see
+   :data:`EVEN_LIGHTING`): the network sees the material evenly lit, not the flash's fall-off and broad highlight
+   (what the model records decides: :attr:`PreviewSession.even_lighting`; a stage one shipped with
+   ``network_input`` "photo" sees the photo as it is); run the model on that (the full graph, or the part graph of the one decoder the requested maps need: see
    :meth:`PreviewSession.graph_for`) in one pass when the image fits in one ``tile`` x ``tile`` window, else
    in overlapping tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's
    inference). The generator uses instance normalisation, so tiles see their own statistics: expect
