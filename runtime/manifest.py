@@ -91,7 +91,7 @@ PARTS: Mapping[str, Tuple[str, ...]] = {d.part: d.maps for d in DECODERS}
 
 __all__ = [
     "MANIFEST_SCHEMA", "MODEL_ENV", "INPUT_NAME", "OUTPUT_NAME", "MIN_SIZE", "PRIOR_STAGE", "NETWORK_INPUTS",
-    "network_input", "recorded_even_lighting", "Decoder", "DECODERS", "PARTS",
+    "network_input_record", "recorded_even_lighting", "Decoder", "DECODERS", "PARTS",
     "part_file_name",
     "ModelInfo", "find_model",
     "manifest_path_for", "read_manifest", "sha256_file", "map_layout", "input_contract", "check_layout",
@@ -180,7 +180,7 @@ def input_contract() -> dict:
     }
 
 
-def network_input(mode: str, width: float) -> dict:
+def network_input_record(mode: str, width: float) -> dict:
     """The ``network_input`` record of a model shown ``mode`` (one of :data:`NETWORK_INPUTS`): ``{"mode",
     "even_lighting"}``, the low pass's width as a fraction of the photo width (0 for ``"photo"``)."""
     if mode not in NETWORK_INPUTS:

@@ -17,8 +17,8 @@ Pipeline of :func:`estimate`:
 3. divide the photo by its own smooth lighting (:func:`svbrdf.runtime.flash_trend.even_lighting`,
    :data:`EVEN_LIGHTING`): the network sees the material evenly lit, not the flash's fall-off and broad highlight
    (what the model records decides: :attr:`PreviewSession.even_lighting`; a stage one shipped with
-   ``network_input`` "photo" sees the photo as it is); run the model on that (the full graph, or the part graph of the one decoder the requested maps need: see
-   :meth:`PreviewSession.graph_for`) in one pass when the image fits in one ``tile`` x ``tile`` window, else
+   ``network_input`` "photo" sees the photo as it is); run the model on that (the full graph, or the part graph
+   of the one decoder the requested maps need: see :meth:`PreviewSession.graph_for`) in one pass when the image fits in one ``tile`` x ``tile`` window, else
    in overlapping tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's
    inference). The generator uses instance normalisation, so tiles see their own statistics: expect
    differences from a single pass that are small for stationary materials but not only at the seams;
@@ -131,7 +131,7 @@ class PreviewSession:
             self.metadata = self._embedded_metadata(self._session(FULL))
             check_layout(self.metadata, str(info.path))
         try:
-            self._recorded_input = recorded_even_lighting(self.metadata)
+            recorded_even_lighting(self.metadata)  # a bad record fails here, at load
         except ModelError as exc:
             raise ModelError(f"{info.path}: {exc}") from None
         try:
@@ -215,7 +215,7 @@ class PreviewSession:
         """
         training = self.metadata.get("training") or {}
         if training.get("stage") in (None, PRIOR_STAGE):
-            recorded = self._recorded_input
+            recorded = recorded_even_lighting(self.metadata)
             return (recorded if recorded is not None else EVEN_LIGHTING) or None
         return float((training.get("train_config") or {}).get("even_lighting") or 0.0) or None
 

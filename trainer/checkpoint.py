@@ -43,8 +43,7 @@ import torch
 
 from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.flash_trend import EVEN_LIGHTING_WIDTH
-from svbrdf.runtime.manifest import PRIOR_STAGE
-from svbrdf.runtime.manifest import network_input as input_record
+from svbrdf.runtime.manifest import PRIOR_STAGE, network_input_record
 from svbrdf.runtime.files import atomic_write
 from svbrdf.trainer.models import Generator, GeneratorConfig
 
@@ -214,7 +213,7 @@ def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool =
         network_input: for a stage one, what the runtime shows its network, chosen by measurement when it is
             shipped: ``"even"`` (the photo evenly lit at :data:`~svbrdf.runtime.flash_trend.EVEN_LIGHTING_WIDTH`)
             or ``"photo"`` (as it is); recorded as the checkpoint's ``network_input``
-            (:func:`svbrdf.runtime.manifest.network_input`), which the export copies into the manifest, the preview
+            (:func:`svbrdf.runtime.manifest.network_input_record`), which the export copies into the manifest, the preview
             follows and ``fast``'s fine-tune input takes. None keeps what ``src`` records (nothing: the runtime's
             default, v1's).
 
@@ -224,7 +223,7 @@ def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool =
         ValueError: an unknown ``network_input``.
     """
     dst = Path(dst)
-    record = None if network_input is None else input_record(network_input, EVEN_LIGHTING_WIDTH)
+    record = None if network_input is None else network_input_record(network_input, EVEN_LIGHTING_WIDTH)
     if dst.exists() and not force:
         raise ModelError(f"{dst}: already exists (use force=True to overwrite)")
     ckpt = load_checkpoint(src)

@@ -11,7 +11,7 @@ from svbrdf.runtime.errors import ImageError, ModelError, SvbrdfError
 from svbrdf.runtime.imageio import write_image
 from svbrdf.runtime.maps import MAP_NAMES, Maps
 from svbrdf.runtime.manifest import (
-    MODEL_ENV, find_checkpoint, find_model, map_layout, network_input, recorded_even_lighting,
+    MODEL_ENV, find_checkpoint, find_model, map_layout, network_input_record, recorded_even_lighting,
 )
 from svbrdf.runtime.tiling import tile_boxes
 
@@ -144,12 +144,15 @@ def test_a_stage_one_is_shown_what_its_network_input_record_says(session, monkey
     monkeypatch.setitem(session.metadata, "training", training)
     for record, want in [({"mode": "photo", "even_lighting": 0.0}, None), ({"mode": "even", "even_lighting": 0.125},
                                                                           0.125), (None, 0.25)]:
-        monkeypatch.setattr(session, "_recorded_input", recorded_even_lighting({"network_input": record}))
+        if record is None:
+            monkeypatch.delitem(session.metadata, "network_input", raising=False)
+        else:
+            monkeypatch.setitem(session.metadata, "network_input", record)
         assert session.even_lighting == want, record
     # a fine-tuned model is shown what it was trained on, whatever a record says
     monkeypatch.setitem(session.metadata, "training", {**training, "stage": "finetune",
                                                        "train_config": {"even_lighting": 0.5}})
-    monkeypatch.setattr(session, "_recorded_input", 0.0)
+    monkeypatch.setitem(session.metadata, "network_input", network_input_record("photo", 0.25))
     assert session.even_lighting == 0.5
 
 
@@ -165,12 +168,12 @@ def test_an_invalid_network_input_record_is_refused_at_load(tiny_model, tmp_path
 
 
 def test_network_input_records():
-    assert network_input("photo", 0.25) == {"mode": "photo", "even_lighting": 0.0}
-    assert network_input("even", 0.25) == {"mode": "even", "even_lighting": 0.25}
+    assert network_input_record("photo", 0.25) == {"mode": "photo", "even_lighting": 0.0}
+    assert network_input_record("even", 0.25) == {"mode": "even", "even_lighting": 0.25}
     assert recorded_even_lighting({}) is None
-    assert recorded_even_lighting({"network_input": network_input("photo", 0.25)}) == 0.0
+    assert recorded_even_lighting({"network_input": network_input_record("photo", 0.25)}) == 0.0
     with pytest.raises(ValueError, match="unknown network input 'raw'"):
-        network_input("raw", 0.25)
+        network_input_record("raw", 0.25)
 
 
 def test_session_reads_the_manifest(session, tiny_model):

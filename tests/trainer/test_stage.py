@@ -6,7 +6,7 @@ import pytest
 import torch
 
 from svbrdf.runtime.errors import ModelError
-from svbrdf.runtime.manifest import network_input
+from svbrdf.runtime.manifest import network_input_record
 from svbrdf.runtime.maps import SLICES
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.stage import finetune_config, make_trainer
@@ -68,10 +68,10 @@ def test_a_fine_tune_shows_the_generator_what_the_stage_ones_record_says():
     fast, paper = resolve("fast", train_encoder=True), resolve("paper")
     assert fast.even_lighting > 0 and paper.even_lighting == 0
     assert finetune_config(fast, ckpt)[0].even_lighting == fast.even_lighting  # no record: the preset's
-    photo = {**ckpt, "network_input": network_input("photo", 0.25)}
+    photo = {**ckpt, "network_input": network_input_record("photo", 0.25)}
     cfg, notes = finetune_config(fast, photo)
     assert cfg.even_lighting == 0.0 and "network input taken from the initial checkpoint: the photo as it is" in notes
-    assert finetune_config(paper, {**ckpt, "network_input": network_input("even", 0.25)})[0].even_lighting == 0.0
+    assert finetune_config(paper, {**ckpt, "network_input": network_input_record("even", 0.25)})[0].even_lighting == 0.0
     with pytest.raises(ModelError, match="invalid network_input"):
         finetune_config(fast, {**ckpt, "network_input": {"mode": "photo", "even_lighting": 0.3}})
 
