@@ -6,7 +6,9 @@ of the benchmark's measures (svbrdf.trainer.bench.metrics.evaluate) per variant 
 
 ITERS: the counts evaluated, comma-separated (default 0,150; 0 alone: the preview only). A variant's JSON may hold
 "_oracle_fov": true: the fine-tune's renderer then takes each photo's true field of view (an oracle, to measure what
-the fixed field of view of the preset costs). With LEVELS set (``LEVELS=1``), one more line per material and
+the fixed field of view of the preset costs); "_oracle_camera": true: the fine-tune is given the whole photo model
+as it was drawn (an oracle): the true field of view, renderer (physical or not) and flash position, and the photo
+with its exposure and vignetting divided out (then clipped to [0, 1] again; the learned vignetting off). With LEVELS set (``LEVELS=1``), one more line per material and
 variant: the photo's exposure (stops) and renderer, then the median specular, mean base colour and median roughness
 of the truth and of the maps at each count.
 """
@@ -16,6 +18,8 @@ from svbrdf.runtime.maps import Maps
 from svbrdf.trainer.bench.cases import BenchCase
 from svbrdf.trainer.bench.methods import METHODS, BenchOptions
 from svbrdf.trainer.bench.metrics import evaluate
+from svbrdf.runtime.camera import vignette
+from svbrdf.runtime.render import RenderConfig, physical_config
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.prior import PriorConfig, simulate_photos
 from svbrdf.trainer.procedural import sample_materials
@@ -46,8 +50,18 @@ for i in range(n):
         ovr = dict(ovr)
         if ovr.pop("_oracle_fov", False):
             ovr["render"] = {**resolve("fast").render, "fov_deg": draws[i]["fov_deg"]}
+        run_case = case
+        if ovr.pop("_oracle_camera", False):
+            d, rc = draws[i], RenderConfig(**resolve("fast").render).replace(fov_deg=draws[i]["fov_deg"], falloff=True)
+            ovr["render"] = (physical_config(rc) if d["physical"] else rc).to_dict()
+            ovr["flash_position"] = [float(d["light"][0]), float(d["light"][1])]
+            ovr["learn_vignetting"] = False
+            cam = d["camera"]
+            gain = 2.0 ** cam["ev"] * vignette(256, 256, cam["vignetting"])
+            run_case = BenchCase(case.name, "", "synthetic", "procedural", np.clip(photo / gain, 0.0, 1.0).astype(np.float32),
+                                 gt, case.centre, None)
         opts = BenchOptions(iters=iters, threads=1, repeats=1, train_overrides=ovr, init=init)
-        METHODS["finetune"].run(case, opts, "fast", pts.append)
+        METHODS["finetune"].run(run_case, opts, "fast", pts.append)
         for p in pts:
             m = evaluate(p.maps, gt=gt, centre=case.centre)
             res.setdefault((label, p.iterations), []).append({k: m.get(k, float("nan")) for k in K})
