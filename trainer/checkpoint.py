@@ -25,6 +25,9 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     versions, date              library versions, ISO date (UTC)
     network_input               a shipped stage one's {"mode", "even_lighting"}: what the runtime shows its network
                                 (set by :func:`clean_checkpoint`; absent: the runtime's default)
+    refine                      a shipped stage one's fine-tune settings ({TrainConfig field: value}, one of
+                                :data:`~svbrdf.trainer.config.REFINE_RECIPES`; set by :func:`clean_checkpoint`,
+                                applied by :func:`svbrdf.trainer.stage.finetune_config`; absent: the preset's)
 
 Files are written atomically (:func:`svbrdf.runtime.files.atomic_write`).
 """
@@ -45,6 +48,7 @@ from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.flash_trend import EVEN_LIGHTING_WIDTH
 from svbrdf.runtime.manifest import PRIOR_STAGE, network_input_record
 from svbrdf.runtime.files import atomic_write
+from svbrdf.trainer.config import REFINE_RECIPES
 from svbrdf.trainer.models import Generator, GeneratorConfig
 
 FORMAT = "svbrdf-train-checkpoint"
@@ -205,7 +209,8 @@ def load_generator(path: PathLike) -> Tuple[Generator, Dict[str, Any]]:
 
 
 def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool = False,
-                     force: bool = False, network_input: Optional[str] = None) -> Path:
+                     force: bool = False, network_input: Optional[str] = None,
+                     refine: Optional[str] = None) -> Path:
     """Copy a checkpoint without optimiser states and RNG states (and the discriminator unless kept), for shipping;
     its weights are the model's (:func:`model_weights`: a prior run's moving average replaces the trained weights).
 
@@ -216,22 +221,29 @@ def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool =
             (:func:`svbrdf.runtime.manifest.network_input_record`), which the export copies into the manifest, the preview
             follows and ``fast``'s fine-tune input takes. None keeps what ``src`` records (nothing: the runtime's
             default, v1's).
+        refine: for a stage one, the name of the fine-tune settings measured for it
+            (:data:`~svbrdf.trainer.config.REFINE_RECIPES`), recorded as the checkpoint's ``refine`` (the settings
+            themselves, so the checkpoint needs no table to be read); None keeps what ``src`` records.
 
     Raises:
-        ModelError: unreadable ``src``, ``dst`` exists and ``force`` is False, or ``network_input`` given for a
-            checkpoint that is not a stage one (a fine-tuned model is shown what it was trained on).
-        ValueError: an unknown ``network_input``.
+        ModelError: unreadable ``src``, ``dst`` exists and ``force`` is False, or ``network_input`` or ``refine``
+            given for a checkpoint that is not a stage one (a fine-tuned model is shown what it was trained on).
+        ValueError: an unknown ``network_input`` or ``refine``.
     """
     dst = Path(dst)
     record = None if network_input is None else network_input_record(network_input, EVEN_LIGHTING_WIDTH)
+    if refine is not None and refine not in REFINE_RECIPES:
+        raise ValueError(f"unknown refine recipe {refine!r}; expected one of {', '.join(REFINE_RECIPES)}")
     if dst.exists() and not force:
         raise ModelError(f"{dst}: already exists (use force=True to overwrite)")
     ckpt = load_checkpoint(src)
+    if (record is not None or refine is not None) and ckpt.get("stage") != PRIOR_STAGE:
+        raise ModelError(f"{src}: a network input and a refine recipe are chosen for a stage one only (stage "
+                         f"{ckpt.get('stage')!r} is shown what it was trained on)")
     if record is not None:
-        if ckpt.get("stage") != PRIOR_STAGE:
-            raise ModelError(f"{src}: a network input is chosen for a stage one only (stage {ckpt.get('stage')!r} "
-                             f"is shown what it was trained on)")
         ckpt["network_input"] = record
+    if refine is not None:
+        ckpt["refine"] = dict(REFINE_RECIPES[refine])
     ckpt["optimizers"] = None
     ckpt["rng"] = None
     ckpt["eval_maps"] = None

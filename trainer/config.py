@@ -351,6 +351,23 @@ def _presets() -> Dict[str, TrainConfig]:
 #: The named starting points of :func:`resolve` (see the module docstring). Copies are handed out.
 TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
 
+#: Fine-tune settings measured for one stage one, by name: :func:`svbrdf.trainer.checkpoint.clean_checkpoint`
+#: (``refine=NAME``) records the settings in the stage one's checkpoint (``refine``), and every fine-tune from it with
+#: a preset that shows the generator an evenly lit photo (``fast``) takes them where the user left the preset's
+#: value (:func:`svbrdf.trainer.stage.finetune_config`). ``fast`` itself was chosen from v1 (``models/svbrdf_prior_v1``,
+#: which records none).
+#:
+#: ``"v2"``: from the v2 stage one (issue 26's run, checkpoint 14315), ``fast`` made the maps worse than the preview
+#: (12 held-out procedural materials, 150 iterations: re-render 0.0865 -> 0.0906, specular 0.093 -> 0.126, roughness
+#: 0.171 -> 0.229): its dielectric specular prior pulls metals to 0.04 and the free roughness drifts. Without the
+#: prior and with every map pulled to the stage one's at weight 1 it is better than the preview on every measure
+#: (re-render 0.0756, diffuse 0.0846 -> 0.0735, specular 0.093, roughness 0.169, burn-in 0.153 -> 0.125). On every
+#: shared set it keeps the preview's capture relighting (0.139 -> 0.140) and lowers the re-render (0.0790 -> 0.0737)
+#: and the normal angle (9.51 -> 9.44); docs/benchmarks/refine-detail/README.md, 2026-11-27 third session.
+REFINE_RECIPES: Dict[str, Dict[str, Any]] = {
+    "v2": {"lambda_specular_prior": 0.0, "lambda_anchor": 1.0, "anchor_maps": list(MAP_NAMES)},
+}
+
 #: What each preset is, once (``svbrdf-train --help`` prints those of :data:`CLI_PRESETS`). Costs: seconds per
 #: iteration on one thread ("AMX": a shared Xeon core with bf16, "AMD": a shared EPYC core without bf16, where
 #: everything runs fp32; ``python -m svbrdf.trainer.bench.speed``).
@@ -434,5 +451,5 @@ def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
     return out
 
 
-__all__ = ["TrainConfig", "parse_settings", "TRAIN_PRESETS", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
+__all__ = ["TrainConfig", "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
            "QUALITY_MODES", "SCHEDULES"]

@@ -25,7 +25,7 @@ import torch
 from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.manifest import recorded_even_lighting
 from svbrdf.trainer import checkpoint as ckpt_io
-from svbrdf.trainer.config import TrainConfig
+from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig
 from svbrdf.trainer.models import DiscriminatorConfig, GeneratorConfig
 from svbrdf.trainer.train import PathLike, Trainer
 
@@ -39,9 +39,12 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[Train
     A config that shows the generator an evenly lit photo (``even_lighting`` > 0: ``fast``) shows it what the stage
     one's ``network_input`` record says when it has one (:func:`svbrdf.runtime.manifest.recorded_even_lighting`;
     the photo as it is for a stage one shipped so), as the preview does; the paper's presets (0) keep the photo.
+    Such a config also takes the stage one's ``refine`` record (the fine-tune settings measured for it,
+    :data:`~svbrdf.trainer.config.REFINE_RECIPES`) for every setting that still has its preset's value: a setting the
+    user changed (``--set``) to another value wins.
 
     Raises:
-        ModelError: an invalid ``network_input`` record.
+        ModelError: an invalid ``network_input`` or ``refine`` record.
     """
     gen = GeneratorConfig.from_dict({**init["generator_config"], "train_encoder": config.train_encoder})
     disc = config.discriminator
@@ -57,7 +60,30 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[Train
         d["even_lighting"] = recorded
         notes.append(f"network input taken from the initial checkpoint: "
                      f"{'the photo as it is' if not recorded else f'evenly lit at {recorded:g}'}")
+    if init.get("refine") is not None and config.even_lighting > 0:
+        taken = _recorded_refine(config, init["refine"], d)
+        if taken:
+            notes.append(f"fine-tune settings taken from the initial checkpoint: {', '.join(taken)}")
     return TrainConfig.from_dict(d), notes
+
+
+def _recorded_refine(config: TrainConfig, record: Any, d: dict) -> List[str]:
+    """Put a ``refine`` record's settings into ``d`` (``config`` as a dict) where ``config`` has its preset's
+    value; returns ``"key=value"`` of those that changed. Raises :class:`ModelError` for an invalid record."""
+    preset = TRAIN_PRESETS.get(config.preset)
+    try:
+        if not isinstance(record, Mapping) or any(not hasattr(config, k) for k in record):
+            raise ValueError("not a mapping of training settings")
+        own = TrainConfig.from_dict({**config.to_dict(), **record})  # validates the values
+    except (TypeError, ValueError) as e:
+        raise ModelError(f"invalid refine record in the initial checkpoint: {record!r} ({e})") from None
+    taken = []
+    for key in record:
+        mine, theirs = getattr(config, key), getattr(own, key)
+        if mine != theirs and (preset is None or mine == getattr(preset, key)):
+            d[key] = own.to_dict()[key]
+            taken.append(f"{key}={theirs}")
+    return taken
 
 
 def _load(ckpt: CheckpointLike, source: Optional[PathLike]) -> Tuple[Mapping[str, Any], PathLike]:

@@ -7,7 +7,7 @@ import torch
 
 from svbrdf.runtime.errors import ModelError
 from svbrdf.trainer import checkpoint as ckpt_io
-from svbrdf.trainer.config import resolve
+from svbrdf.trainer.config import REFINE_RECIPES, resolve
 from svbrdf.trainer.stage import make_trainer
 from svbrdf.trainer.checkpoint import last_good_path
 from svbrdf.trainer.train import Trainer
@@ -124,6 +124,22 @@ def test_clean_checkpoint_records_a_stage_ones_network_input(tmp_path, trained):
     assert torch.load(tmp_path / "b.pt", weights_only=True)["network_input"]["mode"] == "photo"
     ckpt_io.clean_checkpoint(tmp_path / "a.pt", tmp_path / "b.pt", network_input="even", force=True)
     assert torch.load(tmp_path / "b.pt", weights_only=True)["network_input"] == {"mode": "even", "even_lighting": 0.25}
+
+
+def test_clean_checkpoint_records_a_stage_ones_refine_recipe(tmp_path, trained):
+    _, path = trained
+    with pytest.raises(ModelError, match="for a stage one only"):
+        ckpt_io.clean_checkpoint(path, tmp_path / "fit.pt", refine="v2")
+    prior = torch.load(path, weights_only=True)
+    prior["stage"] = "prior"
+    ckpt_io.save_checkpoint(tmp_path / "prior.pt", prior)
+    with pytest.raises(ValueError, match="unknown refine recipe 'v3'"):
+        ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", refine="v3")
+    assert not (tmp_path / "a.pt").exists()
+    ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", refine="v2")
+    assert ckpt_io.load_generator(tmp_path / "a.pt")[1]["refine"] == REFINE_RECIPES["v2"]
+    ckpt_io.clean_checkpoint(tmp_path / "a.pt", tmp_path / "b.pt")  # None keeps the record
+    assert torch.load(tmp_path / "b.pt", weights_only=True)["refine"] == REFINE_RECIPES["v2"]
 
 
 @pytest.mark.parametrize("extra", [{}, {"learn_vignetting": True, "learn_offsets": True, "lambda_render": 1.0,

@@ -7,8 +7,8 @@ import torch
 
 from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.manifest import network_input_record
-from svbrdf.runtime.maps import SLICES
-from svbrdf.trainer.config import resolve
+from svbrdf.runtime.maps import MAP_NAMES, SLICES
+from svbrdf.trainer.config import REFINE_RECIPES, resolve
 from svbrdf.trainer.stage import finetune_config, make_trainer
 from svbrdf.trainer.train import Trainer, predict_full
 
@@ -74,6 +74,28 @@ def test_a_fine_tune_shows_the_generator_what_the_stage_ones_record_says():
     assert finetune_config(paper, {**ckpt, "network_input": network_input_record("even", 0.25)})[0].even_lighting == 0.0
     with pytest.raises(ModelError, match="invalid network_input"):
         finetune_config(fast, {**ckpt, "network_input": {"mode": "photo", "even_lighting": 0.3}})
+
+
+def test_a_fine_tune_takes_the_stage_ones_refine_record_where_the_user_left_the_preset():
+    ckpt = {"generator_config": resolve("tiny").generator.to_dict(), "discriminator_config": None,
+            "refine": dict(REFINE_RECIPES["v2"])}
+    fast = resolve("fast", train_encoder=True)
+    assert fast.lambda_specular_prior > 0 and fast.anchor_maps == ("normal",)  # what the record changes
+    cfg, notes = finetune_config(fast, ckpt)
+    assert (cfg.lambda_specular_prior, cfg.lambda_anchor, cfg.anchor_maps) == (0.0, 1.0, MAP_NAMES)
+    assert any(n.startswith("fine-tune settings taken from the initial checkpoint: lambda_specular_prior=0.0")
+               for n in notes)
+    plain = finetune_config(fast, {k: v for k, v in ckpt.items() if k != "refine"})[0]  # no record: the preset's
+    assert (plain.lambda_specular_prior, plain.lambda_anchor, plain.anchor_maps) == (
+        fast.lambda_specular_prior, fast.lambda_anchor, fast.anchor_maps)
+    mine = resolve("fast", train_encoder=True, lambda_specular_prior=0.5)  # the user's own value wins
+    cfg = finetune_config(mine, ckpt)[0]
+    assert cfg.lambda_specular_prior == 0.5 and cfg.anchor_maps == MAP_NAMES
+    paper = resolve("paper")  # the published method keeps its settings
+    assert finetune_config(paper, ckpt)[0].lambda_anchor == paper.lambda_anchor
+    for bad in ({"no_such_setting": 1}, {"lambda_anchor": -1.0}, ["lambda_anchor"]):
+        with pytest.raises(ModelError, match="invalid refine record"):
+            finetune_config(fast, {**ckpt, "refine": bad})
 
 
 def test_finetune_starts_from_the_pretrained_state(tmp_path):
