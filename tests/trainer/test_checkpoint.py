@@ -107,39 +107,34 @@ def test_clean_checkpoint_drops_training_state(tmp_path, trained):
         make_trainer(random_photo(), resume=dst, threads=1)
 
 
-def test_clean_checkpoint_records_a_stage_ones_network_input(tmp_path, trained):
+@pytest.mark.parametrize("key, value, record, bad, message", [
+    ("network_input", "photo", {"mode": "photo", "even_lighting": 0.0}, "flat", "unknown network input 'flat'"),
+    ("refine", "v2", REFINE_RECIPES["v2"], "v3", "unknown refine recipe 'v3'"),
+])
+def test_clean_checkpoint_records_what_a_stage_one_was_shipped_with(tmp_path, trained, key, value, record, bad, message):
     _, path = trained  # a fit: shown what it was trained on, no choice to record
     with pytest.raises(ModelError, match="for a stage one only"):
-        ckpt_io.clean_checkpoint(path, tmp_path / "fit.pt", network_input="photo")
+        ckpt_io.clean_checkpoint(path, tmp_path / "fit.pt", **{key: value})
     assert not (tmp_path / "fit.pt").exists()
     prior = torch.load(path, weights_only=True)
     prior["stage"] = "prior"
     ckpt_io.save_checkpoint(tmp_path / "prior.pt", prior)
-    with pytest.raises(ValueError, match="unknown network input 'flat'"):
-        ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", network_input="flat")
+    with pytest.raises(ValueError, match=message):
+        ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", **{key: bad})
     assert not (tmp_path / "a.pt").exists()
-    ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", network_input="photo")
-    assert ckpt_io.load_generator(tmp_path / "a.pt")[1]["network_input"] == {"mode": "photo", "even_lighting": 0.0}
+    ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", **{key: value})
+    assert ckpt_io.load_generator(tmp_path / "a.pt")[1][key] == record
     ckpt_io.clean_checkpoint(tmp_path / "a.pt", tmp_path / "b.pt")  # None keeps the record
-    assert torch.load(tmp_path / "b.pt", weights_only=True)["network_input"]["mode"] == "photo"
-    ckpt_io.clean_checkpoint(tmp_path / "a.pt", tmp_path / "b.pt", network_input="even", force=True)
-    assert torch.load(tmp_path / "b.pt", weights_only=True)["network_input"] == {"mode": "even", "even_lighting": 0.25}
+    assert torch.load(tmp_path / "b.pt", weights_only=True)[key] == record
 
 
-def test_clean_checkpoint_records_a_stage_ones_refine_recipe(tmp_path, trained):
-    _, path = trained
-    with pytest.raises(ModelError, match="for a stage one only"):
-        ckpt_io.clean_checkpoint(path, tmp_path / "fit.pt", refine="v2")
-    prior = torch.load(path, weights_only=True)
+def test_clean_checkpoint_replaces_a_recorded_network_input(tmp_path, trained):
+    prior = torch.load(trained[1], weights_only=True)
     prior["stage"] = "prior"
     ckpt_io.save_checkpoint(tmp_path / "prior.pt", prior)
-    with pytest.raises(ValueError, match="unknown refine recipe 'v3'"):
-        ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", refine="v3")
-    assert not (tmp_path / "a.pt").exists()
-    ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", refine="v2")
-    assert ckpt_io.load_generator(tmp_path / "a.pt")[1]["refine"] == REFINE_RECIPES["v2"]
-    ckpt_io.clean_checkpoint(tmp_path / "a.pt", tmp_path / "b.pt")  # None keeps the record
-    assert torch.load(tmp_path / "b.pt", weights_only=True)["refine"] == REFINE_RECIPES["v2"]
+    ckpt_io.clean_checkpoint(tmp_path / "prior.pt", tmp_path / "a.pt", network_input="photo")
+    ckpt_io.clean_checkpoint(tmp_path / "a.pt", tmp_path / "b.pt", network_input="even")
+    assert torch.load(tmp_path / "b.pt", weights_only=True)["network_input"] == {"mode": "even", "even_lighting": 0.25}
 
 
 @pytest.mark.parametrize("extra", [{}, {"learn_vignetting": True, "learn_offsets": True, "lambda_render": 1.0,
