@@ -10,7 +10,9 @@
 # HALF1 / HALF2 (the two halves' --cases; default every shared set), ITERS (default 150), GRID (default 1; 0 skips
 # the grid), INPUT (default photo: the network is shown the photo as it is, in the preview and as the refine's
 # generator input, which measured better than evenly lit for the v2 run at 7050, chunks/eval-7050/; even: the
-# runtime's default for a stage one, evenly lit; recorded in the exported model as its network_input). Writes OUT/model (checkpoint, ONNX), OUT/preview, OUT/refine (merged reports) and OUT/grid_1024.png.
+# runtime's default for a stage one, evenly lit; recorded in the exported model as its network_input), REFINE (default
+# v2: the fine-tune settings of svbrdf.trainer.config.REFINE_RECIPES recorded in the checkpoint, which the refine and
+# the grid take; empty: none, the plain `fast`). Writes OUT/model (checkpoint, ONNX), OUT/preview, OUT/refine (merged reports) and OUT/grid_1024.png.
 set -euo pipefail
 OUT="${1:?usage: eval_chunk.sh OUT}"
 PY="${PY:-.venv/bin/python}"
@@ -20,6 +22,7 @@ HALF2="${HALF2:-*Des19*,*img_highlight_aware*,henzler-flash/test/2*,guo*/0[5-8]}
 ITERS="${ITERS:-150}"
 GRID="${GRID:-1}"
 INPUT="${INPUT:-photo}"
+REFINE="${REFINE-v2}"
 BIN="$(dirname "$PY")"
 export OMP_NUM_THREADS=1 OMP_WAIT_POLICY=PASSIVE
 case "$INPUT" in
@@ -29,8 +32,8 @@ esac
 mkdir -p "$OUT/model"
 # The choice is recorded in the checkpoint and the manifest (network_input): the preview, the refine's generator
 # input and the grid's fine-tunes all follow it.
-"$PY" -c "import sys; from svbrdf.trainer.checkpoint import clean_checkpoint as c; c(sys.argv[1], sys.argv[2], force=True, network_input=sys.argv[3])" \
-    "$CKPT" "$OUT/model/v2.pt" "$INPUT"
+"$PY" -c "import sys; from svbrdf.trainer.checkpoint import clean_checkpoint as c; c(sys.argv[1], sys.argv[2], force=True, network_input=sys.argv[3], refine=sys.argv[4] or None)" \
+    "$CKPT" "$OUT/model/v2.pt" "$INPUT" "$REFINE"
 "$BIN/svbrdf-export" "$OUT/model/v2.pt" -o "$OUT/model/v2.onnx" --force
 bench() { "$BIN/svbrdf-bench" --threads 1 --repeats 1 --quiet --presets fast "$@"; }
 bench --methods baseline,preview --model "$OUT/model/v2.onnx" --cases "$HALF1,$HALF2" --out "$OUT/preview" --force
