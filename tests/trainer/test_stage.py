@@ -9,6 +9,7 @@ from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.manifest import network_input_record
 from svbrdf.runtime.maps import MAP_NAMES, SLICES
 from svbrdf.trainer.config import REFINE_RECIPES, resolve
+from svbrdf.trainer.checkpoint import save_checkpoint
 from svbrdf.trainer.stage import finetune_config, make_trainer
 from svbrdf.trainer.train import Trainer, predict_full
 
@@ -124,6 +125,21 @@ def anchored_start(tmp_path):
     pre = _trained(photo_a, "pretrain", resolve("tiny", iters_pretrain=3, tile=48), checkpoint_path=ckpt, threads=1)
     with torch.no_grad():
         return ckpt, photo_b, predict_full(pre.generator, photo_b)
+
+
+def test_a_fine_tune_from_a_stage_one_with_a_refine_record_runs_its_recipe(tmp_path, anchored_start):
+    ckpt, photo_b, start = anchored_start
+    recorded = torch.load(ckpt, weights_only=True)
+    recorded["refine"] = dict(REFINE_RECIPES["v2"])
+    save_checkpoint(tmp_path / "recorded.pt", recorded)
+    cfg = resolve("tiny", iters_finetune=1, tile=48, even_lighting=0.25)  # a preset of the fast family: no anchor
+    assert cfg.lambda_anchor == 0
+    plain = _trained(photo_b, "finetune", init=ckpt, config=cfg, threads=1)
+    tuned = _trained(photo_b, "finetune", init=tmp_path / "recorded.pt", config=cfg, threads=1)
+    assert plain.anchor is None and plain.config.lambda_anchor == 0
+    assert (tuned.config.lambda_anchor, tuned.config.anchor_maps) == (1.0, MAP_NAMES)
+    assert tuned.anchor is not None and tuned.history[0].get("ds/anchor") is not None
+    assert any(n.startswith("fine-tune settings taken from the initial checkpoint") for n in tuned.notes)
 
 
 def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_path, anchored_start):
