@@ -361,9 +361,10 @@ TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
 #: (12 held-out procedural materials, 150 iterations: re-render 0.0865 -> 0.0906, specular 0.093 -> 0.126, roughness
 #: 0.171 -> 0.229): its dielectric specular prior pulls metals to a dielectric level (one brushed metal's re-render
 #: 0.071 -> 0.215) and the free roughness drifts. Without the prior and with every map pulled to the stage one's at
-#: weight 1 it is better than the preview on every measure (re-render 0.0756, diffuse 0.0846 -> 0.0735, specular 0.093, roughness 0.169, burn-in 0.153 -> 0.125). On every
-#: shared set it keeps the preview's capture relighting (0.139 -> 0.140) and lowers the re-render (0.0790 -> 0.0737)
-#: and the normal angle (9.51 -> 9.44); docs/benchmarks/refine-detail/README.md, 2026-11-27 third session.
+#: weight 1 it is better than the preview on every measure (re-render 0.0756, diffuse 0.0846 -> 0.0735, specular
+#: 0.093, roughness 0.169, burn-in 0.153 -> 0.125). On every shared set it keeps the preview's capture relighting
+#: (0.139 -> 0.140) and lowers the re-render (0.0790 -> 0.0737) and the normal angle (9.51 -> 9.44);
+#: docs/benchmarks/refine-detail/README.md, 2026-11-27 third session.
 REFINE_RECIPES: Dict[str, Dict[str, Any]] = {
     "v2": {"lambda_specular_prior": 0.0, "lambda_anchor": 1.0, "anchor_maps": list(MAP_NAMES)},
 }
