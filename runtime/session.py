@@ -18,10 +18,11 @@ Pipeline of :func:`estimate`:
    :data:`EVEN_LIGHTING`): the network sees the material evenly lit, not the flash's fall-off and broad highlight
    (what the model records decides: :attr:`PreviewSession.even_lighting`; a stage one shipped with
    ``network_input`` "photo" sees the photo as it is); run the model on that (the full graph, or the part graph
-   of the one decoder the requested maps need: see :meth:`PreviewSession.graph_for`) in one pass when the image fits in one ``tile`` x ``tile`` window, else
-   in overlapping tiles blended with :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's
-   inference). The generator uses instance normalisation, so tiles see their own statistics: expect
-   differences from a single pass that are small for stationary materials but not only at the seams;
+   of the one decoder the requested maps need: see :meth:`PreviewSession.graph_for`) in one pass when the image
+   fits in one ``tile`` x ``tile`` window, else in overlapping tiles blended with
+   :func:`svbrdf.runtime.tiling.tiled_apply` (memory bounded by one tile's inference). The generator uses
+   instance normalisation, so tiles see their own statistics: expect differences from a single pass that are small
+   for stationary materials but not only at the seams;
 4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`);
 5. give the base colour the photo's colour balance (:func:`photo_colour`, :data:`COLOUR_FROM_PHOTO`): the
    generator's instance normalisation hides a photo's overall colour from it, and the learned stage one predicts a

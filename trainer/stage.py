@@ -70,19 +70,19 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[Train
 def _recorded_refine(config: TrainConfig, record: Any, d: dict) -> List[str]:
     """Put a ``refine`` record's settings into ``d`` (``config`` as a dict) where ``config`` has its preset's
     value; returns ``"key=value"`` of those that changed. Raises :class:`ModelError` for an invalid record."""
-    preset = TRAIN_PRESETS.get(config.preset)
     try:
-        if not isinstance(record, Mapping) or any(not hasattr(config, k) for k in record):
+        if not isinstance(record, Mapping):
             raise ValueError("not a mapping of training settings")
-        own = TrainConfig.from_dict({**config.to_dict(), **record})  # validates the values
+        own = TrainConfig.from_dict({**config.to_dict(), **record}).to_dict()  # validates names and values
     except (TypeError, ValueError) as e:
         raise ModelError(f"invalid refine record in the initial checkpoint: {record!r} ({e})") from None
+    mine = config.to_dict()
+    preset = TRAIN_PRESETS[config.preset].to_dict() if config.preset in TRAIN_PRESETS else mine
     taken = []
     for key in record:
-        mine, theirs = getattr(config, key), getattr(own, key)
-        if mine != theirs and (preset is None or mine == getattr(preset, key)):
-            d[key] = own.to_dict()[key]
-            taken.append(f"{key}={theirs}")
+        if key in own and own[key] != mine[key] and mine[key] == preset[key]:
+            d[key] = own[key]
+            taken.append(f"{key}={own[key]}")
     return taken
 
 

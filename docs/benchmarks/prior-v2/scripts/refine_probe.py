@@ -19,7 +19,7 @@ from svbrdf.trainer.bench.cases import BenchCase
 from svbrdf.trainer.bench.methods import METHODS, BenchOptions
 from svbrdf.trainer.bench.metrics import evaluate
 from svbrdf.runtime.camera import vignette
-from svbrdf.runtime.render import RenderConfig, physical_config
+from svbrdf.runtime.render import physical_config
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.prior import PriorConfig, simulate_photos
 from svbrdf.trainer.procedural import sample_materials
@@ -52,7 +52,7 @@ for i in range(n):
             ovr["render"] = {**resolve("fast").render, "fov_deg": draws[i]["fov_deg"]}
         run_case = case
         if ovr.pop("_oracle_camera", False):
-            d, rc = draws[i], RenderConfig(**resolve("fast").render).replace(fov_deg=draws[i]["fov_deg"], falloff=True)
+            d, rc = draws[i], resolve("fast").render_config.replace(fov_deg=draws[i]["fov_deg"], falloff=True)
             ovr["render"] = (physical_config(rc) if d["physical"] else rc).to_dict()
             ovr["flash_position"] = [float(d["light"][0]), float(d["light"][1])]
             ovr["learn_vignetting"] = False

@@ -42,7 +42,7 @@ def with_spec(m: Maps, level: float) -> Maps:
 def fit_levels(m: Maps, photo: np.ndarray):
     d = render(with_spec(m, 0.0), config=RC).astype(np.float64)
     s1 = render(with_spec(m, 1.0), config=RC).astype(np.float64) - d
-    keep = (photo.max(axis=-1) < 0.98)[..., None] & np.ones_like(photo, dtype=bool)
+    keep = np.broadcast_to((photo.max(axis=-1) < 0.98)[..., None], photo.shape)
     p, d, s1 = photo[keep].astype(np.float64), d[keep], s1[keep]
     fixed = float(np.dot(s1, p - d) / max(np.dot(s1, s1), 1e-12))
     a = np.stack([d, s1], 1)
