@@ -56,6 +56,8 @@ class TrainConfig:
             ``vgg_weights``: optional VGG-19 state-dict file.
         diffuse_target: "absolute" (the paper's L_d) or "normalized" (L_d on standardised tiles: the guessed
             diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`).
+        lambda_diffuse: weight of L_d (1 = the paper's; 0 = off: the diffuse map is then shaped by the photo terms
+            and the anchor alone).
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
             as in the paper).
         lambda_specular_prior: weight of the dielectric prior on the specular albedo
@@ -144,6 +146,7 @@ class TrainConfig:
     vgg_weights: Optional[str] = None
     perceptual_min_clipped: float = 0.0
     diffuse_target: str = "absolute"
+    lambda_diffuse: float = 1.0
     lambda_render: float = 0.0
     lambda_flash: float = 0.0
     lambda_specular_prior: float = 0.0
@@ -221,7 +224,7 @@ class TrainConfig:
         need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "
              f"got {self.betas}")
         for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash",
-                     "lambda_specular_prior", "lambda_anchor"):
+                     "lambda_specular_prior", "lambda_anchor", "lambda_diffuse"):
             need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
         need(len(self.anchor_maps) > 0 and set(self.anchor_maps) <= set(MAP_NAMES),
              f"anchor_maps must be some of {', '.join(MAP_NAMES)}, got {list(self.anchor_maps)}")

@@ -465,9 +465,9 @@ class Trainer:
         for term in weighted[1:]:
             shared = shared + term
         total = shared
-        if "ds" in keys:
+        if "ds" in keys and cfg.lambda_diffuse > 0:
             logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target)
-            total = shared + ld
+            total = shared + cfg.lambda_diffuse * ld
         for key in keys:
             for name, value in logged.items():
                 if name != "diffuse" or key == "ds":
