@@ -18,7 +18,7 @@ The trainer is returned ready to :meth:`~svbrdf.trainer.train.Trainer.run`; noth
 
 from __future__ import annotations
 
-from typing import Any, List, Mapping, Optional, Tuple, Union
+from typing import Any, Iterable, List, Mapping, Optional, Tuple, Union
 
 import torch
 
@@ -33,15 +33,17 @@ from svbrdf.trainer.train import PathLike, Trainer
 CheckpointLike = Union[PathLike, Mapping[str, Any]]
 
 
-def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[TrainConfig, List[str]]:
+def finetune_config(config: TrainConfig, init: Mapping[str, Any], keep: Iterable[str] = ()
+                    ) -> Tuple[TrainConfig, List[str]]:
     """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept).
 
     A config that shows the generator an evenly lit photo (``even_lighting`` > 0: ``fast``) shows it what the stage
     one's ``network_input`` record says when it has one (:func:`svbrdf.runtime.manifest.recorded_even_lighting`;
     the photo as it is for a stage one shipped so), as the preview does; the paper's presets (0) keep the photo.
     Such a config also takes the stage one's ``refine`` record (the fine-tune settings measured for it,
-    :data:`~svbrdf.trainer.config.REFINE_RECIPES`) for every setting that still has its preset's value: a setting the
-    user changed (``--set``) to another value wins.
+    :data:`~svbrdf.trainer.config.REFINE_RECIPES`) for every setting that still has its preset's value and is not in
+    ``keep``: a setting the user changed (``--set``) to another value wins, and so does one the user set to the
+    preset's own value when its name is in ``keep`` (the names the user gave; the bench passes its ``--set``).
 
     Raises:
         ModelError: an invalid ``network_input`` or ``refine`` record.
@@ -61,15 +63,16 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any]) -> Tuple[Train
         notes.append(f"network input taken from the initial checkpoint: "
                      f"{'the photo as it is' if not recorded else f'evenly lit at {recorded:g}'}")
     if init.get("refine") is not None and config.even_lighting > 0:
-        taken = _recorded_refine(config, init["refine"], d)
+        taken = _recorded_refine(config, init["refine"], d, frozenset(keep))
         if taken:
             notes.append(f"fine-tune settings taken from the initial checkpoint: {', '.join(taken)}")
     return TrainConfig.from_dict(d), notes
 
 
-def _recorded_refine(config: TrainConfig, record: Any, d: dict) -> List[str]:
+def _recorded_refine(config: TrainConfig, record: Any, d: dict, keep: frozenset = frozenset()) -> List[str]:
     """Put a ``refine`` record's settings into ``d`` (``config`` as a dict) where ``config`` has its preset's
-    value; returns ``"key=value"`` of those that changed. Raises :class:`ModelError` for an invalid record."""
+    value and the name is not in ``keep``; returns ``"key=value"`` of those that changed. Raises
+    :class:`ModelError` for an invalid record."""
     try:
         if not isinstance(record, Mapping):
             raise ValueError("not a mapping of training settings")
@@ -80,7 +83,7 @@ def _recorded_refine(config: TrainConfig, record: Any, d: dict) -> List[str]:
     preset = TRAIN_PRESETS[config.preset].to_dict() if config.preset in TRAIN_PRESETS else mine
     taken = []
     for key in record:
-        if key in own and own[key] != mine[key] and mine[key] == preset[key]:
+        if key in own and key not in keep and own[key] != mine[key] and mine[key] == preset[key]:
             d[key] = own[key]
             taken.append(f"{key}={own[key]}")
     return taken
@@ -94,7 +97,8 @@ def _load(ckpt: CheckpointLike, source: Optional[PathLike]) -> Tuple[Mapping[str
 
 def make_trainer(photo: torch.Tensor, stage: Optional[str] = None, config: Optional[TrainConfig] = None, *,
                  init: Optional[CheckpointLike] = None, resume: Optional[CheckpointLike] = None,
-                 source: Optional[PathLike] = None, iters: Optional[int] = None, **kw) -> Trainer:
+                 source: Optional[PathLike] = None, iters: Optional[int] = None, keep: Iterable[str] = (),
+                 **kw) -> Trainer:
     """Build the :class:`~svbrdf.trainer.train.Trainer` of one stage (see the module docstring).
 
     Args:
@@ -106,6 +110,8 @@ def make_trainer(photo: torch.Tensor, stage: Optional[str] = None, config: Optio
         source: how ``init`` / ``resume`` is named in notes and in the run's ``init`` record (default: its path,
             or "checkpoint" for a loaded dict).
         iters: iterations to reach (default: the stage's from ``config``; with ``resume`` the checkpoint's plan).
+        keep: ``finetune`` only: names of the settings the user gave, which the stage one's ``refine`` record never
+            replaces (:func:`finetune_config`).
         **kw: the other :class:`~svbrdf.trainer.train.Trainer` keywords (device, threads, photo_info,
             checkpoint_path, log_path, callback).
 
@@ -135,7 +141,7 @@ def make_trainer(photo: torch.Tensor, stage: Optional[str] = None, config: Optio
     if init is None:
         return Trainer(photo, config, stage=stage, iters=iters, **kw)
     ckpt, src = _load(init, source)
-    config, notes = finetune_config(config, ckpt)
+    config, notes = finetune_config(config, ckpt, keep)
     trainer = Trainer(photo, config, stage=stage, iters=iters, **kw)
     trainer.notes.extend(notes)
     trainer.load_init(ckpt, src)

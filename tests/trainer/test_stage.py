@@ -92,6 +92,10 @@ def test_a_fine_tune_takes_the_stage_ones_refine_record_where_the_user_left_the_
     mine = resolve("fast", train_encoder=True, lambda_specular_prior=0.5)  # the user's own value wins
     cfg = finetune_config(mine, ckpt)[0]
     assert cfg.lambda_specular_prior == 0.5 and cfg.anchor_maps == MAP_NAMES
+    same = resolve("fast", train_encoder=True, lambda_anchor=fast.lambda_anchor)  # the preset's own value, given
+    assert finetune_config(same, ckpt)[0].lambda_anchor == 1.0  # not told: the record's
+    cfg = finetune_config(same, ckpt, keep=("lambda_anchor",))[0]  # told it was the user's: it stays
+    assert cfg.lambda_anchor == fast.lambda_anchor and cfg.lambda_specular_prior == 0.0
     paper = resolve("paper")  # the published method keeps its settings
     assert finetune_config(paper, ckpt)[0].lambda_anchor == paper.lambda_anchor
     for bad in ({"no_such_setting": 1}, {"lambda_anchor": -1.0}, ["lambda_anchor"]):

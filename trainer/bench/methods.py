@@ -83,7 +83,8 @@ class BenchOptions:
         threads: CPU threads for torch and onnxruntime (None = the libraries' defaults).
         repeats: timed repeats of the cheap methods (median reported).
         bf16: bfloat16 autocast in training.
-        train_overrides: extra :func:`svbrdf.trainer.config.resolve` overrides for every training run.
+        train_overrides: extra :func:`svbrdf.trainer.config.resolve` overrides for every training run; a fine-tune
+            keeps them over its stage one's ``refine`` record (:func:`svbrdf.trainer.stage.finetune_config`).
     """
 
     config: RenderConfig = ZHAO
@@ -270,11 +271,12 @@ class Training(Method):
         if self.name == "finetune":
             ckpt, source = self._load_ckpt(self.init_for(opts, preset))
         # The architecture the run will have (a fine-tune takes the checkpoint's), for the warm-up key.
-        arch = cfg if ckpt is None else finetune_config(cfg, ckpt)[0]
+        arch = cfg if ckpt is None else finetune_config(cfg, ckpt, opts.train_overrides)[0]
 
         def make_trainer(iters: int, callback=None):
             return make_stage(photo, "finetune" if ckpt is not None else "fit", cfg, init=ckpt, source=source,
-                              iters=iters, threads=opts.threads, photo_info=info, callback=callback)
+                              iters=iters, threads=opts.threads, photo_info=info, callback=callback,
+                              keep=opts.train_overrides)
 
         warmup = self._warm_up(make_trainer, preset, arch, case.photo.shape)
         budget = opts.time_budget
