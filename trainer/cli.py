@@ -152,6 +152,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="make the normals of this fraction of the drawn materials flat (polished, lacquered, paper: no "
                         "relief; 0 = none: v1, v2 before 2026-11-27); with --resume it changes the run's materials from "
                         "there on")
+    p.add_argument("--black-share", type=float, metavar="P",
+                   help="darken the base colour of this fraction of the drawn dielectric materials to near black "
+                        "(black plastic, lacquer, stone; 0 = none: every run before 2026-11-27); with --resume it "
+                        "changes the run's materials from there on")
     p.add_argument("--height-activation", choices=("tanh", "linear"),
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
                         "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
@@ -256,6 +260,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         parser.error(f"--roll-off must be >= 1 (1 = none), got {args.roll_off}")
     if args.flat_share is not None and not 0 <= args.flat_share < 1:
         parser.error(f"--flat-share must be in [0, 1), got {args.flat_share}")
+    if args.black_share is not None and not 0 <= args.black_share < 1:
+        parser.error(f"--black-share must be in [0, 1), got {args.black_share}")
     if args.eval_every is not None and args.eval_every < 0:
         parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
     if args.minutes is not None and not args.minutes > 0:
@@ -298,6 +304,10 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             log(f"note: the share of materials with flat normals {config.flat_share:g} -> {args.flat_share:g} from "
                 "here on")
             config.flat_share = args.flat_share
+        if args.black_share is not None and args.black_share != config.black_share:
+            log(f"note: the share of near-black dielectric materials {config.black_share:g} -> {args.black_share:g} "
+                "from here on")
+            config.black_share = args.black_share
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")
@@ -344,6 +354,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                 over["camera"] = {**config.camera, "white": (1.0, float(args.roll_off))}
             if args.flat_share is not None:
                 over["flat_share"] = args.flat_share
+            if args.black_share is not None:
+                over["black_share"] = args.black_share
             config = dataclasses.replace(config, **over)
         except ValueError as e:
             parser.error(str(e))

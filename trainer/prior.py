@@ -66,7 +66,7 @@ from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_dev
 from svbrdf.trainer.losses import (DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, slope_correlation_loss,
                                     supervised_maps_loss)
 from svbrdf.trainer.models import Generator, GeneratorConfig, linearise_height
-from svbrdf.trainer.procedural import FAMILIES, sample_materials
+from svbrdf.trainer.procedural import FAMILIES, PARAMS, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
 
 PathLike = Union[str, Path]
@@ -142,6 +142,12 @@ class PriorConfig:
             2-25 degrees), so a network trained on them alone gives every photo a relief (docs/benchmarks/prior-v2/
             flat/). 0 = none (every run before 2026-11-27): no draw is made, the stream is
             unchanged. The validation batch never has them (its figures stay comparable along a run).
+        black_share: fraction of the drawn dielectric materials whose base colour is darkened to a near-black mean
+            (:data:`BLACK_LEVEL`, log-uniform): black plastic, lacquer and polished black stone. Without them a
+            near-black base colour means a metal in the procedural stream (22 of 23 such materials in 512 draws),
+            and v2 reads every black material as one (docs/benchmarks/prior-v2/chunks/README.md, chunk 11). 0 =
+            none (every run before 2026-11-27, fourth session): no draw is made, the stream is unchanged. The
+            validation batch never has them.
     """
 
     generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
@@ -181,6 +187,7 @@ class PriorConfig:
     lambda_slope: float = 0.0
     ema: float = 0.0
     flat_share: float = 0.0
+    black_share: float = 0.0
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -226,6 +233,7 @@ class PriorConfig:
         need(self.material_reuse >= 1, f"material_reuse must be >= 1, got {self.material_reuse}")
         need(0.0 <= self.ema < 1.0, f"ema must be in [0, 1), got {self.ema}")
         need(0.0 <= self.flat_share < 1.0, f"flat_share must be in [0, 1), got {self.flat_share}")
+        need(0.0 <= self.black_share < 1.0, f"black_share must be in [0, 1), got {self.black_share}")
         unknown = set(self.families or ()) - set(FAMILIES)
         need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
         resolve(self.finetune_preset)  # raises on an unknown preset
@@ -424,7 +432,34 @@ def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[in
     maps, families = sample_materials(n, side, rng, config.families, device=device if config.batched else None)
     if config.flat_share > 0:
         maps = flatten_normals(maps, torch.rand(n, generator=rng) < config.flat_share)
+    if config.black_share > 0:
+        chosen = torch.rand(n, generator=rng) < config.black_share
+        lo, hi = (math.log(v) for v in BLACK_LEVEL)
+        level = torch.exp(lo + (hi - lo) * torch.rand(n, generator=rng))
+        maps = blacken_dielectrics(maps, chosen, level)
     return maps, families, crop
+
+
+#: (lo, hi) of the mean linear base colour a ``black_share`` material is darkened to (log-uniform): below the
+#: procedural dielectric classes' darkest (``PARAMS["value_srgb"]`` 0.1, 0.01 linear), where only metals were.
+BLACK_LEVEL = (0.001, 0.01)
+
+
+def blacken_dielectrics(maps: torch.Tensor, chosen: torch.Tensor, level: torch.Tensor) -> torch.Tensor:
+    """``maps`` (B, 8, H, W) with the base colour of each ``chosen`` dielectric material ((B,) bool, on the host;
+    dielectric: a median specular below the middle of the gap between the dielectric and metal ranges of
+    :data:`svbrdf.trainer.procedural.PARAMS`) scaled so that its mean is at most ``level`` ((B,) linear, on the
+    host); the others unchanged. Tensor ops on ``maps``' device only (nothing read back from a GPU)."""
+    if not bool(chosen.any()):
+        return maps
+    metal_from = (PARAMS["spec_dielectric_tail"][1] + PARAMS["spec_metal"][0]) / 2.0
+    d, sp = SLICES["diffuse"], SLICES["specular"]
+    dielectric = (maps[:, sp].flatten(1).median(1).values < metal_from).to(maps.dtype)
+    pick = to_device(chosen.to(torch.float32), maps.device).to(maps.dtype) * dielectric
+    mean = maps[:, d].mean((1, 2, 3)).clamp_min(1e-6)
+    factor = torch.clamp(to_device(level.to(torch.float32), maps.device).to(maps.dtype) / mean, max=1.0)
+    scale = (1.0 - pick + pick * factor)[:, None, None, None]
+    return torch.cat([maps[:, :d.start], maps[:, d] * scale, maps[:, d.stop:]], 1)
 
 
 def flatten_normals(maps: torch.Tensor, chosen: torch.Tensor) -> torch.Tensor:
@@ -713,7 +748,7 @@ class PriorTrainer:
         """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch)."""
         if self._eval_set is None:
             rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
-            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0)
+            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0, black_share=0.0)
             photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch, device=self.device)
             self._eval_set = photos.to(self.device), maps.to(self.device)
         return self._eval_set

@@ -812,6 +812,64 @@ def test_cli_flat_share_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path
     assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
 
 
+def test_black_share_darkens_chosen_dielectrics_only_and_none_leaves_the_stream_as_it_was():
+    """``black_share`` (near-black dielectrics): a chosen dielectric's base colour is scaled to a mean within
+    :data:`BLACK_LEVEL`, its other maps and every other material as drawn, a metal never; at 0 nothing is drawn
+    for it; the validation batch never has them."""
+    from svbrdf.trainer.prior import BLACK_LEVEL, blacken_dielectrics, draw_materials
+
+    cfg = tiny_v2(crop_share=0.0, batch=12)
+    a, _, _ = draw_materials(cfg, torch.Generator().manual_seed(7))
+    g = torch.Generator().manual_seed(7)
+    b, _, _ = draw_materials(dataclasses.replace(cfg, black_share=0.5), g)
+    after = torch.rand(3, generator=g)
+    g0 = torch.Generator().manual_seed(7)
+    draw_materials(cfg, g0)
+    torch.rand(12, generator=g0), torch.rand(12, generator=g0)  # the choice and the level, after the materials
+    assert torch.equal(after, torch.rand(3, generator=g0))
+    d = SLICES["diffuse"]
+    changed = ~(b[:, d] == a[:, d]).flatten(1).all(1)
+    assert 0 < int(changed.sum()) < 12  # seed 7: some of the 12
+    assert torch.equal(b[:, d.stop:], a[:, d.stop:]) and torch.equal(b[~changed], a[~changed])
+    means = b[changed][:, d].mean((1, 2, 3))
+    assert (means <= BLACK_LEVEL[1] * 1.0001).all()
+    a2, _, _ = draw_materials(cfg, torch.Generator().manual_seed(7))
+    assert torch.equal(a, a2)  # share 0: the stream of a run before it existed
+    metal = a.clone()
+    metal[:, SLICES["specular"]] = 0.8  # every material a metal: none is darkened
+    every = torch.ones(12, dtype=torch.bool)
+    assert torch.equal(blacken_dielectrics(metal, every, torch.full((12,), 0.001)), metal)
+    dielectric = a.clone()
+    dielectric[:, SLICES["specular"]] = 0.04
+    dark = blacken_dielectrics(dielectric, every, torch.full((12,), 0.005))
+    torch.testing.assert_close(dark[:, d].mean((1, 2, 3)),
+                               torch.minimum(torch.full((12,), 0.005), dielectric[:, d].mean((1, 2, 3))))
+    assert blacken_dielectrics(a, torch.zeros(12, dtype=torch.bool), torch.ones(12)) is a
+    t1 = PriorTrainer(cfg, device="cpu", threads=1)
+    t2 = PriorTrainer(dataclasses.replace(cfg, black_share=0.9), device="cpu", threads=1)
+    assert all(torch.equal(x, y) for x, y in zip(t1.eval_set(), t2.eval_set()))
+    with pytest.raises(ValueError):
+        tiny_v2(black_share=1.0)
+
+
+def test_cli_black_share_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path, capsys):
+    out = tmp_path / "v2"
+    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
+            "--eval-every", "0", "--material-reuse", "1"]
+    assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", *args]) == 0
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["black_share"] == 0.0
+    capsys.readouterr()
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--black-share", "0.1",
+                     "--threads", "1"]) == 0
+    assert "near-black dielectric materials 0 -> 0.1 from here on" in capsys.readouterr().err
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["black_share"] == 0.1
+    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "f"), "--iters", "1", "--black-share", "0.2",
+                     *args]) == 0
+    assert ckpt_io.load_checkpoint(tmp_path / "f" / "checkpoint.pt")["prior_config"]["black_share"] == 0.2
+    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--black-share", "1"]) == 2
+    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
+
+
 def _floats(module) -> dict:
     return {k: v.detach().clone() for k, v in module.state_dict().items() if v.is_floating_point()}
 
