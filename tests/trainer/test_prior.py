@@ -794,21 +794,23 @@ def test_flat_share_makes_the_chosen_materials_flat_and_none_leaves_the_stream_a
         tiny_v2(flat_share=1.0)
 
 
-def test_cli_flat_share_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path, capsys):
+@pytest.mark.parametrize("key, note", [("flat_share", "flat normals 0 -> 0.1 from here on"),
+                                       ("black_share", "near-black dielectric materials 0 -> 0.1 from here on")])
+def test_cli_material_shares_start_a_run_with_them_and_change_them_on_a_resume(tmp_path, capsys, key, note):
+    flag = "--" + key.replace("_", "-")
     out = tmp_path / "v2"
     args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
             "--eval-every", "0", "--material-reuse", "1"]
     assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", *args]) == 0
-    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["flat_share"] == 0.0
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"][key] == 0.0
     capsys.readouterr()
-    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--flat-share", "0.1",
-                     "--threads", "1"]) == 0
-    assert "flat normals 0 -> 0.1 from here on" in capsys.readouterr().err
-    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["flat_share"] == 0.1
-    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "f"), "--iters", "1", "--flat-share", "0.2",
+    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", flag, "0.1", "--threads", "1"]) == 0
+    assert note in capsys.readouterr().err
+    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"][key] == 0.1
+    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "f"), "--iters", "1", flag, "0.2",
                      *args]) == 0
-    assert ckpt_io.load_checkpoint(tmp_path / "f" / "checkpoint.pt")["prior_config"]["flat_share"] == 0.2
-    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--flat-share", "1"]) == 2
+    assert ckpt_io.load_checkpoint(tmp_path / "f" / "checkpoint.pt")["prior_config"][key] == 0.2
+    assert cli.main(["prior", "--out", str(tmp_path / "bad"), flag, "1"]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
 
 
@@ -850,24 +852,6 @@ def test_black_share_darkens_chosen_dielectrics_only_and_none_leaves_the_stream_
     assert all(torch.equal(x, y) for x, y in zip(t1.eval_set(), t2.eval_set()))
     with pytest.raises(ValueError):
         tiny_v2(black_share=1.0)
-
-
-def test_cli_black_share_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path, capsys):
-    out = tmp_path / "v2"
-    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
-            "--eval-every", "0", "--material-reuse", "1"]
-    assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", *args]) == 0
-    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["black_share"] == 0.0
-    capsys.readouterr()
-    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--black-share", "0.1",
-                     "--threads", "1"]) == 0
-    assert "near-black dielectric materials 0 -> 0.1 from here on" in capsys.readouterr().err
-    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["black_share"] == 0.1
-    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "f"), "--iters", "1", "--black-share", "0.2",
-                     *args]) == 0
-    assert ckpt_io.load_checkpoint(tmp_path / "f" / "checkpoint.pt")["prior_config"]["black_share"] == 0.2
-    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--black-share", "1"]) == 2
-    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
 
 
 def _floats(module) -> dict:
