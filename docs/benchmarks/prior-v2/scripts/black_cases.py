@@ -1,0 +1,25 @@
+"""The specular error on the shared sets' near-black materials apart from the rest, per method and count, from
+benchmark records (``svbrdf-bench ... --out DIR``: DIR/results.json): what `black_share` (the v2 run from 18589,
+``../chunks/README.md``) is meant to change. A case is near-black when its true base colour's mean is below
+0.01 linear (read from the shared sets' ground truth as the bench reads it: 29 of the 38 synthetic cases, most of
+them with a dielectric specular of 0.043).
+
+    python docs/benchmarks/prior-v2/scripts/black_cases.py RESULTS.json [RESULTS.json ...]
+"""
+import json, sys
+from collections import defaultdict
+import numpy as np
+from svbrdf.trainer.bench.datasets import find_cases, read_gt
+
+black = {c.name for c in find_cases("../shared/data") if c.kind == "gt"
+         and float(read_gt(c.path, c.format)[0].diffuse.mean()) < 0.01}
+rows = defaultdict(lambda: {"black": [], "other": []})
+for path in sys.argv[1:]:
+    for r in json.load(open(path))["records"]:
+        if r.get("kind") == "synthetic" and r.get("specular_rmse") is not None:
+            key = (r["method"], r.get("iterations"))
+            rows[key]["black" if r["case"] in black else "other"].append(r["specular_rmse"])
+print(f"near-black cases: {len(black)}")
+for (method, it), v in sorted(rows.items(), key=lambda kv: str(kv[0])):
+    print(f"{method} @{it}: specular RMSE near-black {np.mean(v['black']):.4f} (n {len(v['black'])}), "
+          f"other {np.mean(v['other']):.4f} (n {len(v['other'])})")
