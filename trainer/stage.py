@@ -69,7 +69,7 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any], keep: Iterable
     return TrainConfig.from_dict(d), notes
 
 
-def _recorded_refine(config: TrainConfig, record: Any, d: dict, keep: frozenset = frozenset()) -> List[str]:
+def _recorded_refine(config: TrainConfig, record: Any, d: dict, keep: frozenset) -> List[str]:
     """Put a ``refine`` record's settings into ``d`` (``config`` as a dict) where ``config`` has its preset's
     value and the name is not in ``keep``; returns ``"key=value"`` of those that changed. Raises
     :class:`ModelError` for an invalid record."""
