@@ -31,17 +31,8 @@ mkdir -p "$OUT" "$RUN"
 CONSOLE="$OUT/console.txt"
 say() { echo "gpu_prior: $*" | tee -a "$CONSOLE"; }
 
-# 1. the package, without pip
-SITE="$(mktemp -d)"
-mkdir -p "$SITE/svbrdf"
-for part in runtime trainer export models; do ln -s "$ROOT/$part" "$SITE/svbrdf/$part"; done
-export PYTHONPATH="$SITE${PYTHONPATH:+:$PYTHONPATH}"
-if compgen -G ".whl/*.whl" > /dev/null; then
-    "$PYTHON" -m pip install -q --no-index --no-deps --no-compile --no-cache-dir --upgrade --target /tmp/site .whl/*.whl \
-        || { say "wheel install failed"; exit 1; }
-    export PYTHONPATH="/tmp/site:$PYTHONPATH"
-fi
-export PYTHONUNBUFFERED=1
+# 1. the package, without pip (and the carried wheels, if any)
+source "$ROOT/trainer/tools/gpu_env.sh" || exit 1
 "$PYTHON" -c "import svbrdf.trainer.prior" 2>&1 | tee -a "$CONSOLE" || { say "cannot import svbrdf.trainer.prior"; exit 1; }
 
 # 2. preflight
