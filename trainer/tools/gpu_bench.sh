@@ -9,7 +9,9 @@
 # idle: it waits on kernel launches) and each is killed at LIMIT_S seconds from the script's start (default 560,
 # inside the device tool's 600 s; give the runs --time-budget below it so they end with a recorded point). The bench
 # needs kornia and OpenImageIO, which the device lacks: carry their wheels in .whl/ (gpu_env.sh installs them).
-# Blank lines and lines starting with # are skipped. Exit status: the number of runs that failed.
+# Blank lines and lines starting with # are skipped. What comes back is one archive, $OUT/runs.tar.gz (every run's
+# folder and console; the device tool returns at most 8 files from $OUT, and a first call's 6 runs x 4 outputs lost
+# everything but one plot), and $OUT/console.txt. Exit status: the number of runs that failed.
 set -uo pipefail
 : "${OUT:?set OUT to the folder that receives the runs}"
 JOBS="${1:?usage: gpu_bench.sh JOBS}"
@@ -37,4 +39,13 @@ for i in "${!pids[@]}"; do
     say "${names[$i]} exit status $rc after $SECONDS s"
     [ "$rc" = 0 ] || failed=$(( failed + 1 ))
 done
+if [ "${#names[@]}" -gt 0 ]; then
+    members=()
+    for name in "${names[@]}"; do
+        [ -e "$OUT/$name" ] && members+=("$name")
+        members+=("$name.txt")
+    done
+    tar -czf "$OUT/runs.tar.gz" -C "$OUT" "${members[@]}" && (cd "$OUT" && rm -rf "${members[@]}") \
+        && say "runs.tar.gz: $(du -h "$OUT/runs.tar.gz" | cut -f1), ${#names[@]} runs"
+fi
 exit "$failed"
