@@ -19,15 +19,14 @@ pytestmark = pytest.mark.skipif(shutil.which("bash") is None or shutil.which("ti
 
 
 def test_runs_come_back_as_one_archive_and_failures_are_counted(tmp_path):
-    if (ROOT / ".whl").exists():
-        pytest.skip("a local .whl/ holds the device's wheels (another Python): the script would install them")
     jobs = tmp_path / "jobs.txt"
     # `*wood*` would match nothing in the repository root: it must reach the bench unexpanded to select the case.
     jobs.write_text("# a comment, then a blank line\n\n"
                     "ok --data runtime/examples --methods baseline --cases *wood* --size 32 --repeats 1 --quiet\n"
                     "bad --data runtime/examples --methods nosuch\n")
     out = tmp_path / "out"
-    env = {**os.environ, "OUT": str(out), "PYTHON": sys.executable, "LIMIT_S": "240"}
+    env = {**os.environ, "OUT": str(out), "PYTHON": sys.executable, "LIMIT_S": "240",
+           "WHEELS": str(tmp_path / "none")}  # not a local .whl/ (the device's wheels, for another Python)
     done = subprocess.run(["bash", str(SCRIPT), str(jobs)], cwd=ROOT, env=env, capture_output=True, text=True,
                           timeout=300)
     assert done.returncode == 1, done.stdout + done.stderr  # one run of two failed

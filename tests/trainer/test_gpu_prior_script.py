@@ -24,7 +24,8 @@ pytestmark = pytest.mark.skipif(shutil.which("bash") is None or shutil.which("ti
 
 def call(tmp_path: Path, out: str, resume: Path, *extra: str, preflight: str = "0") -> subprocess.CompletedProcess:
     env = {**os.environ, "OUT": str(tmp_path / out), "RESUME": str(resume), "RUN": str(tmp_path / "run"),
-           "PYTHON": sys.executable, "PREFLIGHT": preflight, "MINUTES": "5", "OMP_NUM_THREADS": "1"}
+           "PYTHON": sys.executable, "PREFLIGHT": preflight, "MINUTES": "5", "OMP_NUM_THREADS": "1",
+           "WHEELS": str(tmp_path / "no-wheels")}  # not a local .whl/ (the device's wheels, for another Python)
     return subprocess.run(["bash", str(SCRIPT), *extra], cwd=ROOT, env=env, capture_output=True, text=True,
                           timeout=300)
 

@@ -2,7 +2,7 @@
 benchmark records (``svbrdf-bench ... --out DIR``: DIR/results.json): what `black_share` (the v2 run from 18589,
 ``../chunks/README.md``) is meant to change. A case is near-black when its true base colour's mean is below
 0.01 linear (read from the shared sets' ground truth as the bench reads it: 29 of the 38 synthetic cases, most of
-them with a dielectric specular of 0.043); the normal angle and slope correlation of the same two groups too.
+them with a dielectric specular of 0.043); the normal angle, slope correlation, re-render and grazing RMSE of the same two groups too (near-black / other).
 
     python docs/benchmarks/prior-v2/scripts/black_cases.py RESULTS.json [RESULTS.json ...]
 """
@@ -31,4 +31,5 @@ for (method, it), v in sorted(rows.items(), key=lambda kv: str(kv[0])):
     print(f"{method} @{it}: specular RMSE near-black {mean(b, 'specular_rmse'):.4f} (n {len(b)}), "
           f"other {mean(o, 'specular_rmse'):.4f} (n {len(o)}); normal angle {mean(b, 'normal_angle_deg'):.2f} / "
           f"{mean(o, 'normal_angle_deg'):.2f} deg, slope corr {mean(b, 'normal_slope_corr'):.3f} / "
-          f"{mean(o, 'normal_slope_corr'):.3f}")
+          f"{mean(o, 'normal_slope_corr'):.3f}; re-render {mean(b, 'rerender_rmse'):.4f} / "
+          f"{mean(o, 'rerender_rmse'):.4f}, grazing {mean(b, 'grazing_rmse'):.4f} / {mean(o, 'grazing_rmse'):.4f}")
