@@ -36,7 +36,7 @@ set +f
 failed=0
 for i in "${!pids[@]}"; do
     wait "${pids[$i]}"; rc=$?
-    say "${names[$i]} exit status $rc after $SECONDS s"
+    say "${names[$i]} exit status $rc (done by $SECONDS s: the runs are waited for in order)"
     [ "$rc" = 0 ] || failed=$(( failed + 1 ))
 done
 if [ "${#names[@]}" -gt 0 ]; then

@@ -22,18 +22,18 @@ import torch
 import svbrdf.runtime.session as S
 from svbrdf.runtime.maps import Maps
 from svbrdf.runtime.render import ZHAO, physical_config, render
-from svbrdf.trainer.bench.cases import load_cases
-from svbrdf.trainer.bench.datasets import find_cases, read_gt
+from svbrdf.trainer.bench.cases import prepare_case
 from svbrdf.trainer.bench.metrics import evaluate
 from svbrdf.trainer.losses import render_loss
+
+from black_cases import darkness  # the same near-black split (this script's folder is on the path)
 
 warnings.simplefilter("ignore")
 model, out = sys.argv[1], sys.argv[2]
 group = sys.argv[3] if len(sys.argv) > 3 else "black"
 sess = S.load_session(model, threads=1)
-DATA = "../shared/data"
-dark = {c.name: float(read_gt(c.path, c.format)[0].diffuse.mean()) < 0.01 for c in find_cases(DATA) if c.kind == "gt"}
-names = sorted(n for n, b in dark.items() if group == "all" or b == (group == "black"))
+cases = sorted((c for c, dark in darkness().items() if group == "all" or dark == (group == "black")),
+               key=lambda c: c.name)
 D = (-0.3, -0.15, -0.05, 0.0, 0.05, 0.15, 0.3)
 SPEC = (0.02, 0.04, 0.06, 0.08, 0.12, 0.16, 0.24, 0.32, 0.48, 0.64)
 GAINS = 2.0 ** np.arange(-0.75, 0.76, 0.25)
@@ -47,8 +47,8 @@ def with_lobe(m: Maps, d: float, s: float) -> Maps:
 
 rows = []
 with open(out, "w") as f:
-    for name in names:
-        case = load_cases(DATA, 256, spec=name)[0]
+    for found in cases:
+        case = prepare_case(found, 256)
         pred = S.estimate(case.photo, sess)
         pt = torch.from_numpy(case.photo).permute(2, 0, 1)[None]
         best = None
@@ -58,7 +58,7 @@ with open(out, "w") as f:
                 loss = min(float(render_loss(rt * float(g), pt)) for g in GAINS)
                 if best is None or loss < best[0]:
                     best = (loss, d, s)
-        rec = {"case": name, "truth_specular": round(float(case.gt.specular.mean()), 3),
+        rec = {"case": case.name, "truth_specular": round(float(case.gt.specular.mean()), 3),
                "pred_specular": round(float(pred.specular.mean()), 3), "fit_d": best[1], "fit_s": best[2]}
         for tag, m in (("preview", pred), ("fit", with_lobe(pred, best[1], best[2]))):
             e = evaluate(m, gt=case.gt, centre=case.centre)
