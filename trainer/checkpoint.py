@@ -21,7 +21,8 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     perceptual_backend, notes   what actually ran (backend name, fallbacks)
     eval_maps                   maps of the fixed evaluation tiles at the last evaluation (for the map-change signal)
     camera                      the photo's learned camera ({"vignetting": tensor}) or None
-    anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor``) or None
+    anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor`` or
+                                ``diffuse_weighting``) or None
     versions, date              library versions, ISO date (UTC)
     network_input               a shipped stage one's {"mode", "even_lighting"}: what the runtime shows its network
                                 (set by :func:`clean_checkpoint`; absent: the runtime's default)
@@ -285,7 +286,8 @@ def last_good_path(path: PathLike) -> Path:
 
 def load_init(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
     """Start ``trainer`` (a :class:`~svbrdf.trainer.train.Trainer`) from a pretrained checkpoint (finetune): G, D
-    and, unless ``reset_optimizers``, the Adam states; with ``lambda_anchor``, its starting maps as the anchor.
+    and, unless ``reset_optimizers``, the Adam states; with ``lambda_anchor`` or a ``diffuse_weighting``, its
+    starting maps as the anchor.
 
     The generator/discriminator configuration must match ``trainer.config`` (use
     :func:`svbrdf.trainer.stage.make_trainer`, which takes them from the checkpoint).
@@ -314,7 +316,7 @@ def load_init(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint")
                     group["lr"], group["betas"] = trainer.config.lr, tuple(trainer.config.betas)
     trainer.init = {"path": str(source), "stage": ckpt.get("stage"), "step": ckpt.get("step"),
                     "photo": dict(ckpt.get("photo") or {})}
-    if trainer.config.lambda_anchor > 0:
+    if trainer.config.lambda_anchor > 0 or trainer.config.diffuse_weighting != "uniform":
         with torch.no_grad():
             trainer.anchor = trainer.predict().float()
 
@@ -353,8 +355,10 @@ def load_resume(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint
     trainer.eval_maps = None if eval_maps is None else eval_maps.to(trainer.device)
     anchor = ckpt.get("anchor")
     trainer.anchor = None if anchor is None else anchor.to(trainer.device, torch.float32)
-    if trainer.config.lambda_anchor > 0 and trainer.anchor is None and trainer.stage == "finetune":
-        raise ModelError(f"{source}: a fine-tune with lambda_anchor > 0 but no stored anchor; cannot resume")
+    if trainer.anchor is None and trainer.stage == "finetune" and \
+            (trainer.config.lambda_anchor > 0 or trainer.config.diffuse_weighting != "uniform"):
+        raise ModelError(f"{source}: a fine-tune with lambda_anchor > 0 or diffuse_weighting "
+                         f"{trainer.config.diffuse_weighting!r} but no stored anchor; cannot resume")
 
 
 def _load_models(trainer, ckpt: Mapping[str, Any], source: PathLike) -> None:

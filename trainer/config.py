@@ -23,6 +23,8 @@ STAGES = ("pretrain", "finetune", "fit")
 FOURIER_MODES = ("complex", "magnitude")
 PERCEPTUAL_BACKENDS = ("auto", "vgg19", "vgg19-random", "pyramid")
 QUALITY_MODES = ("fixed", "auto")
+#: How L_d counts a pixel (``TrainConfig.diffuse_weighting``).
+DIFFUSE_WEIGHTINGS = ("uniform", "diffuse_share")
 SCHEDULES = ("alternating", "joint")
 
 
@@ -55,9 +57,16 @@ class TrainConfig:
         lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
             ``vgg_weights``: optional VGG-19 state-dict file.
         diffuse_target: "absolute" (the paper's L_d) or "normalized" (L_d on standardised tiles: the guessed
-            diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`).
+            diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`), or "hue"
+            (standardised with one contrast for the three channels, against a guess that keeps the photo's colour
+            ratios, :func:`svbrdf.trainer.losses.hue_guess`, instead of Zhao's per-channel one).
         lambda_diffuse: weight of L_d (1 = the paper's; 0 = off: the diffuse map is then shaped by the photo terms
             and the anchor alone).
+        diffuse_weighting: how L_d counts each pixel: "uniform" (the paper's) or "diffuse_share" (a fine-tune
+            only: by the share of the pixel's flash radiance the diffuse term gives in the starting checkpoint's
+            maps of the photo, :func:`svbrdf.trainer.render.diffuse_fraction`; the guessed diffuse is the photo's
+            local pattern, which is the base colour's only where the diffuse term makes the photo: not in a glossy
+            material's highlight, not on a near-black base colour).
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
             as in the paper).
         lambda_specular_prior: weight of the dielectric prior on the specular albedo
@@ -147,6 +156,7 @@ class TrainConfig:
     perceptual_min_clipped: float = 0.0
     diffuse_target: str = "absolute"
     lambda_diffuse: float = 1.0
+    diffuse_weighting: str = "uniform"
     lambda_render: float = 0.0
     lambda_flash: float = 0.0
     lambda_specular_prior: float = 0.0
@@ -236,6 +246,8 @@ class TrainConfig:
              f"got {self.perceptual!r}")
         need(self.diffuse_target in DIFFUSE_TARGETS, f"diffuse_target must be one of {DIFFUSE_TARGETS}, "
              f"got {self.diffuse_target!r}")
+        need(self.diffuse_weighting in DIFFUSE_WEIGHTINGS, f"diffuse_weighting must be one of "
+             f"{DIFFUSE_WEIGHTINGS}, got {self.diffuse_weighting!r}")
         need(self.schedule in SCHEDULES, f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
         need(self.schedule != "joint" or (self.nr_updates, self.ds_updates, self.d_updates) == (1, 1, 1),
              "schedule 'joint' needs nr_updates = ds_updates = d_updates = 1")
@@ -456,4 +468,4 @@ def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
 
 
 __all__ = ["TrainConfig", "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
-           "QUALITY_MODES", "SCHEDULES"]
+           "QUALITY_MODES", "SCHEDULES", "DIFFUSE_WEIGHTINGS"]

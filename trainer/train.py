@@ -46,11 +46,11 @@ from svbrdf.trainer.device import bf16_support, pick_device, set_threads
 from svbrdf.trainer.guard import NumericalGuard
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
-                                   guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss,
+                                   guessed_diffuse, hue_guess, render_loss, specular_prior_loss, supervised_maps_loss,
                                    SUPERVISED_WEIGHTS)
 from svbrdf.trainer.models import Discriminator, Generator, PhotoContext, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
-from svbrdf.trainer.render import FlashGeometry
+from svbrdf.trainer.render import FlashGeometry, diffuse_fraction
 
 PathLike = Union[str, os.PathLike]
 
@@ -244,7 +244,8 @@ class Trainer:
         self._camera_keys: Tuple[str, ...] = ("cam",) if cam else ()
 
         with torch.no_grad():
-            self.guess = guessed_diffuse(self.photo).float()
+            guess = hue_guess if config.diffuse_target == "hue" else guessed_diffuse
+            self.guess = guess(self.photo).float()
         #: (x, y) of the flash over the photo in the renderer's units (``flash_position`` / ``locate_flash``).
         self.flash_xy = self._flash_position()
         cam = None if self.flash_xy == (0.0, 0.0) else (*self.flash_xy, config.render_config.camera_distance)
@@ -259,6 +260,8 @@ class Trainer:
         self.eval_maps: Optional[torch.Tensor] = None
         #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``lambda_anchor``; set by load_init).
         self.anchor: Optional[torch.Tensor] = None
+        #: (anchor it was computed from, (1, 1, H, W) diffuse share of the whole photo) for L_d's weighting.
+        self._diffuse_share: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
         #: The whole photo's context for the tiles (U-Net generators with ``photo_context``; :meth:`_context`).
         self.context: Optional[PhotoContext] = None
         self._context_step = -1
@@ -314,6 +317,20 @@ class Trainer:
         y0 = int(torch.randint(h - self.tile + 1, (1,), generator=rng))
         x0 = int(torch.randint(w - self.tile + 1, (1,), generator=rng))
         return y0, x0
+
+    def _diffuse_weight(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
+        """L_d's per-pixel weight on the tile at (y0, x0) (``config.diffuse_weighting``): None for "uniform" or
+        without starting maps (a run from scratch), else the share of the flash radiance the diffuse term gives
+        in the starting maps (:func:`svbrdf.trainer.render.diffuse_fraction`, computed once for the whole photo
+        from the anchor as a checkpoint stores it, so a resumed run weighs the same)."""
+        if self.config.diffuse_weighting == "uniform" or self.anchor is None:
+            return None
+        if self._diffuse_share is None or self._diffuse_share[0] is not self.anchor:
+            with torch.no_grad():
+                share = diffuse_fraction(self.anchor.half().float(), self.geometry.view, self.geometry.light,
+                                         self.geometry.config, self.geometry.dist2)
+            self._diffuse_share = (self.anchor, share)
+        return self._diffuse_share[1][..., y0:y0 + h, x0:x0 + w]
 
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
@@ -466,7 +483,8 @@ class Trainer:
             shared = shared + term
         total = shared
         if "ds" in keys and cfg.lambda_diffuse > 0:
-            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target)
+            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target,
+                                                  self._diffuse_weight(y0, x0, maps.shape[-2], maps.shape[-1]))
             total = shared + cfg.lambda_diffuse * ld
         for key in keys:
             for name, value in logged.items():

@@ -170,6 +170,27 @@ def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_
     assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
 
 
+def test_diffuse_share_weighs_l_d_by_the_starting_maps_and_survives_resume(tmp_path, anchored_start):
+    ckpt, photo_b, start = anchored_start
+    cfg = resolve("tiny", iters_finetune=2, tile=48, lambda_anchor=0.0, diffuse_weighting="diffuse_share")
+    path = tmp_path / "ft.pt"
+    tuned = _trained(photo_b, "finetune", init=ckpt, config=cfg, threads=1, checkpoint_path=path)
+    assert tuned.anchor is not None and "ds/anchor" not in tuned.history[0]  # the starting maps, not a pull
+    weight = tuned._diffuse_weight(0, 0, 48, 48)
+    assert weight.shape == (1, 1, 48, 48) and 0 <= float(weight.min()) <= float(weight.max()) <= 1
+    assert float(weight.std()) > 0  # per pixel, from the starting maps' diffuse share
+    plain = _trained(photo_b, "finetune", init=ckpt, config=dataclasses.replace(cfg, diffuse_weighting="uniform"),
+                     threads=1)
+    assert plain.anchor is None and plain._diffuse_weight(0, 0, 48, 48) is None
+    assert tuned.history[0]["ds/diffuse"] != pytest.approx(plain.history[0]["ds/diffuse"])
+    resumed = _trained(photo_b, resume=path, iters=3, threads=1)
+    assert resumed.step == 3 and torch.equal(resumed._diffuse_weight(0, 0, 48, 48), weight)
+    scratch = _trained(photo_b, "fit", resolve("tiny", iters_fit=1, diffuse_weighting="diffuse_share"), threads=1)
+    assert scratch._diffuse_weight(0, 0, 8, 8) is None  # no starting maps: every pixel counts
+    with pytest.raises(ValueError, match="diffuse_weighting"):
+        resolve("tiny", diffuse_weighting="specular")
+
+
 def test_anchor_maps_pull_only_the_named_maps(anchored_start):
     ckpt, photo_b, start = anchored_start
     drift = {}
