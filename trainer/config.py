@@ -57,9 +57,7 @@ class TrainConfig:
         lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
             ``vgg_weights``: optional VGG-19 state-dict file.
         diffuse_target: "absolute" (the paper's L_d) or "normalized" (L_d on standardised tiles: the guessed
-            diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`), or "hue"
-            (standardised with one contrast for the three channels, against a guess that keeps the photo's colour
-            ratios, :func:`svbrdf.trainer.losses.hue_guess`, instead of Zhao's per-channel one).
+            diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`).
         lambda_diffuse: weight of L_d (1 = the paper's; 0 = off: the diffuse map is then shaped by the photo terms
             and the anchor alone).
         diffuse_weighting: how L_d counts each pixel: "uniform" (the paper's) or "diffuse_share" (a fine-tune

@@ -119,58 +119,21 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
     return torch.stack(planes).reshape(x.shape).clamp(0.0, 1.0).to(_f32(photo).dtype)
 
 
-def hue_guess(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 101.0, eps: float = 1e-4) -> torch.Tensor:
-    """A guessed diffuse map that keeps the photo's colour ratios: the photo over its local mean luminance.
-
-    Zhao's guess (:func:`guessed_diffuse`) standardises each channel on its own, so a grey reflection of the flash
-    or the room, small beside a bright channel of the base colour, is stretched into a hue in its dark channels (a
-    brown wood's guess is green and blue). Here one local level, the mean of the three channels blurred with a
-    normalised ``kernel_size`` Gaussian (replicated borders: no darkened frame), divides all three, which removes
-    the flash's smooth fall-off and keeps each pixel's colour; the result is divided by its maximum.
-
-    Args:
-        photo: (B, 3, H, W) linear RGB photo (whole image).
-        kernel_size: odd Gaussian window size (101, as Zhao's).
-        sigma: its standard deviation in pixels (101).
-        eps: added to the local level and the maximum.
-
-    Returns:
-        (B, 3, H, W) in [0, 1], the photo's dtype.
-    """
-    if kernel_size < 1 or kernel_size % 2 == 0:
-        raise ValueError(f"kernel_size must be a positive odd integer, got {kernel_size}")
-    if photo.ndim != 4 or photo.shape[1] != 3:
-        raise ValueError(f"photo must be (B, 3, H, W), got {tuple(photo.shape)}")
-    from kornia.filters import gaussian_blur2d  # here: the prior's losses must import without kornia
-
-    x = _f32(photo)
-    level = gaussian_blur2d(x.mean(dim=1, keepdim=True), (kernel_size, kernel_size), (sigma, sigma),
-                            border_type="replicate", separable=True)
-    g = x.clamp_min(0.0) / (level.clamp_min(0.0) + eps)
-    return (g / (g.amax(dim=(1, 2, 3), keepdim=True) + eps)).to(photo.dtype)
-
-
-#: L_d's comparisons (:func:`diffuse_loss`); "hue" goes with the guess of :func:`hue_guess`.
-DIFFUSE_TARGETS = ("absolute", "normalized", "hue")
+DIFFUSE_TARGETS = ("absolute", "normalized")
 #: Added to a tile's standard deviation where a loss divides by it.
 STD_EPS = 0.01
 
 
-def _standardize(x: torch.Tensor, eps: float = STD_EPS, weight: Optional[torch.Tensor] = None,
-                 joint: bool = False) -> torch.Tensor:
+def _standardize(x: torch.Tensor, eps: float = STD_EPS, weight: Optional[torch.Tensor] = None) -> torch.Tensor:
     """Per image and channel over (H, W): ``(x - mean) / (std + eps)``; with ``weight`` ((B or 1, 1, H, W) >= 0)
-    the mean and std are weighted; with ``joint`` one std over the channels (each keeps its own mean), so the
-    channels' relative contrast, the pattern's hue, is kept."""
-    if weight is None and not joint:
+    the mean and std are weighted."""
+    if weight is None:
         mean = x.mean(dim=(-2, -1), keepdim=True)
         std = x.std(dim=(-2, -1), keepdim=True, unbiased=False)
         return (x - mean) / (std + eps)
-    w = torch.ones_like(x[:, :1]) if weight is None else weight
-    total = w.sum(dim=(-2, -1), keepdim=True) + 1e-6
-    mean = (w * x).sum(dim=(-2, -1), keepdim=True) / total
-    var = (w * (x - mean) ** 2).sum(dim=(-2, -1), keepdim=True) / total
-    if joint:
-        var = var.mean(dim=1, keepdim=True)
+    total = weight.sum(dim=(-2, -1), keepdim=True) + 1e-6
+    mean = (weight * x).sum(dim=(-2, -1), keepdim=True) / total
+    var = (weight * (x - mean) ** 2).sum(dim=(-2, -1), keepdim=True) / total
     return (x - mean) / (var.clamp_min(1e-12).sqrt() + eps)
 
 
@@ -182,8 +145,7 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
     of the true albedo's. ``target="absolute"`` (Zhao et al., the paper) compares the values as they are;
     ``"normalized"`` compares both after standardising each channel over the tile (``(x - mean) / (std +
     0.01)``), so L_d only asks the diffuse map to follow the guess's pattern and leaves its level and contrast to
-    the photo (a re-render term); ``"hue"`` the same with one std over the three channels, so the channels' relative
-    contrast is compared too (for :func:`hue_guess`, which keeps the photo's colour ratios).
+    the photo (a re-render term).
 
     With ``weight`` each pixel's error counts by its weight (the mean of ``weight * |p - g|``, not renormalised:
     a tile weighted 0.1 everywhere pulls a tenth as hard) and the standardisation uses weighted statistics, so
@@ -205,9 +167,8 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
     w = None if weight is None else _f32(weight)
     if w is not None and (w.ndim != 4 or w.shape[1] != 1 or w.shape[-2:] != p.shape[-2:]):
         raise ValueError(f"weight must be (B or 1, 1, H, W) with the tile's size, got {tuple(w.shape)}")
-    if target != "absolute":
-        joint = target == "hue"
-        p, g = _standardize(p, weight=w, joint=joint), _standardize(g, weight=w, joint=joint)
+    if target == "normalized":
+        p, g = _standardize(p, weight=w), _standardize(g, weight=w)
     return F.l1_loss(p, g) if w is None else (w * (p - g).abs()).mean()
 
 
@@ -709,7 +670,7 @@ class DetailAmountLoss(nn.Module):
 
 
 __all__ = [
-    "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "hue_guess", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
+    "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
     "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",

@@ -46,7 +46,7 @@ from svbrdf.trainer.device import bf16_support, pick_device, set_threads
 from svbrdf.trainer.guard import NumericalGuard
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
-                                   guessed_diffuse, hue_guess, render_loss, specular_prior_loss, supervised_maps_loss,
+                                   guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss,
                                    SUPERVISED_WEIGHTS)
 from svbrdf.trainer.models import Discriminator, Generator, PhotoContext, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
@@ -244,8 +244,7 @@ class Trainer:
         self._camera_keys: Tuple[str, ...] = ("cam",) if cam else ()
 
         with torch.no_grad():
-            guess = hue_guess if config.diffuse_target == "hue" else guessed_diffuse
-            self.guess = guess(self.photo).float()
+            self.guess = guessed_diffuse(self.photo).float()
         #: (x, y) of the flash over the photo in the renderer's units (``flash_position`` / ``locate_flash``).
         self.flash_xy = self._flash_position()
         cam = None if self.flash_xy == (0.0, 0.0) else (*self.flash_xy, config.render_config.camera_distance)

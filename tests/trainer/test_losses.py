@@ -11,7 +11,7 @@ from svbrdf.trainer.losses import (
     clipped_fraction,
     DiffuseLoss, FlashCorrelationLoss, FourierLoss, GANDiscriminatorLoss, GANGeneratorLoss, RenderLoss,
     diffuse_loss, flash_basis, flash_correlation_loss, flash_maps, fourier_loss, gan_discriminator_loss,
-    gan_generator_loss, guessed_diffuse, hue_guess, maps_for_loss, render_loss,
+    gan_generator_loss, guessed_diffuse, maps_for_loss, render_loss,
 )
 from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, Discriminator, Generator
 from svbrdf.trainer.perceptual import PerceptualLoss
@@ -292,34 +292,6 @@ def test_weighted_diffuse_loss_ignores_what_weighs_nothing_and_scales_with_the_w
     q = p.double().requires_grad_(True)
     assert torch.autograd.gradcheck(lambda t: diffuse_loss(t, g.double(), "normalized", half.double() * 0.7 + 0.1),
                                     (q,))
-
-
-def test_hue_guess_keeps_the_colour_and_divides_out_the_smooth_light():
-    yy, xx = torch.meshgrid(torch.linspace(-1, 1, 64), torch.linspace(-1, 1, 80), indexing="ij")
-    light = (1.0 / (1.0 + 2.0 * (xx ** 2 + yy ** 2)))[None, None]  # a smooth flash fall-off
-    grain = 1.0 + 0.2 * torch.sin(12 * xx)[None, None]  # the material's own pattern
-    brown = torch.tensor([0.5, 0.25, 0.1])[None, :, None, None]
-    photo = brown * grain * light
-    g = hue_guess(photo, kernel_size=31, sigma=31.0)
-    assert g.shape == photo.shape and float(g.min()) >= 0 and float(g.max()) <= 1
-    ratio = g[:, 1] / g[:, 0]  # every pixel keeps the photo's colour (0.25 / 0.5)
-    torch.testing.assert_close(ratio, torch.full_like(ratio, 0.5), rtol=1e-3, atol=1e-3)
-    zhao = guessed_diffuse(photo, kernel_size=31, sigma=31.0)
-    assert float((zhao[:, 1] / zhao[:, 0].clamp_min(1e-3) - 0.5).abs().mean()) > 0.1  # per channel: not kept
-    centre, edge = g[0, 0, 28:36, 36:44].mean(), g[0, 0, :, :6].mean()  # the fall-off divided out
-    drop = 1 - light[0, 0, :, :6].mean() / light[0, 0, 28:36, 36:44].mean()  # 0.7 in the photo
-    assert float(abs(centre - edge) / centre) < 0.3 * float(drop)
-    with pytest.raises(ValueError):
-        hue_guess(photo[:, :2])
-
-
-def test_hue_target_compares_the_pattern_and_its_colour():
-    g = torch.rand(2, 3, 16, 16)
-    gain_offset = 0.5 * g + torch.tensor([0.1, 0.2, 0.0])[None, :, None, None]  # one gain, offsets per channel
-    per_channel = g * torch.tensor([1.0, 0.5, 0.3])[None, :, None, None]  # another hue of the same pattern
-    same = float(diffuse_loss(gain_offset, g, "hue"))  # not 0 only through the 0.01 added to the std
-    assert same < 0.05 and float(diffuse_loss(per_channel, g, "hue")) > 10 * same
-    assert float(diffuse_loss(per_channel, g, "normalized")) < 0.05  # per channel: the hue is free
 
 
 def _srgb(x):
