@@ -36,17 +36,17 @@ def render_maps(
     Returns:
         (B, 3, H, W) linear radiance (unclamped).
     """
+    diffuse, dw, sr = _shading(maps, view, light, config, light_dist2)
+    return dw * diffuse + sr
+
+
+def _shading(maps: torch.Tensor, view: torch.Tensor, light: torch.Tensor, config: RenderConfig,
+             light_dist2: Optional[torch.Tensor]) -> Tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
+    """``(diffuse albedo, diffuse weight, specular radiance)`` of packed maps: :func:`shade` in the torch layout."""
     m = unpack(maps)
-    dw, sr = shade(
-        m["normal"],
-        (view[:, 0:1], view[:, 1:2], view[:, 2:3]),
-        (light[:, 0:1], light[:, 1:2], light[:, 2:3]),
-        m["specular"],
-        m["roughness"],
-        config,
-        light_dist2,
-    )
-    return dw * m["diffuse"] + sr
+    dw, sr = shade(m["normal"], (view[:, 0:1], view[:, 1:2], view[:, 2:3]),
+                   (light[:, 0:1], light[:, 1:2], light[:, 2:3]), m["specular"], m["roughness"], config, light_dist2)
+    return m["diffuse"], dw, sr
 
 
 def diffuse_fraction(
@@ -70,10 +70,8 @@ def diffuse_fraction(
     Returns:
         (B, 1, H, W) in [0, 1].
     """
-    m = unpack(maps)
-    dw, sr = shade(m["normal"], (view[:, 0:1], view[:, 1:2], view[:, 2:3]),
-                   (light[:, 0:1], light[:, 1:2], light[:, 2:3]), m["specular"], m["roughness"], config, light_dist2)
-    d = (dw * m["diffuse"]).mean(dim=1, keepdim=True)
+    diffuse, dw, sr = _shading(maps, view, light, config, light_dist2)
+    d = (dw * diffuse).mean(dim=1, keepdim=True)
     return (d / (d + sr + eps)).clamp(0.0, 1.0)
 
 
