@@ -24,7 +24,7 @@ FOURIER_MODES = ("complex", "magnitude")
 PERCEPTUAL_BACKENDS = ("auto", "vgg19", "vgg19-random", "pyramid")
 QUALITY_MODES = ("fixed", "auto")
 #: How L_d counts a pixel (``TrainConfig.diffuse_weighting``).
-DIFFUSE_WEIGHTINGS = ("uniform", "diffuse_share")
+DIFFUSE_WEIGHTINGS = ("uniform", "diffuse_share", "explained")
 SCHEDULES = ("alternating", "joint")
 
 
@@ -64,7 +64,9 @@ class TrainConfig:
             only: by the share of the pixel's flash radiance the diffuse term gives in the starting checkpoint's
             maps of the photo, :func:`svbrdf.trainer.render.diffuse_fraction`; the guessed diffuse is the photo's
             local pattern, which is the base colour's only where the diffuse term makes the photo: not in a glossy
-            material's highlight, not on a near-black base colour).
+            material's highlight, not on a near-black base colour), or "explained" (by how much of the photo's
+            light the starting maps' flash render explains, :func:`svbrdf.trainer.render.explained_fraction`:
+            reflections of the room, which only add light, count less).
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
             as in the paper).
         lambda_specular_prior: weight of the dielectric prior on the specular albedo

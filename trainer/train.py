@@ -50,7 +50,7 @@ from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, f
                                    SUPERVISED_WEIGHTS)
 from svbrdf.trainer.models import Discriminator, Generator, PhotoContext, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
-from svbrdf.trainer.render import FlashGeometry, diffuse_fraction
+from svbrdf.trainer.render import FlashGeometry, diffuse_fraction, explained_fraction
 
 PathLike = Union[str, os.PathLike]
 
@@ -325,9 +325,13 @@ class Trainer:
         if self.config.diffuse_weighting == "uniform" or self.anchor is None:
             return None
         if self._diffuse_share is None or self._diffuse_share[0] is not self.anchor:
+            start = self.anchor.half().float()
             with torch.no_grad():
-                share = diffuse_fraction(self.anchor.half().float(), self.geometry.view, self.geometry.light,
-                                         self.geometry.config, self.geometry.dist2)
+                if self.config.diffuse_weighting == "explained":
+                    share = explained_fraction(self.geometry.render(start), self.photo)
+                else:
+                    share = diffuse_fraction(start, self.geometry.view, self.geometry.light, self.geometry.config,
+                                             self.geometry.dist2)
             self._diffuse_share = (self.anchor, share)
         return self._diffuse_share[1][..., y0:y0 + h, x0:x0 + w]
 

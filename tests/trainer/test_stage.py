@@ -185,6 +185,11 @@ def test_diffuse_share_weighs_l_d_by_the_starting_maps_and_survives_resume(tmp_p
     assert tuned.history[0]["ds/diffuse"] != pytest.approx(plain.history[0]["ds/diffuse"])
     resumed = _trained(photo_b, resume=path, iters=3, threads=1)
     assert resumed.step == 3 and torch.equal(resumed._diffuse_weight(0, 0, 48, 48), weight)
+    explained = _trained(photo_b, "finetune", init=ckpt, threads=1,
+                         config=dataclasses.replace(cfg, diffuse_weighting="explained", iters_finetune=1))
+    by_light = explained._diffuse_weight(0, 0, 48, 48)
+    assert by_light.shape == (1, 1, 48, 48) and not torch.equal(by_light, weight)
+    assert 0 <= float(by_light.min()) <= float(by_light.max()) <= 1
     scratch = _trained(photo_b, "fit", resolve("tiny", iters_fit=1, diffuse_weighting="diffuse_share"), threads=1)
     assert scratch._diffuse_weight(0, 0, 8, 8) is None  # no starting maps: every pixel counts
     with pytest.raises(ValueError, match="diffuse_weighting"):
