@@ -65,7 +65,7 @@ class TrainConfig:
             maps of the photo, :func:`svbrdf.trainer.render.diffuse_fraction`; the guessed diffuse is the photo's
             local pattern, which is the base colour's only where the diffuse term makes the photo: not in a glossy
             material's highlight, not on a near-black base colour), or "explained" (by how much of the photo's
-            light the starting maps' flash render explains, :func:`svbrdf.trainer.render.explained_fraction`:
+            light the starting maps' flash render explains, :func:`svbrdf.trainer.losses.explained_fraction`:
             reflections of the room, which only add light, count less).
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
             as in the paper).

@@ -172,6 +172,34 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
     return F.l1_loss(p, g) if w is None else (w * (p - g).abs()).mean()
 
 
+def explained_fraction(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = CLIP_LEVEL,
+                       eps: float = 1e-4) -> torch.Tensor:
+    """How much of each pixel's light a rendering explains, an L_d weight (``TrainConfig.diffuse_weighting=
+    "explained"``): ``min(1, g R / P)`` on the luminances (channel means), with ``g`` the one gain that matches
+    their medians over the photo's unclipped pixels (the exposure is unknown).
+
+    A reflection of the room or a glint that the maps' flash render does not have only adds light, so there the
+    photo is brighter than the render and the fraction falls (a pixel twice as bright counts half).
+
+    Args:
+        rendering: (B, 3, H, W) linear flash render of a photo's maps.
+        photo: (B, 3, H, W) the linear photo.
+        clip_level: a pixel whose brightest channel is at or above it is clipped (:func:`clipped_fraction`) and
+            does not set the gain.
+        eps: added to the photo's luminance.
+
+    Returns:
+        (B, 1, H, W) in [0, 1].
+    """
+    r, p = rendering.mean(dim=1, keepdim=True), photo.mean(dim=1, keepdim=True)
+    gains = []
+    for rb, pb, ok in zip(r, p, photo.amax(dim=1, keepdim=True) < clip_level):
+        rv, pv = (rb[ok], pb[ok]) if bool(ok.any()) else (rb.flatten(), pb.flatten())
+        gains.append(pv.median() / rv.median().clamp_min(1e-6))
+    g = torch.stack(gains).reshape(-1, 1, 1, 1)
+    return (g * r / (p + eps)).clamp(0.0, 1.0)
+
+
 class DiffuseLoss(nn.Module):
     """Module form of :func:`diffuse_loss` (``target`` fixed at construction)."""
 
@@ -671,6 +699,7 @@ class DetailAmountLoss(nn.Module):
 
 __all__ = [
     "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
+    "explained_fraction",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
     "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",

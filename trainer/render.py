@@ -75,32 +75,6 @@ def diffuse_fraction(
     return (d / (d + sr + eps)).clamp(0.0, 1.0)
 
 
-def explained_fraction(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99,
-                       eps: float = 1e-4) -> torch.Tensor:
-    """How much of each pixel's light a rendering explains: ``min(1, g R / P)`` on the luminances (channel means),
-    with ``g`` the one gain that matches their medians over the photo's unclipped pixels (the exposure is unknown).
-
-    A reflection of the room or a glint that the maps' flash render does not have only adds light, so there the
-    photo is brighter than the render and the fraction falls (a pixel twice as bright counts half).
-
-    Args:
-        rendering: (B, 3, H, W) linear flash render of a photo's maps.
-        photo: (B, 3, H, W) the linear photo.
-        clip_level: photo values at or above it do not set the gain.
-        eps: added to the photo's luminance.
-
-    Returns:
-        (B, 1, H, W) in [0, 1].
-    """
-    r, p = rendering.mean(dim=1, keepdim=True), photo.mean(dim=1, keepdim=True)
-    gains = []
-    for rb, pb, ok in zip(r, p, (photo < clip_level).all(dim=1, keepdim=True)):
-        rv, pv = (rb[ok], pb[ok]) if bool(ok.any()) else (rb.flatten(), pb.flatten())
-        gains.append(pv.median() / rv.median().clamp_min(1e-6))
-    g = torch.stack(gains).reshape(-1, 1, 1, 1)
-    return (g * r / (p + eps)).clamp(0.0, 1.0)
-
-
 def unpack(maps: torch.Tensor) -> Dict[str, Union[torch.Tensor, Tuple[torch.Tensor, ...]]]:
     """The maps of packed ``(B, 8, H, W)`` maps as views, split in one op.
 

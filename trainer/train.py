@@ -44,13 +44,13 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads
 from svbrdf.trainer.guard import NumericalGuard
-from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
+from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, explained_fraction, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss,
                                    SUPERVISED_WEIGHTS)
 from svbrdf.trainer.models import Discriminator, Generator, PhotoContext, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
-from svbrdf.trainer.render import FlashGeometry, diffuse_fraction, explained_fraction
+from svbrdf.trainer.render import FlashGeometry, diffuse_fraction
 
 PathLike = Union[str, os.PathLike]
 
@@ -259,8 +259,8 @@ class Trainer:
         self.eval_maps: Optional[torch.Tensor] = None
         #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``lambda_anchor``; set by load_init).
         self.anchor: Optional[torch.Tensor] = None
-        #: (anchor it was computed from, (1, 1, H, W) diffuse share of the whole photo) for L_d's weighting.
-        self._diffuse_share: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
+        #: (anchor it was computed from, (1, 1, H, W) L_d's weights of the whole photo) (``diffuse_weighting``).
+        self._diffuse_weights: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
         #: The whole photo's context for the tiles (U-Net generators with ``photo_context``; :meth:`_context`).
         self.context: Optional[PhotoContext] = None
         self._context_step = -1
@@ -319,21 +319,23 @@ class Trainer:
 
     def _diffuse_weight(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
         """L_d's per-pixel weight on the tile at (y0, x0) (``config.diffuse_weighting``): None for "uniform" or
-        without starting maps (a run from scratch), else the share of the flash radiance the diffuse term gives
-        in the starting maps (:func:`svbrdf.trainer.render.diffuse_fraction`, computed once for the whole photo
-        from the anchor as a checkpoint stores it, so a resumed run weighs the same)."""
+        without starting maps (a run from scratch); else, from the starting maps, the share of the flash radiance
+        the diffuse term gives (``"diffuse_share"``, :func:`svbrdf.trainer.render.diffuse_fraction`) or how much
+        of the photo's light their flash render explains (``"explained"``,
+        :func:`svbrdf.trainer.losses.explained_fraction`); computed once for the whole photo from the anchor as a
+        checkpoint stores it, so a resumed run weighs the same."""
         if self.config.diffuse_weighting == "uniform" or self.anchor is None:
             return None
-        if self._diffuse_share is None or self._diffuse_share[0] is not self.anchor:
+        if self._diffuse_weights is None or self._diffuse_weights[0] is not self.anchor:
             start = self.anchor.half().float()
             with torch.no_grad():
                 if self.config.diffuse_weighting == "explained":
-                    share = explained_fraction(self.geometry.render(start), self.photo)
+                    share = explained_fraction(self.geometry.render(start), self.photo, CLIP_LEVEL)
                 else:
                     share = diffuse_fraction(start, self.geometry.view, self.geometry.light, self.geometry.config,
                                              self.geometry.dist2)
-            self._diffuse_share = (self.anchor, share)
-        return self._diffuse_share[1][..., y0:y0 + h, x0:x0 + w]
+            self._diffuse_weights = (self.anchor, share)
+        return self._diffuse_weights[1][..., y0:y0 + h, x0:x0 + w]
 
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]

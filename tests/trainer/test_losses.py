@@ -10,7 +10,8 @@ from svbrdf.trainer.losses import (
     CLIP_LEVEL,
     clipped_fraction,
     DiffuseLoss, FlashCorrelationLoss, FourierLoss, GANDiscriminatorLoss, GANGeneratorLoss, RenderLoss,
-    diffuse_loss, flash_basis, flash_correlation_loss, flash_maps, fourier_loss, gan_discriminator_loss,
+    diffuse_loss, explained_fraction, flash_basis, flash_correlation_loss, flash_maps, fourier_loss,
+    gan_discriminator_loss,
     gan_generator_loss, guessed_diffuse, maps_for_loss, render_loss,
 )
 from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, Discriminator, Generator
@@ -292,6 +293,18 @@ def test_weighted_diffuse_loss_ignores_what_weighs_nothing_and_scales_with_the_w
     q = p.double().requires_grad_(True)
     assert torch.autograd.gradcheck(lambda t: diffuse_loss(t, g.double(), "normalized", half.double() * 0.7 + 0.1),
                                     (q,))
+
+
+def test_explained_fraction_is_low_only_where_the_photo_has_light_the_render_lacks():
+    render = torch.rand(2, 3, 16, 16, generator=torch.Generator().manual_seed(3)) * 0.5 + 0.1
+    photo = 0.6 * render  # another exposure: one gain explains it all
+    torch.testing.assert_close(explained_fraction(render, photo), torch.ones(2, 1, 16, 16), rtol=0, atol=3e-3)
+    lit = photo.clone()
+    lit[0, :, 4:8, 4:8] += 0.6 * render[0, :, 4:8, 4:8]  # a reflection doubles these pixels
+    lit[1, :, :2, :] = 1.0  # clipped pixels: they do not set the gain
+    frac = explained_fraction(render, lit)
+    assert float(frac[0, 0, 4:8, 4:8].mean()) == pytest.approx(0.5, abs=0.02)
+    assert float(frac[0, 0, 8:, 8:].min()) > 0.99 and float(frac[1, 0, 2:].min()) > 0.99
 
 
 def _srgb(x):

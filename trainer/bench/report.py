@@ -232,6 +232,17 @@ def _ratio(a: Optional[float], b: Optional[float]) -> Optional[float]:
     return a / b
 
 
+def skip_rule_passes(record: Mapping[str, Any]) -> bool:
+    """Would ``--quality auto`` skip the fine-tune after this preview record: its input-flash RMSE at or below
+    ``SKIP_REFINE_RMSE`` and the burn-in of the network's maps (``burn_in_model`` where the record has it, else
+    ``burn_in``) at or below ``SKIP_REFINE_BURN_IN`` (:mod:`svbrdf.runtime.preview_check`)."""
+    from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
+
+    burn = record.get("burn_in_model", record.get("burn_in"))
+    return record.get("input_rmse") is not None and record["input_rmse"] <= SKIP_REFINE_RMSE and \
+        (burn is None or burn <= SKIP_REFINE_BURN_IN)
+
+
 def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[str, Any]]:
     """What ``svbrdf-preview --refine --quality auto``'s skip rule (preview input-flash RMSE <= the CLI's
     ``SKIP_REFINE_RMSE`` and the burn-in of the network's maps, ``burn_in_model`` where the record has it, else
@@ -239,11 +250,6 @@ def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[
     time it saves (fraction of the summed fine-tune seconds at each run's last point) and the error price on the
     skipped cases (mean preview error / fine-tuned error)."""
     from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
-
-    def passes(r: Mapping[str, Any]) -> bool:
-        burn = r.get("burn_in_model", r.get("burn_in"))
-        return r.get("input_rmse") is not None and r["input_rmse"] <= SKIP_REFINE_RMSE and \
-            (burn is None or burn <= SKIP_REFINE_BURN_IN)
 
     prev = {r["case"]: r for r in records if r["method"] == "preview" and r["kind"] == kind}
     last: Dict[str, Mapping[str, Any]] = {}
@@ -253,7 +259,7 @@ def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[
                 last[r["case"]] = r
     if not last:
         return None
-    skipped = [c for c in last if passes(prev[c])]
+    skipped = [c for c in last if skip_rule_passes(prev[c])]
     total = sum(r["seconds"] for r in last.values())
     saved = sum(last[c]["seconds"] - prev[c]["seconds"] for c in skipped)
     prices = [prev[c][metric] / last[c][metric] for c in skipped if prev[c].get(metric) and last[c].get(metric)]
@@ -710,4 +716,4 @@ def pareto_series(records: Sequence[Mapping[str, Any]]) -> Tuple[List[Dict[str, 
 
 
 __all__ = ["SCHEMA", "METRICS", "ARTIST_COLUMNS", "ARTIST_HEADS", "artist_table", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",
-           "text_supported", "write_text", "write_json"]
+           "text_supported", "write_text", "write_json", "skip_rule_passes"]

@@ -1,6 +1,6 @@
-"""What ``--quality auto``'s skip rule (:mod:`svbrdf.runtime.preview_check`: the preview's input-flash RMSE and the
-network's burn-in at or below the thresholds there) does with a stage one, from its preview and refine records:
-per group (synthetic re-render, real-capture relit, photos' input-light RMSE) how many cases it skips, the
+"""What ``--quality auto``'s skip rule (:func:`svbrdf.trainer.bench.report.skip_rule_passes`: the preview's
+input-flash RMSE and the network's burn-in at or below the thresholds of :mod:`svbrdf.runtime.preview_check`) does
+with a stage one, from its preview and refine records: per group (synthetic re-render, real-capture relit, photos' input-light RMSE) how many cases it skips, the
 preview's and the refine's error on the skipped and on the refined ones, and the mean error of ``auto`` (the
 preview where skipped, the refine elsewhere) beside always refining and never refining.
 
@@ -12,6 +12,7 @@ import sys
 import numpy as np
 
 from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
+from svbrdf.trainer.bench.report import skip_rule_passes
 
 it = int(sys.argv[3]) if len(sys.argv) > 3 else 150
 preview = {r["case"]: r for r in json.load(open(sys.argv[1]))["records"] if r["method"] == "preview"}
@@ -23,9 +24,7 @@ for case, p in preview.items():
         continue
     group = "synthetic" if p["kind"] == "synthetic" else "capture" if p.get("capture_rmse") is not None else "photo"
     metric, rows = groups[group]
-    burn = p.get("burn_in_model", p.get("burn_in"))
-    skip = p["input_rmse"] <= SKIP_REFINE_RMSE and (burn is None or burn <= SKIP_REFINE_BURN_IN)
-    rows.append((skip, p[metric], refine[case][metric]))
+    rows.append((skip_rule_passes(p), p[metric], refine[case][metric]))
 print(f"thresholds: input-flash RMSE <= {SKIP_REFINE_RMSE}, burn-in <= {SKIP_REFINE_BURN_IN}; refine at {it}")
 print("| group (error) | cases | skipped | skipped: preview / refine | refined: preview / refine | auto | always refine | never |")
 print("|---|---|---|---|---|---|---|---|")
