@@ -286,8 +286,8 @@ def last_good_path(path: PathLike) -> Path:
 
 def load_init(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
     """Start ``trainer`` (a :class:`~svbrdf.trainer.train.Trainer`) from a pretrained checkpoint (finetune): G, D
-    and, unless ``reset_optimizers``, the Adam states; with ``lambda_anchor`` or a ``diffuse_weighting``, its
-    starting maps as the anchor.
+    and, unless ``reset_optimizers``, the Adam states; when the config needs them (``TrainConfig.needs_anchor``),
+    its starting maps as the anchor.
 
     The generator/discriminator configuration must match ``trainer.config`` (use
     :func:`svbrdf.trainer.stage.make_trainer`, which takes them from the checkpoint).
@@ -316,7 +316,7 @@ def load_init(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint")
                     group["lr"], group["betas"] = trainer.config.lr, tuple(trainer.config.betas)
     trainer.init = {"path": str(source), "stage": ckpt.get("stage"), "step": ckpt.get("step"),
                     "photo": dict(ckpt.get("photo") or {})}
-    if trainer.config.lambda_anchor > 0 or trainer.config.diffuse_weighting != "uniform":
+    if trainer.config.needs_anchor:
         with torch.no_grad():
             trainer.anchor = trainer.predict().float()
 
@@ -355,10 +355,9 @@ def load_resume(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint
     trainer.eval_maps = None if eval_maps is None else eval_maps.to(trainer.device)
     anchor = ckpt.get("anchor")
     trainer.anchor = None if anchor is None else anchor.to(trainer.device, torch.float32)
-    if trainer.anchor is None and trainer.stage == "finetune" and \
-            (trainer.config.lambda_anchor > 0 or trainer.config.diffuse_weighting != "uniform"):
-        raise ModelError(f"{source}: a fine-tune with lambda_anchor > 0 or diffuse_weighting "
-                         f"{trainer.config.diffuse_weighting!r} but no stored anchor; cannot resume")
+    if trainer.anchor is None and trainer.stage == "finetune" and trainer.config.needs_anchor:
+        raise ModelError(f"{source}: a fine-tune that keeps its starting maps (lambda_anchor, diffuse_weighting or "
+                         f"unexplained_ratio) but no stored anchor; cannot resume")
 
 
 def _load_models(trainer, ckpt: Mapping[str, Any], source: PathLike) -> None:

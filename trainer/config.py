@@ -67,6 +67,12 @@ class TrainConfig:
             material's highlight, not on a near-black base colour), or "explained" (by how much of the photo's
             light the starting maps' flash render explains, :func:`svbrdf.trainer.losses.explained_fraction`:
             reflections of the room, which only add light, count less).
+        unexplained_ratio: a fine-tune only (0 = off): the pixels where the photo has more than this many times
+            the light the starting maps' flash render explains (after one gain, ``1 / ratio`` above
+            :func:`svbrdf.trainer.losses.explained_fraction`) are left out of the re-render loss and L_d: a glint of
+            a glass tile the starting lobe cannot make, a room's reflection; computed once from the anchor.
+        diffuse_robust: L_d's bounded penalty scale (0 = plain L1, the paper's; ``robust`` of
+            :func:`svbrdf.trainer.losses.diffuse_loss`): a pixel whose error is far above it stops pulling.
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
             as in the paper).
         lambda_specular_prior: weight of the dielectric prior on the specular albedo
@@ -157,6 +163,8 @@ class TrainConfig:
     diffuse_target: str = "absolute"
     lambda_diffuse: float = 1.0
     diffuse_weighting: str = "uniform"
+    diffuse_robust: float = 0.0
+    unexplained_ratio: float = 0.0
     lambda_render: float = 0.0
     lambda_flash: float = 0.0
     lambda_specular_prior: float = 0.0
@@ -208,6 +216,12 @@ class TrainConfig:
     def train_encoder(self) -> bool:
         return bool(self.generator.train_encoder)
 
+    @property
+    def needs_anchor(self) -> bool:
+        """Whether a fine-tune keeps its starting maps (the anchor): for ``lambda_anchor``, a ``diffuse_weighting``
+        or ``unexplained_ratio``."""
+        return self.lambda_anchor > 0 or self.diffuse_weighting != "uniform" or self.unexplained_ratio > 0
+
     def iters(self, stage: str) -> int:
         """Iterations of ``stage`` ("pretrain", "finetune" or "fit")."""
         if stage not in STAGES:
@@ -248,6 +262,9 @@ class TrainConfig:
              f"got {self.diffuse_target!r}")
         need(self.diffuse_weighting in DIFFUSE_WEIGHTINGS, f"diffuse_weighting must be one of "
              f"{DIFFUSE_WEIGHTINGS}, got {self.diffuse_weighting!r}")
+        need(self.unexplained_ratio == 0 or self.unexplained_ratio > 1,
+             f"unexplained_ratio must be 0 (off) or > 1, got {self.unexplained_ratio}")
+        need(self.diffuse_robust >= 0, f"diffuse_robust must be >= 0, got {self.diffuse_robust}")
         need(self.schedule in SCHEDULES, f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
         need(self.schedule != "joint" or (self.nr_updates, self.ds_updates, self.d_updates) == (1, 1, 1),
              "schedule 'joint' needs nr_updates = ds_updates = d_updates = 1")

@@ -138,7 +138,7 @@ def _standardize(x: torch.Tensor, eps: float = STD_EPS, weight: Optional[torch.T
 
 
 def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = "absolute",
-                 weight: Optional[torch.Tensor] = None) -> torch.Tensor:
+                 weight: Optional[torch.Tensor] = None, robust: float = 0.0) -> torch.Tensor:
     """L_d: mean absolute error between the predicted diffuse albedo and the guessed diffuse map.
 
     The guess is min-max rescaled over the photo (:func:`guessed_diffuse`), so its level and contrast say nothing
@@ -152,15 +152,24 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
     pixels weighted ~0 neither pull nor set the tile's mean and contrast (``TrainConfig.diffuse_weighting``: the
     share of the photo the diffuse term explains, :func:`svbrdf.trainer.render.diffuse_fraction`).
 
+    With ``robust = c > 0`` each pixel's error ``e = |p - g|`` costs ``c (1 - exp(-e / c))`` instead of ``e``: the
+    same as L1 for errors well below ``c`` (slope 1 at 0), bounded by ``c`` and with a pull that fades for errors
+    well above it (``TrainConfig.diffuse_robust``). The guess is the photo's local pattern, so a mirror reflection
+    of the room or a glint is in it as a few pixels far from any base colour: they stop pulling, the texture does
+    not. ``c`` is in the units compared (tile standard deviations with ``"normalized"``).
+
     Args:
         pred_diffuse: (B, 3, H, W) predicted linear diffuse albedo in [0, 1].
         guess: (B, 3, H, W) guessed diffuse crop in [0, 1] (:func:`guessed_diffuse`).
         target: "absolute" or "normalized".
         weight: optional (B or 1, 1, H, W) per-pixel weights in [0, 1] (None: every pixel 1, the paper's).
+        robust: the bounded penalty's scale ``c`` (0: plain L1, the paper's).
 
     Returns:
         scalar.
     """
+    if robust < 0:
+        raise ValueError(f"robust must be >= 0, got {robust}")
     if target not in DIFFUSE_TARGETS:
         raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
     p, g = _f32(pred_diffuse), _f32(guess)
@@ -169,7 +178,10 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
         raise ValueError(f"weight must be (B or 1, 1, H, W) with the tile's size, got {tuple(w.shape)}")
     if target == "normalized":
         p, g = _standardize(p, weight=w), _standardize(g, weight=w)
-    return F.l1_loss(p, g) if w is None else (w * (p - g).abs()).mean()
+    err = (p - g).abs()
+    if robust > 0:
+        err = robust * -torch.expm1(-err / robust)
+    return err.mean() if w is None else (w * err).mean()
 
 
 def explained_fraction(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = CLIP_LEVEL,
@@ -201,17 +213,19 @@ def explained_fraction(rendering: torch.Tensor, photo: torch.Tensor, clip_level:
 
 
 class DiffuseLoss(nn.Module):
-    """Module form of :func:`diffuse_loss` (``target`` fixed at construction)."""
+    """Module form of :func:`diffuse_loss` (``target`` and ``robust`` fixed at construction)."""
 
-    def __init__(self, target: str = "absolute"):
+    def __init__(self, target: str = "absolute", robust: float = 0.0):
         super().__init__()
         if target not in DIFFUSE_TARGETS:
             raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
-        self.target = target
+        if robust < 0:
+            raise ValueError(f"robust must be >= 0, got {robust}")
+        self.target, self.robust = target, robust
 
     def forward(self, pred_diffuse: torch.Tensor, guess: torch.Tensor,
                 weight: Optional[torch.Tensor] = None) -> torch.Tensor:
-        return diffuse_loss(pred_diffuse, guess, self.target, weight)
+        return diffuse_loss(pred_diffuse, guess, self.target, weight, self.robust)
 
 
 @lru_cache(maxsize=4)
@@ -220,18 +234,21 @@ def _srgb_level(linear: float) -> float:
     return float(linear_to_srgb(torch.full((1, 3, 1, 1), linear, dtype=torch.float64))[0, 0, 0, 0])
 
 
-def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99) -> torch.Tensor:
+def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99,
+                weight: Optional[torch.Tensor] = None) -> torch.Tensor:
     """Per-pixel re-render loss: mean absolute difference of the sRGB-encoded rendering and photo tile.
 
     A photo value at or above ``clip_level`` is saturated: it only says the radiance was at least that much, so
     there the loss is one-sided, ``max(0, enc(clip_level) - enc(rendering))`` (no pull down on a bright
     highlight the camera clipped). The rendering is not clipped: an over-bright pixel where the photo is not
-    saturated is pulled down.
+    saturated is pulled down. With ``weight`` each pixel's error counts by its weight (the mean of ``weight *
+    err``, not renormalised; ``TrainConfig.unexplained_ratio`` leaves out light the flash model cannot make).
 
     Args:
         rendering: (B, 3, H, W) linear radiance (>= 0; may exceed 1) at the photo tile's position.
         photo: (B, 3, H, W) linear photo tile in [0, 1].
         clip_level: linear value from which a photo channel counts as saturated.
+        weight: optional (B or 1, 1, H, W) per-pixel weights in [0, 1] (None: every pixel 1).
 
     Returns:
         scalar.
@@ -242,7 +259,7 @@ def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float 
         p = linear_to_srgb(x, clip=True)
         level = _srgb_level(float(clip_level))
         err = torch.where(x >= clip_level, (level - r).clamp_min(0.0), (r - p).abs())
-        return err.mean()
+        return err.mean() if weight is None else (_f32(weight) * err).mean()
 
 
 class RenderLoss(nn.Module):
@@ -252,8 +269,9 @@ class RenderLoss(nn.Module):
         super().__init__()
         self.clip_level = clip_level
 
-    def forward(self, rendering: torch.Tensor, photo: torch.Tensor) -> torch.Tensor:
-        return render_loss(rendering, photo, self.clip_level)
+    def forward(self, rendering: torch.Tensor, photo: torch.Tensor,
+                weight: Optional[torch.Tensor] = None) -> torch.Tensor:
+        return render_loss(rendering, photo, self.clip_level, weight)
 
 
 def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.Tensor:

@@ -261,6 +261,8 @@ class Trainer:
         self.anchor: Optional[torch.Tensor] = None
         #: (anchor it was computed from, (1, 1, H, W) L_d's weights of the whole photo) (``diffuse_weighting``).
         self._diffuse_weights: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
+        #: (anchor it was computed from, (1, 1, H, W) the pixels the photo terms count) (``unexplained_ratio``).
+        self._keep: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
         #: The whole photo's context for the tiles (U-Net generators with ``photo_context``; :meth:`_context`).
         self.context: Optional[PhotoContext] = None
         self._context_step = -1
@@ -318,14 +320,14 @@ class Trainer:
         return y0, x0
 
     def _diffuse_weight(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
-        """L_d's per-pixel weight on the tile at (y0, x0) (``config.diffuse_weighting``): None for "uniform" or
-        without starting maps (a run from scratch); else, from the starting maps, the share of the flash radiance
-        the diffuse term gives (``"diffuse_share"``, :func:`svbrdf.trainer.render.diffuse_fraction`) or how much
+        """L_d's per-pixel weight on the tile at (y0, x0) (``config.diffuse_weighting``, times the kept pixels of
+        ``config.unexplained_ratio``): None for "uniform" without a ratio or without starting maps; else, from the
+        starting maps, the share of the flash radiance the diffuse term gives (``"diffuse_share"``, :func:`svbrdf.trainer.render.diffuse_fraction`) or how much
         of the photo's light their flash render explains (``"explained"``,
         :func:`svbrdf.trainer.losses.explained_fraction`); computed once for the whole photo from the anchor as a
         checkpoint stores it, so a resumed run weighs the same."""
         if self.config.diffuse_weighting == "uniform" or self.anchor is None:
-            return None
+            return self._explained_keep(y0, x0, h, w)
         if self._diffuse_weights is None or self._diffuse_weights[0] is not self.anchor:
             start = self.anchor.half().float()
             with torch.no_grad():
@@ -335,7 +337,22 @@ class Trainer:
                     share = diffuse_fraction(start, self.geometry.view, self.geometry.light, self.geometry.config,
                                              self.geometry.dist2)
             self._diffuse_weights = (self.anchor, share)
-        return self._diffuse_weights[1][..., y0:y0 + h, x0:x0 + w]
+        weight = self._diffuse_weights[1][..., y0:y0 + h, x0:x0 + w]
+        keep = self._explained_keep(y0, x0, h, w)
+        return weight if keep is None else weight * keep
+
+    def _explained_keep(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
+        """The (1, 1, h, w) pixels of the tile at (y0, x0) that the re-render loss and L_d count (1) or leave out
+        (0) under ``config.unexplained_ratio``: out where the photo has more than ``ratio`` times the light the
+        starting maps' flash render explains (:func:`svbrdf.trainer.losses.explained_fraction` below ``1 /
+        ratio``); None when off or without starting maps. Computed once for the whole photo from the anchor."""
+        if self.config.unexplained_ratio <= 0 or self.anchor is None:
+            return None
+        if self._keep is None or self._keep[0] is not self.anchor:
+            with torch.no_grad():
+                frac = explained_fraction(self.geometry.render(self.anchor.half().float()), self.photo, CLIP_LEVEL)
+            self._keep = (self.anchor, (frac >= 1.0 / self.config.unexplained_ratio).float())
+        return self._keep[1][..., y0:y0 + h, x0:x0 + w]
 
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
@@ -471,7 +488,8 @@ class Trainer:
                 logged["perceptual"] = lp = self.perceptual(x, rendering).float()
             weighted.append(cfg.lambda_perceptual * lp)
         if cfg.lambda_render > 0:
-            logged["render"] = lr = render_loss(radiance, x, CLIP_LEVEL)
+            logged["render"] = lr = render_loss(radiance, x, CLIP_LEVEL,
+                                                self._explained_keep(y0, x0, maps.shape[-2], maps.shape[-1]))
             weighted.append(cfg.lambda_render * lr)
         if cfg.lambda_specular_prior > 0:
             logged["specular_prior"] = lsp = specular_prior_loss(maps)
@@ -489,7 +507,8 @@ class Trainer:
         total = shared
         if "ds" in keys and cfg.lambda_diffuse > 0:
             logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target,
-                                                  self._diffuse_weight(y0, x0, maps.shape[-2], maps.shape[-1]))
+                                                  self._diffuse_weight(y0, x0, maps.shape[-2], maps.shape[-1]),
+                                                  cfg.diffuse_robust)
             total = shared + cfg.lambda_diffuse * ld
         for key in keys:
             for name, value in logged.items():

@@ -295,6 +295,34 @@ def test_weighted_diffuse_loss_ignores_what_weighs_nothing_and_scales_with_the_w
                                     (q,))
 
 
+def test_robust_diffuse_loss_is_l1_for_small_errors_and_lets_an_outlier_go():
+    gen = torch.Generator().manual_seed(11)
+    g = torch.rand(1, 3, 16, 16, generator=gen)
+    p = g + 1e-3 * torch.randn(1, 3, 16, 16, generator=gen)  # errors far below the scale: the plain L1
+    for target in ("absolute", "normalized"):
+        assert float(diffuse_loss(p, g, target, robust=1.0)) == pytest.approx(float(diffuse_loss(p, g, target)),
+                                                                             rel=2e-2)
+    assert float(diffuse_loss(p, g, "absolute", robust=0.0)) == float(diffuse_loss(p, g, "absolute"))
+    far = g.clone()
+    far[..., 3, 5] += 40.0  # one glint in the guess, 40 scales away from the map
+    q = p.clone().requires_grad_(True)
+    diffuse_loss(q, far, "absolute").backward()
+    plain = q.grad[..., 3, 5].abs().max()
+    q.grad = None
+    diffuse_loss(q, far, "absolute", robust=0.5).backward()
+    assert float(q.grad[..., 3, 5].abs().max()) < 1e-6 * float(plain)  # its pull is gone
+    near = q.grad.clone()
+    near[..., 3, 5] = 0.0
+    assert float(near.abs().sum()) > 0  # the rest still pulls
+    bounded = diffuse_loss(torch.zeros(1, 3, 4, 4), torch.full((1, 3, 4, 4), 1e6), "absolute", robust=0.3)
+    assert float(bounded) == pytest.approx(0.3)  # the cost of any error is at most the scale
+    assert DiffuseLoss("normalized", 0.7)(p, far) == diffuse_loss(p, far, "normalized", robust=0.7)
+    with pytest.raises(ValueError, match="robust must be"):
+        diffuse_loss(p, g, robust=-1.0)
+    d = p.double().requires_grad_(True)
+    assert torch.autograd.gradcheck(lambda t: diffuse_loss(t, g.double(), "normalized", robust=0.5), (d,))
+
+
 def test_explained_fraction_is_low_only_where_the_photo_has_light_the_render_lacks():
     render = torch.rand(2, 3, 16, 16, generator=torch.Generator().manual_seed(3)) * 0.5 + 0.1
     photo = 0.6 * render  # another exposure: one gain explains it all

@@ -172,6 +172,8 @@ def test_gan_steps_stops_the_gan_after_n_iterations(schedule):
         resolve("tiny", gan_steps=-1)
     with pytest.raises(ValueError, match="lambda_diffuse"):
         resolve("tiny", lambda_diffuse=-1)
+    with pytest.raises(ValueError, match="diffuse_robust"):
+        resolve("tiny", diffuse_robust=-0.1)
 
 
 HIGHLIGHT_FREE = dict(lambda_render=1.0, lambda_flash=10.0, saturate=True, diffuse_target="normalized",
@@ -179,8 +181,8 @@ HIGHLIGHT_FREE = dict(lambda_render=1.0, lambda_flash=10.0, saturate=True, diffu
 
 
 @pytest.mark.parametrize("extra", [{}, HIGHLIGHT_FREE, {**HIGHLIGHT_FREE, "lambda_diffuse": 0.5},
-                                   {**HIGHLIGHT_FREE, "lambda_diffuse": 0.0}],
-                         ids=["paper-losses", "highlight-free", "half-L_d", "no-L_d"])
+                                   {**HIGHLIGHT_FREE, "lambda_diffuse": 0.0}, {**HIGHLIGHT_FREE, "diffuse_robust": 0.05}],
+                         ids=["paper-losses", "highlight-free", "half-L_d", "no-L_d", "robust-L_d"])
 def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch, extra):
     """One backward pass of the summed loss = the per-decoder losses on the same tile (L_d at its weight)."""
     photo = random_photo()
@@ -213,7 +215,7 @@ def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch,
         basis = train_mod.flash_basis(trainer.geometry.light)[..., y0:y0 + x.shape[-2], x0:x0 + x.shape[-1]]
         shared = shared + cfg.lambda_flash * train_mod.flash_correlation_loss(maps, basis)
     nr = torch.autograd.grad(shared, trainer.params["nr"], retain_graph=True, allow_unused=True)
-    ld = train_mod.diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target)
+    ld = train_mod.diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target, robust=cfg.diffuse_robust)
     ds = torch.autograd.grad(shared + cfg.lambda_diffuse * ld, trainer.params["ds"], allow_unused=True)
     for got, want in zip(grads["joint"], nr + ds):
         assert (got is None) == (want is None)
