@@ -68,9 +68,10 @@ class TrainConfig:
             light the starting maps' flash render explains, :func:`svbrdf.trainer.losses.explained_fraction`:
             reflections of the room, which only add light, count less).
         unexplained_ratio: a fine-tune only (0 = off): the pixels where the photo has more than this many times
-            the light the starting maps' flash render explains (after one gain, ``1 / ratio`` above
-            :func:`svbrdf.trainer.losses.explained_fraction`) are left out of the re-render loss and L_d: a glint of
-            a glass tile the starting lobe cannot make, a room's reflection; computed once from the anchor.
+            the light the starting maps' flash render explains (after one gain: where
+            :func:`svbrdf.trainer.losses.explained_fraction` is below ``1 / ratio``) are left out of the re-render
+            loss and L_d: a glint of a glass tile the starting lobe cannot make, a room's reflection; computed once
+            from the anchor (docs/benchmarks/refine-detail/unexplained/).
         diffuse_robust: L_d's bounded penalty scale (0 = plain L1, the paper's; ``robust`` of
             :func:`svbrdf.trainer.losses.diffuse_loss`): a pixel whose error is far above it stops pulling.
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,

@@ -322,10 +322,10 @@ class Trainer:
     def _diffuse_weight(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
         """L_d's per-pixel weight on the tile at (y0, x0) (``config.diffuse_weighting``, times the kept pixels of
         ``config.unexplained_ratio``): None for "uniform" without a ratio or without starting maps; else, from the
-        starting maps, the share of the flash radiance the diffuse term gives (``"diffuse_share"``, :func:`svbrdf.trainer.render.diffuse_fraction`) or how much
-        of the photo's light their flash render explains (``"explained"``,
-        :func:`svbrdf.trainer.losses.explained_fraction`); computed once for the whole photo from the anchor as a
-        checkpoint stores it, so a resumed run weighs the same."""
+        starting maps, the share of the flash radiance the diffuse term gives (``"diffuse_share"``,
+        :func:`svbrdf.trainer.render.diffuse_fraction`) or how much of the photo's light their flash render explains
+        (``"explained"``, :func:`svbrdf.trainer.losses.explained_fraction`); computed once for the whole photo from
+        the anchor as a checkpoint stores it, so a resumed run weighs the same."""
         if self.config.diffuse_weighting == "uniform" or self.anchor is None:
             return self._explained_keep(y0, x0, h, w)
         if self._diffuse_weights is None or self._diffuse_weights[0] is not self.anchor:

@@ -181,7 +181,8 @@ HIGHLIGHT_FREE = dict(lambda_render=1.0, lambda_flash=10.0, saturate=True, diffu
 
 
 @pytest.mark.parametrize("extra", [{}, HIGHLIGHT_FREE, {**HIGHLIGHT_FREE, "lambda_diffuse": 0.5},
-                                   {**HIGHLIGHT_FREE, "lambda_diffuse": 0.0}, {**HIGHLIGHT_FREE, "diffuse_robust": 0.05}],
+                                   {**HIGHLIGHT_FREE, "lambda_diffuse": 0.0},
+                                   {**HIGHLIGHT_FREE, "diffuse_robust": 0.05}],
                          ids=["paper-losses", "highlight-free", "half-L_d", "no-L_d", "robust-L_d"])
 def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch, extra):
     """One backward pass of the summed loss = the per-decoder losses on the same tile (L_d at its weight)."""
