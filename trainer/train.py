@@ -259,10 +259,9 @@ class Trainer:
         self.eval_maps: Optional[torch.Tensor] = None
         #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``lambda_anchor``; set by load_init).
         self.anchor: Optional[torch.Tensor] = None
-        #: (anchor it was computed from, (1, 1, H, W) L_d's weights of the whole photo) (``diffuse_weighting``).
-        self._diffuse_weights: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
-        #: (anchor it was computed from, (1, 1, H, W) the pixels the photo terms count) (``unexplained_ratio``).
-        self._keep: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
+        #: {name: (anchor it was computed from, (1, 1, H, W) map of the whole photo)}: what the starting maps say
+        #: once (:meth:`_from_anchor`; ``diffuse_weighting``, ``unexplained_ratio``).
+        self._anchor_maps: Dict[str, Tuple[torch.Tensor, torch.Tensor]] = {}
         #: The whole photo's context for the tiles (U-Net generators with ``photo_context``; :meth:`_context`).
         self.context: Optional[PhotoContext] = None
         self._context_step = -1
@@ -319,40 +318,43 @@ class Trainer:
         x0 = int(torch.randint(w - self.tile + 1, (1,), generator=rng))
         return y0, x0
 
+    def _from_anchor(self, name: str) -> torch.Tensor:
+        """A (1, 1, H, W) map of the whole photo from the starting maps, computed once per anchor (the anchor as a
+        checkpoint stores it, so a resumed run gets the same): ``"share"``, the share of the flash radiance the
+        diffuse term gives (:func:`svbrdf.trainer.render.diffuse_fraction`), or ``"explained"``, how much of the
+        photo's light their flash render explains (:func:`svbrdf.trainer.losses.explained_fraction`)."""
+        cached = self._anchor_maps.get(name)
+        if cached is None or cached[0] is not self.anchor:
+            start, g = self.anchor.half().float(), self.geometry
+            with torch.no_grad():
+                if name == "explained":
+                    value = explained_fraction(g.render(start), self.photo, CLIP_LEVEL)
+                else:
+                    value = diffuse_fraction(start, g.view, g.light, g.config, g.dist2)
+            cached = self._anchor_maps[name] = (self.anchor, value)
+        return cached[1]
+
     def _diffuse_weight(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
         """L_d's per-pixel weight on the tile at (y0, x0) (``config.diffuse_weighting``, times the kept pixels of
-        ``config.unexplained_ratio``): None for "uniform" without a ratio or without starting maps; else, from the
-        starting maps, the share of the flash radiance the diffuse term gives (``"diffuse_share"``,
-        :func:`svbrdf.trainer.render.diffuse_fraction`) or how much of the photo's light their flash render explains
-        (``"explained"``, :func:`svbrdf.trainer.losses.explained_fraction`); computed once for the whole photo from
-        the anchor as a checkpoint stores it, so a resumed run weighs the same."""
-        if self.config.diffuse_weighting == "uniform" or self.anchor is None:
-            return self._explained_keep(y0, x0, h, w)
-        if self._diffuse_weights is None or self._diffuse_weights[0] is not self.anchor:
-            start = self.anchor.half().float()
-            with torch.no_grad():
-                if self.config.diffuse_weighting == "explained":
-                    share = explained_fraction(self.geometry.render(start), self.photo, CLIP_LEVEL)
-                else:
-                    share = diffuse_fraction(start, self.geometry.view, self.geometry.light, self.geometry.config,
-                                             self.geometry.dist2)
-            self._diffuse_weights = (self.anchor, share)
-        weight = self._diffuse_weights[1][..., y0:y0 + h, x0:x0 + w]
+        ``config.unexplained_ratio``): None for "uniform" without a ratio or without starting maps; else the
+        starting maps' diffuse share (``"diffuse_share"``) or explained fraction (``"explained"``) there
+        (:meth:`_from_anchor`)."""
         keep = self._explained_keep(y0, x0, h, w)
+        if self.config.diffuse_weighting == "uniform" or self.anchor is None:
+            return keep
+        name = "explained" if self.config.diffuse_weighting == "explained" else "share"
+        weight = self._from_anchor(name)[..., y0:y0 + h, x0:x0 + w]
         return weight if keep is None else weight * keep
 
     def _explained_keep(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
         """The (1, 1, h, w) pixels of the tile at (y0, x0) that the re-render loss and L_d count (1) or leave out
         (0) under ``config.unexplained_ratio``: out where the photo has more than ``ratio`` times the light the
-        starting maps' flash render explains (:func:`svbrdf.trainer.losses.explained_fraction` below ``1 /
-        ratio``); None when off or without starting maps. Computed once for the whole photo from the anchor."""
+        starting maps' flash render explains (their explained fraction, :meth:`_from_anchor`, below ``1 /
+        ratio``); None when off or without starting maps."""
         if self.config.unexplained_ratio <= 0 or self.anchor is None:
             return None
-        if self._keep is None or self._keep[0] is not self.anchor:
-            with torch.no_grad():
-                frac = explained_fraction(self.geometry.render(self.anchor.half().float()), self.photo, CLIP_LEVEL)
-            self._keep = (self.anchor, (frac >= 1.0 / self.config.unexplained_ratio).float())
-        return self._keep[1][..., y0:y0 + h, x0:x0 + w]
+        frac = self._from_anchor("explained")[..., y0:y0 + h, x0:x0 + w]
+        return (frac >= 1.0 / self.config.unexplained_ratio).float()
 
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
