@@ -10,6 +10,8 @@ and normal angle against the flat map's:
   D. the same procedural materials photographed as the bench does (``simulate_photo``, ``sample_camera``, the
      physical renderer config).
 A ~ B and C ~ D with A << C: the materials (their relief is not what the prior learned); A >> B or C >> D: the photo.
+Each correlation is also given per band: the slopes blurred by a Gaussian of sigma 4 px (coarse) and the rest
+(fine), with the share of the truth's slope variance in the fine band.
 Evaluation only: nothing is tuned or trained on the shared sets here.
 
     OMP_NUM_THREADS=1 python docs/benchmarks/prior-v2/scripts/relief_gap_probe.py MODEL.onnx OUT.json [N_PROCEDURAL]
@@ -26,12 +28,14 @@ from svbrdf.runtime.maps import Maps
 from svbrdf.runtime.render import ZHAO, physical_config
 from svbrdf.runtime.session import estimate, load_session
 from svbrdf.trainer.bench.cases import load_cases, simulate_photo
-from svbrdf.trainer.bench.metrics import _corr, _slopes, angular_error_deg
+from svbrdf.trainer.bench.metrics import _corr, _slopes, angular_error_deg, gaussian_blur
 from svbrdf.trainer.prior import prior_preset, simulate_photos
 from svbrdf.trainer.procedural import sample_materials
 
 DATA = Path("../shared/data")
 HELD_OUT_SEED = 31_337_001
+#: The slopes are split into a coarse band (Gaussian blur of this sigma, pixels at 256 px) and the fine rest.
+BAND_SIGMA = 4.0
 
 
 def score(session, photo: np.ndarray, gt: Maps) -> dict:
@@ -39,7 +43,10 @@ def score(session, photo: np.ndarray, gt: Maps) -> dict:
     pred = estimate(np.ascontiguousarray(photo, dtype=np.float32), session)
     flat = np.zeros_like(gt.normal)
     flat[..., 2] = 1.0
-    return {"rho": _corr(_slopes(pred.normal), _slopes(gt.normal)),
+    p, t = _slopes(pred.normal), _slopes(gt.normal)
+    coarse = [np.stack([gaussian_blur(s[..., c], BAND_SIGMA) for c in (0, 1)], -1) for s in (p, t)]
+    return {"rho": _corr(p, t), "rho_coarse": _corr(*coarse), "rho_fine": _corr(p - coarse[0], t - coarse[1]),
+            "fine_share": float(np.var(t - coarse[1]) / max(np.var(t), 1e-12)),
             "angle": angular_error_deg(pred.normal, gt.normal), "flat": angular_error_deg(flat, gt.normal)}
 
 
@@ -52,7 +59,10 @@ def prior_photo(maps: Maps, cfg, rng: torch.Generator) -> np.ndarray:
 def summary(rows, label):
     r = np.mean([x["rho"] for x in rows])
     a, f = np.mean([x["angle"] for x in rows]), np.mean([x["flat"] for x in rows])
-    line = f"{label}: n {len(rows)}, slope corr {r:.3f}, angle {a:.3f} deg, flat {f:.3f} ({a / f:.3f}x)"
+    rc, rf = np.mean([x["rho_coarse"] for x in rows]), np.mean([x["rho_fine"] for x in rows])
+    share = np.mean([x["fine_share"] for x in rows])
+    line = (f"{label}: n {len(rows)}, slope corr {r:.3f} (coarse {rc:.3f}, fine {rf:.3f}; the truth's fine share "
+            f"{share:.2f}), angle {a:.3f} deg, flat {f:.3f} ({a / f:.3f}x)")
     print(line, flush=True)
     return line
 
