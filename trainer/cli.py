@@ -156,6 +156,10 @@ def build_parser() -> argparse.ArgumentParser:
                    help="darken the base colour of this fraction of the drawn dielectric materials to near black "
                         "(black plastic, lacquer, stone; 0 = none: every run before 2026-11-27); with --resume it "
                         "changes the run's materials from there on")
+    p.add_argument("--coarse-share", type=float, metavar="P",
+                   help="add a coarse relief (a smooth height a few features across: uneven stones, warped tiles) to "
+                        "this fraction of the drawn materials (0 = none: every run before 2026-11-27); with --resume "
+                        "it changes the run's materials from there on")
     p.add_argument("--height-activation", choices=("tanh", "linear"),
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
                         "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
@@ -262,6 +266,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         parser.error(f"--flat-share must be in [0, 1), got {args.flat_share}")
     if args.black_share is not None and not 0 <= args.black_share < 1:
         parser.error(f"--black-share must be in [0, 1), got {args.black_share}")
+    if args.coarse_share is not None and not 0 <= args.coarse_share <= 1:
+        parser.error(f"--coarse-share must be in [0, 1], got {args.coarse_share}")
     if args.eval_every is not None and args.eval_every < 0:
         parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
     if args.minutes is not None and not args.minutes > 0:
@@ -308,6 +314,10 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             log(f"note: the share of near-black dielectric materials {config.black_share:g} -> {args.black_share:g} "
                 "from here on")
             config.black_share = args.black_share
+        if args.coarse_share is not None and args.coarse_share != config.coarse_share:
+            log(f"note: the share of materials with a coarse relief {config.coarse_share:g} -> "
+                f"{args.coarse_share:g} from here on")
+            config.coarse_share = args.coarse_share
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         if args.preset != "v1":
             ignored.append("preset")
@@ -356,6 +366,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                 over["flat_share"] = args.flat_share
             if args.black_share is not None:
                 over["black_share"] = args.black_share
+            if args.coarse_share is not None:
+                over["coarse_share"] = args.coarse_share
             config = dataclasses.replace(config, **over)
         except ValueError as e:
             parser.error(str(e))

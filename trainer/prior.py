@@ -66,7 +66,7 @@ from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_dev
 from svbrdf.trainer.losses import (DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, slope_correlation_loss,
                                     supervised_maps_loss)
 from svbrdf.trainer.models import Generator, GeneratorConfig, linearise_height
-from svbrdf.trainer.procedural import FAMILIES, PARAMS, sample_materials
+from svbrdf.trainer.procedural import FAMILIES, PARAMS, normal_scale, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
 
 PathLike = Union[str, Path]
@@ -148,6 +148,14 @@ class PriorConfig:
             and v2 reads every black material as one (docs/benchmarks/prior-v2/chunks/README.md, chunk 11). 0 =
             none (every run before 2026-11-27, fourth session): no draw is made, the stream is unchanged. The
             validation batch never has them.
+        coarse_share: fraction of the drawn materials given a coarse relief on top of their own
+            (:func:`add_coarse_relief`: a smooth random height of :data:`COARSE_FEATURES` features across, mean tilt
+            :data:`COARSE_TILT_DEG`): uneven stones, warped tiles, dented sheets. Every procedural family's relief
+            is fine (94 % of its slope variance within a 4 px band at 256 px, against 50 % in the shared sets'
+            materials), and the v2 stage one reads coarse relief at a slope correlation of 0.08 on those
+            (docs/benchmarks/prior-v2/relief-gap/). Applied before ``flat_share``, so a flat material stays flat.
+            0 = none (every run before 2026-11-27, eighth session): no draw is made, the stream is unchanged. The
+            validation batch never has them.
     """
 
     generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
@@ -188,6 +196,7 @@ class PriorConfig:
     ema: float = 0.0
     flat_share: float = 0.0
     black_share: float = 0.0
+    coarse_share: float = 0.0
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -234,6 +243,7 @@ class PriorConfig:
         need(0.0 <= self.ema < 1.0, f"ema must be in [0, 1), got {self.ema}")
         need(0.0 <= self.flat_share < 1.0, f"flat_share must be in [0, 1), got {self.flat_share}")
         need(0.0 <= self.black_share < 1.0, f"black_share must be in [0, 1), got {self.black_share}")
+        need(0.0 <= self.coarse_share <= 1.0, f"coarse_share must be in [0, 1], got {self.coarse_share}")
         unknown = set(self.families or ()) - set(FAMILIES)
         need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
         resolve(self.finetune_preset)  # raises on an unknown preset
@@ -430,6 +440,8 @@ def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[in
     crop = _uniform(rng, 0.0, 1.0) < config.crop_share
     side = config.photo_size if crop else config.size
     maps, families = sample_materials(n, side, rng, config.families, device=device if config.batched else None)
+    if config.coarse_share > 0:
+        maps = add_coarse_relief(maps, torch.rand(n, generator=rng) < config.coarse_share, rng)
     if config.flat_share > 0:
         maps = flatten_normals(maps, torch.rand(n, generator=rng) < config.flat_share)
     if config.black_share > 0:
@@ -460,6 +472,48 @@ def blacken_dielectrics(maps: torch.Tensor, chosen: torch.Tensor, level: torch.T
     factor = torch.clamp(to_device(level.to(torch.float32), maps.device).to(maps.dtype) / mean, max=1.0)
     scale = (1.0 - pick + pick * factor)[:, None, None, None]
     return torch.cat([maps[:, :d.start], maps[:, d] * scale, maps[:, d.stop:]], 1)
+
+
+#: (lo, hi) features across the photo of a ``coarse_share`` material's added relief (log-uniform): a smooth field
+#: from a random (k + 1) x (k + 1) grid, bicubically interpolated.
+COARSE_FEATURES = (1.0, 6.0)
+#: (lo, hi) mean tilt in degrees of that relief alone (log-uniform; the families' own: ``normal_angle_deg``, 2-25).
+COARSE_TILT_DEG = (2.0, 15.0)
+
+
+def add_coarse_relief(maps: torch.Tensor, chosen: torch.Tensor, rng: torch.Generator) -> torch.Tensor:
+    """``maps`` (B, 8, H, W) with a coarse relief added to the normals of the ``chosen`` materials ((B,) bool, on
+    the host); the others unchanged.
+
+    Per chosen material, drawn from ``rng`` in order: a feature count ``k`` (:data:`COARSE_FEATURES`, rounded up), a
+    mean tilt (:data:`COARSE_TILT_DEG`) and a (k + 1) x (k + 1) standard normal grid; the grid is bicubically
+    interpolated to (H, W) (a smooth height of about ``k`` features across), turned into normals of that mean tilt
+    (:func:`~svbrdf.trainer.procedural.normal_scale`, :func:`~svbrdf.trainer.models.height_to_normal`) and its
+    slopes are added to the material's own (``n_x / n_z``, ``n_y / n_z``: the two heights summed). Nothing is
+    drawn for a material that is not chosen. Tensor ops on ``maps``' device (the grids are drawn on the host).
+    """
+    if not bool(chosen.any()):
+        return maps
+    from svbrdf.trainer.models import height_to_normal
+
+    sl = SLICES["normal"]
+    h, w = maps.shape[-2:]
+    normals = []
+    for i in range(maps.shape[0]):
+        n = maps[i:i + 1, sl]
+        if bool(chosen[i]):
+            lo, hi = (math.log(v) for v in COARSE_FEATURES)
+            k = math.ceil(math.exp(lo + (hi - lo) * float(torch.rand((), generator=rng))))
+            lo, hi = (math.log(v) for v in COARSE_TILT_DEG)
+            tilt = math.exp(lo + (hi - lo) * float(torch.rand((), generator=rng)))
+            grid = to_device(torch.randn(1, 1, k + 1, k + 1, generator=rng), maps.device).to(maps.dtype)
+            height = torch.nn.functional.interpolate(grid, size=(h, w), mode="bicubic", align_corners=True)
+            c = height_to_normal(height, normal_scale(height, tilt).to(maps.dtype))
+            z = n[:, 2:].clamp_min(1e-3)
+            m = torch.cat([n[:, :2] / z + c[:, :2] / c[:, 2:], torch.ones_like(z)], 1)
+            n = m / m.norm(dim=1, keepdim=True)
+        normals.append(n)
+    return torch.cat([maps[:, :sl.start], torch.cat(normals), maps[:, sl.stop:]], 1)
 
 
 def flatten_normals(maps: torch.Tensor, chosen: torch.Tensor) -> torch.Tensor:
@@ -748,7 +802,7 @@ class PriorTrainer:
         """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch)."""
         if self._eval_set is None:
             rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
-            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0, black_share=0.0)
+            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0, black_share=0.0, coarse_share=0.0)
             photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch, device=self.device)
             self._eval_set = photos.to(self.device), maps.to(self.device)
         return self._eval_set

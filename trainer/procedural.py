@@ -709,7 +709,7 @@ def _class_materials(g: torch.Generator, pat: _Pattern, neutral: bool
     return to_device(rgb.clamp(0.0, 1.0), dev), to_device(spec, dev), to_device(rough, dev)
 
 
-def _normal_scale(h: torch.Tensor, angle_deg: float) -> torch.Tensor:
+def normal_scale(h: torch.Tensor, angle_deg: float) -> torch.Tensor:
     """Slope factor s such that ``height_to_normal(h, s)`` has a mean normal angle of about ``angle_deg``.
 
     Returns a 0-d float64 tensor on ``h``'s device (0 for a flat height), so nothing is read back from a GPU.
@@ -745,7 +745,7 @@ def _material(family: str, size: int, g: torch.Generator) -> torch.Tensor:
     specular = (torch.einsum("khw,k->hw", w, spec) * (1.0 + _u(g, *P["detail_specular"]) * d))[None]
     roughness = (torch.einsum("khw,k->hw", w, rough) + _u(g, *P["detail_roughness"]) * d)[None]
     height = _norm01(pat.height)[None, None]
-    scale = _normal_scale(height, _logu(g, *P["normal_angle_deg"]))
+    scale = normal_scale(height, _logu(g, *P["normal_angle_deg"]))
     normal = height_to_normal(height, scale)[0]
     return pack_maps({"diffuse": diffuse.clamp(0.0, 1.0)[None], "specular": specular.clamp(0.0, 1.0)[None],
                       "roughness": roughness.clamp(0.0, 1.0)[None], "normal": normal[None]})[0]

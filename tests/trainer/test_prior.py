@@ -794,8 +794,50 @@ def test_flat_share_makes_the_chosen_materials_flat_and_none_leaves_the_stream_a
         tiny_v2(flat_share=1.0)
 
 
+def test_coarse_share_adds_a_smooth_relief_to_the_chosen_materials_and_none_leaves_the_stream_as_it_was():
+    """``coarse_share`` (a coarse relief on top of a material's own): the chosen materials' normals change and get
+    a coarse band (their slopes blurred keep more of their variance than before), every other channel and material
+    as drawn; at 0 nothing is drawn for it; the validation batch never has them."""
+    from svbrdf.trainer.bench.metrics import gaussian_blur
+    from svbrdf.trainer.prior import COARSE_TILT_DEG, add_coarse_relief, draw_materials
+
+    cfg = tiny_v2(crop_share=0.0, batch=12, size=64)
+    a, _, _ = draw_materials(cfg, torch.Generator().manual_seed(7))
+    b, _, _ = draw_materials(dataclasses.replace(cfg, coarse_share=0.5), torch.Generator().manual_seed(7))
+    sl = SLICES["normal"]
+    changed = (b[:, sl] != a[:, sl]).flatten(1).any(1)
+    assert 0 < int(changed.sum()) < 12  # seed 7: some of the 12, not all
+    assert torch.equal(b[~changed], a[~changed]) and torch.equal(b[:, :sl.start], a[:, :sl.start])
+    assert torch.allclose(b[:, sl].norm(dim=1), torch.ones(()), atol=1e-5) and bool((b[:, sl][:, 2] > 0).all())
+
+    def coarse_fraction(n):  # share of the slope variance left after a blur of sigma 4 px
+        s = (-n[:2] / n[2:]).double().numpy()
+        s = s - s.mean(axis=(1, 2), keepdims=True)
+        return sum(float(np.var(gaussian_blur(c, 4.0))) for c in s) / sum(float(np.var(c)) for c in s)
+
+    rise = [coarse_fraction(b[i, sl]) - coarse_fraction(a[i, sl]) for i in torch.nonzero(changed).flatten().tolist()]
+    assert min(rise) > 0.02 and float(np.mean(rise)) > 0.05
+    # the added relief alone (on flat normals) has a mean tilt within the drawn range
+    flat = a.clone()
+    flat[:, sl] = torch.tensor([0.0, 0.0, 1.0])[None, :, None, None]
+    c = add_coarse_relief(flat, torch.ones(12, dtype=torch.bool), torch.Generator().manual_seed(3))
+    tilt = torch.rad2deg(torch.acos(c[:, sl][:, 2].clamp(-1, 1))).flatten(1).mean(1)
+    assert bool((tilt > 0.5 * COARSE_TILT_DEG[0]).all()) and bool((tilt < 1.5 * COARSE_TILT_DEG[1]).all())
+    assert add_coarse_relief(a, torch.zeros(12, dtype=torch.bool), torch.Generator()) is a
+    g, g0 = torch.Generator().manual_seed(7), torch.Generator().manual_seed(7)
+    draw_materials(dataclasses.replace(cfg, coarse_share=0.0), g)
+    draw_materials(cfg, g0)
+    assert torch.equal(torch.rand(3, generator=g), torch.rand(3, generator=g0))  # share 0: no draw
+    t1 = PriorTrainer(cfg, device="cpu", threads=1)
+    t2 = PriorTrainer(dataclasses.replace(cfg, coarse_share=0.9), device="cpu", threads=1)
+    assert all(torch.equal(x, y) for x, y in zip(t1.eval_set(), t2.eval_set()))
+    with pytest.raises(ValueError):
+        tiny_v2(coarse_share=1.5)
+
+
 @pytest.mark.parametrize("key, note", [("flat_share", "flat normals 0 -> 0.1 from here on"),
-                                       ("black_share", "near-black dielectric materials 0 -> 0.1 from here on")])
+                                       ("black_share", "near-black dielectric materials 0 -> 0.1 from here on"),
+                                       ("coarse_share", "materials with a coarse relief 0 -> 0.1 from here on")])
 def test_cli_material_shares_start_a_run_with_them_and_change_them_on_a_resume(tmp_path, capsys, key, note):
     flag = "--" + key.replace("_", "-")
     out = tmp_path / "v2"
@@ -810,7 +852,7 @@ def test_cli_material_shares_start_a_run_with_them_and_change_them_on_a_resume(t
     assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "f"), "--iters", "1", flag, "0.2",
                      *args]) == 0
     assert ckpt_io.load_checkpoint(tmp_path / "f" / "checkpoint.pt")["prior_config"][key] == 0.2
-    assert cli.main(["prior", "--out", str(tmp_path / "bad"), flag, "1"]) == 2
+    assert cli.main(["prior", "--out", str(tmp_path / "bad"), flag, "1.5"]) == 2
     assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
 
 

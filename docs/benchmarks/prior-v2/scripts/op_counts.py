@@ -11,7 +11,7 @@ class C(TorchDispatchMode):
         st = [f for f in traceback.extract_stack() if f.filename.endswith("procedural.py")]
         if st:
             cnt[f"{st[-1].name}:{st[-1].lineno}"] += 1
-            fams = [f.name for f in st if f.name.startswith("_fam_") or f.name in ("_class_materials", "_normal_scale", "_material")]
+            fams = [f.name for f in st if f.name.startswith("_fam_") or f.name in ("_class_materials", "normal_scale", "_material")]
             fam[fams[-1] if fams else "?"] += 1
         return func(*args, **(kwargs or {}))
 cfg = prior_preset("v2"); rng = torch.Generator().manual_seed(1)
