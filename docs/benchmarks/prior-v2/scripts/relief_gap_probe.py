@@ -14,9 +14,14 @@ Each correlation is also given per band: the slopes blurred by a Gaussian of sig
 (fine), with the share of the truth's slope variance in the fine band.
 Evaluation only: nothing is tuned or trained on the shared sets here.
 
-    OMP_NUM_THREADS=1 python docs/benchmarks/prior-v2/scripts/relief_gap_probe.py MODEL.onnx OUT.json [N_PROCEDURAL]
+    OMP_NUM_THREADS=1 python docs/benchmarks/prior-v2/scripts/relief_gap_probe.py MODEL.onnx OUT.json [N_PROCEDURAL [COARSE]]
+
+With COARSE (a share in [0, 1], default 0) the procedural materials of C and D get the prior's coarse relief
+(:func:`svbrdf.trainer.prior.add_coarse_relief`) at that share, drawn from its own generator (seed 31_337_002), so
+the materials are otherwise the same; ``COARSE_ONLY=1`` in the environment skips A and B.
 """
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -29,7 +34,7 @@ from svbrdf.runtime.render import ZHAO, physical_config
 from svbrdf.runtime.session import estimate, load_session
 from svbrdf.trainer.bench.cases import load_cases, simulate_photo
 from svbrdf.trainer.bench.metrics import _corr, _slopes, angular_error_deg, gaussian_blur
-from svbrdf.trainer.prior import prior_preset, simulate_photos
+from svbrdf.trainer.prior import add_coarse_relief, prior_preset, simulate_photos
 from svbrdf.trainer.procedural import sample_materials
 
 DATA = Path("../shared/data")
@@ -67,18 +72,21 @@ def summary(rows, label):
     return line
 
 
-def main(model: str, out: str, n_proc: int = 24) -> None:
+def main(model: str, out: str, n_proc: int = 24, coarse: float = 0.0) -> None:
     session = load_session(model, threads=1)
     cfg = prior_preset("v2")
     rng = torch.Generator().manual_seed(HELD_OUT_SEED)
     a_rows, b_rows = [], []
-    for case in load_cases(DATA, 256):
+    for case in ([] if os.environ.get("COARSE_ONLY") == "1" else load_cases(DATA, 256)):
         if case.kind != "synthetic":
             continue
         b_rows.append({"case": case.name, **score(session, case.photo, case.gt)})
         a_rows.append({"case": case.name, **score(session, prior_photo(case.gt, cfg, rng), case.gt)})
         print(f"{case.name[-40:]:40s} bench {b_rows[-1]['rho']:.3f} prior {a_rows[-1]['rho']:.3f}", flush=True)
     maps, families = sample_materials(n_proc, 256, torch.Generator().manual_seed(HELD_OUT_SEED))
+    if coarse > 0:
+        g = torch.Generator().manual_seed(HELD_OUT_SEED + 1)
+        maps = add_coarse_relief(maps, torch.rand(n_proc, generator=g) < coarse, g)
     c_rows, d_rows = [], []
     for i in range(n_proc):
         gt = Maps.unpack(maps[i].permute(1, 2, 0).numpy())
@@ -88,11 +96,13 @@ def main(model: str, out: str, n_proc: int = 24) -> None:
         d_rows.append({"family": families[i], **score(session, photo, gt)})
         print(f"{families[i]:20s} prior {c_rows[-1]['rho']:.3f} bench {d_rows[-1]['rho']:.3f}", flush=True)
     print()
-    lines = [summary(a_rows, "A shared maps, prior's photos"), summary(b_rows, "B shared maps, bench's photos"),
-             summary(c_rows, "C procedural, prior's photos"), summary(d_rows, "D procedural, bench's photos")]
+    lines = ([summary(a_rows, "A shared maps, prior's photos"), summary(b_rows, "B shared maps, bench's photos")]
+             if a_rows else [])
+    lines += [summary(c_rows, f"C procedural (coarse share {coarse:g}), prior's photos"),
+              summary(d_rows, f"D procedural (coarse share {coarse:g}), bench's photos")]
     Path(out).write_text(json.dumps({"model": model, "summary": lines, "A": a_rows, "B": b_rows, "C": c_rows,
                                      "D": d_rows}, indent=1))
 
 
 if __name__ == "__main__":
-    main(sys.argv[1], sys.argv[2], *(int(a) for a in sys.argv[3:4]))
+    main(sys.argv[1], sys.argv[2], *(int(a) for a in sys.argv[3:4]), *(float(a) for a in sys.argv[4:5]))
