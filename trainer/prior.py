@@ -66,7 +66,7 @@ from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_dev
 from svbrdf.trainer.losses import (DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, slope_correlation_loss,
                                     supervised_maps_loss)
 from svbrdf.trainer.models import Generator, GeneratorConfig, linearise_height
-from svbrdf.trainer.procedural import FAMILIES, PARAMS, normal_scale, sample_materials
+from svbrdf.trainer.procedural import FAMILIES, PARAMS, coarse_height, normal_scale, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
 
 PathLike = Union[str, Path]
@@ -149,8 +149,8 @@ class PriorConfig:
             none (every run before 2026-11-27, fourth session): no draw is made, the stream is unchanged. The
             validation batch never has them.
         coarse_share: fraction of the drawn materials given a coarse relief on top of their own
-            (:func:`add_coarse_relief`: a smooth random height of :data:`COARSE_FEATURES` features across, mean tilt
-            :data:`COARSE_TILT_DEG`): uneven stones, warped tiles, dented sheets. Every procedural family's relief
+            (:func:`add_coarse_relief`: uneven stones or a smooth warp a few features across,
+            :func:`svbrdf.trainer.procedural.coarse_height`): flagstones, brick walls, warped tiles, dented sheets. Every procedural family's relief
             is fine (94 % of its slope variance within a 4 px band at 256 px, against 50 % in the shared sets'
             materials), and the v2 stage one reads coarse relief at a slope correlation of 0.08 on those
             (docs/benchmarks/prior-v2/relief-gap/). Applied before ``flat_share``, so a flat material stays flat.
@@ -474,40 +474,29 @@ def blacken_dielectrics(maps: torch.Tensor, chosen: torch.Tensor, level: torch.T
     return torch.cat([maps[:, :d.start], maps[:, d] * scale, maps[:, d.stop:]], 1)
 
 
-#: (lo, hi) features across the photo of a ``coarse_share`` material's added relief (log-uniform): a smooth field
-#: from a random (k + 1) x (k + 1) grid, bicubically interpolated.
-COARSE_FEATURES = (1.0, 6.0)
-#: (lo, hi) mean tilt in degrees of that relief alone (log-uniform; the families' own: ``normal_angle_deg``, 2-25).
-COARSE_TILT_DEG = (2.0, 15.0)
-
-
 def add_coarse_relief(maps: torch.Tensor, chosen: torch.Tensor, rng: torch.Generator) -> torch.Tensor:
-    """``maps`` (B, 8, H, W) with a coarse relief added to the normals of the ``chosen`` materials ((B,) bool, on
-    the host); the others unchanged.
+    """``maps`` (B, 8, H, W), square, with a coarse relief added to the normals of the ``chosen`` materials ((B,)
+    bool, on the host); the others unchanged.
 
-    Per chosen material, drawn from ``rng`` in order: a feature count ``k`` (:data:`COARSE_FEATURES`, rounded up), a
-    mean tilt (:data:`COARSE_TILT_DEG`) and a (k + 1) x (k + 1) standard normal grid; the grid is bicubically
-    interpolated to (H, W) (a smooth height of about ``k`` features across), turned into normals of that mean tilt
-    (:func:`~svbrdf.trainer.procedural.normal_scale`, :func:`~svbrdf.trainer.models.height_to_normal`) and its
-    slopes are added to the material's own (``n_x / n_z``, ``n_y / n_z``: the two heights summed). Nothing is
-    drawn for a material that is not chosen. Tensor ops on ``maps``' device (the grids are drawn on the host).
+    Per chosen material, in order: :func:`~svbrdf.trainer.procedural.coarse_height` (uneven stones or a smooth
+    warp, drawn from ``rng``) turned into normals of its mean tilt (:func:`~svbrdf.trainer.procedural.normal_scale`,
+    :func:`~svbrdf.trainer.models.height_to_normal`), whose slopes are added to the material's own (``n_x / n_z``,
+    ``n_y / n_z``: the two heights summed). Nothing is drawn for a material that is not chosen. Built on ``maps``'
+    device (the random tables are drawn on the host).
     """
     if not bool(chosen.any()):
         return maps
     from svbrdf.trainer.models import height_to_normal
 
     sl = SLICES["normal"]
-    h, w = maps.shape[-2:]
+    side = maps.shape[-1]
     normals = []
     for i in range(maps.shape[0]):
         n = maps[i:i + 1, sl]
         if bool(chosen[i]):
-            lo, hi = (math.log(v) for v in COARSE_FEATURES)
-            k = math.ceil(math.exp(lo + (hi - lo) * float(torch.rand((), generator=rng))))
-            lo, hi = (math.log(v) for v in COARSE_TILT_DEG)
-            tilt = math.exp(lo + (hi - lo) * float(torch.rand((), generator=rng)))
-            grid = to_device(torch.randn(1, 1, k + 1, k + 1, generator=rng), maps.device).to(maps.dtype)
-            height = torch.nn.functional.interpolate(grid, size=(h, w), mode="bicubic", align_corners=True)
+            with torch.device(maps.device):
+                height, tilt = coarse_height(side, rng)
+            height = height[None, None].to(maps.dtype)
             c = height_to_normal(height, normal_scale(height, tilt).to(maps.dtype))
             z = n[:, 2:].clamp_min(1e-3)
             m = torch.cat([n[:, :2] / z + c[:, :2] / c[:, 2:], torch.ones_like(z)], 1)

@@ -135,6 +135,11 @@ PARAMS = {
     "flat_metal_hammered_p": 0.4,
     "stone_vein_width": (0.006, 0.03),
     "stone_grain_p": 0.5,
+    # --- coarse relief (only drawn for the prior's ``coarse_share``: :func:`coarse_height`) ---
+    "coarse_features": (1.0, 6.0),  # log-uniform features across the image (rounded up; stones: at least 2)
+    "coarse_tilt_deg": (2.0, 15.0),  # log-uniform mean normal angle of the coarse relief alone
+    "coarse_stones_p": 0.5,  # uneven stones (Voronoi cells at their own level, domed, grooves between); else a warp
+    "coarse_groove": (0.1, 0.5),  # width of the slope down to a groove between stones, in cell units (F2 - F1)
 }
 
 FAMILIES: Tuple[str, ...] = ("noise", "cells", "tiles", "wood", "weave", "knit", "leather", "plaster", "scratches",
@@ -725,6 +730,32 @@ def normal_scale(h: torch.Tensor, angle_deg: float) -> torch.Tensor:
         got = torch.atan(s * grad).mean().double()
         s = torch.minimum(s * target / got.clamp_min(1e-9), cap)
     return torch.where(flat, torch.zeros_like(s), s)
+
+
+def coarse_height(size: int, g: torch.Generator) -> Tuple[torch.Tensor, float]:
+    """A coarse relief on its own: ``(height, tilt)``, a (size, size) height field on the default device and the
+    mean normal angle in degrees it is meant to have (``coarse_tilt_deg``; :func:`normal_scale` makes it so).
+
+    With ``coarse_stones_p`` uneven stones: a Voronoi tiling of ``k`` cells across (rotated, offset), each cell at
+    its own level (0.3-1) with its own dome, grooves of ``coarse_groove`` between them going down to 0 (brick and
+    cobble walls, flagstones, leather tiles); otherwise a smooth warp, a (k + 1) x (k + 1) standard normal grid
+    bicubically interpolated (warped tiles, dented sheets, wavy plaster). ``k`` is ``coarse_features`` rounded up.
+    Every draw comes from ``g``.
+    """
+    P = PARAMS
+    k = math.ceil(_logu(g, *P["coarse_features"]))
+    tilt = _logu(g, *P["coarse_tilt_deg"])
+    if _chance(g, P["coarse_stones_p"]):
+        k = max(k, 2)
+        u, v = _grid(size, g, (k, k))
+        f1, f2, cid = _worley(u, v, k, g, 1.0)
+        level = 0.3 + 0.7 * _rand(g, k * k)
+        dome = _rand(g, k * k)
+        r = (2.0 * f1 / (f1 + f2).clamp_min(1e-6)) ** 2  # 0 at the cell's point, 1 on its border
+        walls = _smoothstep(0.0, _u(g, *P["coarse_groove"]), f2 - f1)
+        return walls * (level[cid] + dome[cid] * (1.0 - r)), tilt
+    grid = _randn(g, 1, 1, k + 1, k + 1)
+    return torch.nn.functional.interpolate(grid, size=(size, size), mode="bicubic", align_corners=True)[0, 0], tilt
 
 
 def _material(family: str, size: int, g: torch.Generator) -> torch.Tensor:

@@ -219,3 +219,26 @@ def test_segments_in_chunks_equal_one_box_at_a_time(monkeypatch, chunk):
         want = _segments_one_box_at_a_time(args[0], _gen(seed), *args[1:])
         assert torch.equal(got, want), (seed, (got - want).abs().max())
         assert 0 < got.max() <= 1 and got.min() == 0
+
+
+@pytest.mark.parametrize("stones", [True, False])
+def test_coarse_height_stones_and_warps(monkeypatch, stones):
+    """:func:`coarse_height` (the prior's ``coarse_share``): uneven stones sit at their own levels with grooves
+    down to 0 between them; a warp is smooth (its second differences far below its range); the tilt is drawn in
+    ``coarse_tilt_deg``; the same generator state gives the same relief."""
+    from svbrdf.trainer.procedural import PARAMS, coarse_height
+
+    monkeypatch.setitem(PARAMS, "coarse_stones_p", 1.0 if stones else 0.0)
+    lo, hi = PARAMS["coarse_tilt_deg"]
+    for seed in range(4):
+        h, tilt = coarse_height(64, torch.Generator().manual_seed(seed))
+        h2, tilt2 = coarse_height(64, torch.Generator().manual_seed(seed))
+        assert torch.equal(h, h2) and tilt == tilt2 and lo <= tilt <= hi
+        assert h.shape == (64, 64) and bool(torch.isfinite(h).all())
+        spread = float(h.max() - h.min())
+        curvature = float((h[2:] - 2 * h[1:-1] + h[:-2]).abs().mean())
+        if stones:
+            assert float(h.min()) >= 0.0 and float((h < 0.05).float().mean()) > 0.005  # grooves
+            assert float((h > 0.25).float().mean()) > 0.5 and float(h.max()) <= 2.0  # the stones' tops
+        else:
+            assert spread > 0 and curvature < 0.02 * spread
