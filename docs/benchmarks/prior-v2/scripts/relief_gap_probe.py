@@ -18,7 +18,9 @@ Evaluation only: nothing is tuned or trained on the shared sets here.
 
 With COARSE (a share in [0, 1], default 0) the procedural materials of C and D get the prior's coarse relief
 (:func:`svbrdf.trainer.prior.add_coarse_relief`) at that share, drawn from its own generator (seed 31_337_002), so
-the materials are otherwise the same; ``COARSE_ONLY=1`` in the environment skips A and B.
+the materials are otherwise the same; ``COARSE_ONLY=1`` in the environment skips A and B, and
+``COARSE_STONES_P=p`` sets ``PARAMS["coarse_stones_p"]`` (the share of uneven stones among the coarse reliefs;
+0: smooth warps only).
 """
 import json
 import os
@@ -35,7 +37,7 @@ from svbrdf.runtime.session import estimate, load_session
 from svbrdf.trainer.bench.cases import load_cases, simulate_photo
 from svbrdf.trainer.bench.metrics import _corr, _slopes, angular_error_deg, gaussian_blur
 from svbrdf.trainer.prior import add_coarse_relief, prior_preset, simulate_photos
-from svbrdf.trainer.procedural import sample_materials
+from svbrdf.trainer.procedural import PARAMS, sample_materials
 
 DATA = Path("../shared/data")
 HELD_OUT_SEED = 31_337_001
@@ -73,6 +75,8 @@ def summary(rows, label):
 
 
 def main(model: str, out: str, n_proc: int = 24, coarse: float = 0.0) -> None:
+    if os.environ.get("COARSE_STONES_P"):
+        PARAMS["coarse_stones_p"] = float(os.environ["COARSE_STONES_P"])
     session = load_session(model, threads=1)
     cfg = prior_preset("v2")
     rng = torch.Generator().manual_seed(HELD_OUT_SEED)
