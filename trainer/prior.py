@@ -65,7 +65,7 @@ from svbrdf.trainer.camera import expose_batch, frame_radius2
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
 from svbrdf.trainer.losses import (DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, slope_correlation_loss,
                                     supervised_maps_loss)
-from svbrdf.trainer.models import Generator, GeneratorConfig, linearise_height
+from svbrdf.trainer.models import Generator, GeneratorConfig, height_to_normal, linearise_height
 from svbrdf.trainer.procedural import FAMILIES, PARAMS, coarse_height, normal_scale, sample_materials
 from svbrdf.trainer.render import direction_vectors, plane_grid, point_light_vectors, render_maps
 
@@ -486,8 +486,6 @@ def add_coarse_relief(maps: torch.Tensor, chosen: torch.Tensor, rng: torch.Gener
     """
     if not bool(chosen.any()):
         return maps
-    from svbrdf.trainer.models import height_to_normal
-
     sl = SLICES["normal"]
     side = maps.shape[-1]
     normals = []
