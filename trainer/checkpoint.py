@@ -21,8 +21,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     perceptual_backend, notes   what actually ran (backend name, fallbacks)
     eval_maps                   maps of the fixed evaluation tiles at the last evaluation (for the map-change signal)
     camera                      the photo's learned camera ({"vignetting": tensor}) or None
-    anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor`` or
-                                ``diffuse_weighting``) or None
+    anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor``) or None
     versions, date              library versions, ISO date (UTC)
     network_input               a shipped stage one's {"mode", "even_lighting"}: what the runtime shows its network
                                 (set by :func:`clean_checkpoint`; absent: the runtime's default)
@@ -58,6 +57,34 @@ FORMAT_VERSION = 1
 REQUIRED_KEYS = ("format", "format_version", "generator_config", "train_config", "stage", "step", "generator")
 
 PathLike = Union[str, os.PathLike]
+
+#: Settings measured and not adopted, then deleted, with the value that meant "off": a checkpoint that records one
+#: at that value loads without it; one that records it switched on was trained with code that no longer exists.
+#: Keys: ``train_config`` (TrainConfig) and ``prior_config`` (PriorConfig) settings.
+RETIRED_OPTIONS: Dict[str, Dict[str, Any]] = {
+    "train_config": {"diffuse_weighting": "uniform", "unexplained_ratio": 0.0, "diffuse_robust": 0.0,
+                     "locate_flash": False},
+    "prior_config": {"crop_context": False},
+}
+
+
+def without_retired(settings: Mapping[str, Any], kind: str, source: PathLike = "checkpoint") -> Dict[str, Any]:
+    """``settings`` (a ``train_config``, ``refine`` or ``prior_config`` dict, ``kind`` naming its table in
+    :data:`RETIRED_OPTIONS`; ``refine`` uses ``train_config``'s) without the retired options it records at their
+    off value.
+
+    Raises:
+        ModelError: one is recorded switched on (one line naming it and its value).
+    """
+    table = RETIRED_OPTIONS["train_config" if kind == "refine" else kind]
+    out = dict(settings)
+    for name, off in table.items():
+        if name in out:
+            value = out.pop(name)
+            if value != off:
+                raise ModelError(f"{source}: {kind} sets the retired option {name}={value!r} (only {off!r} is still "
+                                 f"supported; train with an older svbrdf)")
+    return out
 
 
 def library_versions() -> Dict[str, str]:
@@ -154,7 +181,8 @@ def load_checkpoint(path: PathLike) -> Dict[str, Any]:
     """Read and check a checkpoint (CPU tensors, ``weights_only=True``).
 
     Raises:
-        ModelError: missing file, unreadable/corrupt file, not a checkpoint of this project, or a newer format.
+        ModelError: missing file, unreadable/corrupt file, not a checkpoint of this project, a newer format, or a
+            retired option switched on (:data:`RETIRED_OPTIONS`; at its off value it is dropped).
     """
     path = Path(path)
     if not path.is_file():
@@ -172,6 +200,9 @@ def load_checkpoint(path: PathLike) -> Dict[str, Any]:
     if not isinstance(ckpt["format_version"], int) or ckpt["format_version"] > FORMAT_VERSION:
         raise ModelError(f"{path}: checkpoint format version {ckpt['format_version']!r} is newer than this "
                          f"toolkit's ({FORMAT_VERSION}); upgrade svbrdf")
+    for kind in ("train_config", "prior_config", "refine"):
+        if isinstance(ckpt.get(kind), Mapping):
+            ckpt[kind] = without_retired(ckpt[kind], kind, path)
     return ckpt
 
 
@@ -356,8 +387,8 @@ def load_resume(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint
     anchor = ckpt.get("anchor")
     trainer.anchor = None if anchor is None else anchor.to(trainer.device, torch.float32)
     if trainer.anchor is None and trainer.stage == "finetune" and trainer.config.needs_anchor:
-        raise ModelError(f"{source}: a fine-tune that keeps its starting maps (lambda_anchor, diffuse_weighting or "
-                         f"unexplained_ratio) but no stored anchor; cannot resume")
+        raise ModelError(f"{source}: a fine-tune that keeps its starting maps (lambda_anchor) but no stored anchor; "
+                         f"cannot resume")
 
 
 def _load_models(trainer, ckpt: Mapping[str, Any], source: PathLike) -> None:
@@ -412,6 +443,6 @@ def save_trainer(trainer, path: PathLike) -> Path:
     return path
 
 
-__all__ = ["FORMAT", "default_checkpoint", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint",
+__all__ = ["FORMAT", "RETIRED_OPTIONS", "without_retired", "default_checkpoint", "FORMAT_VERSION", "build_checkpoint", "save_checkpoint", "load_checkpoint",
            "load_generator", "generator_from_checkpoint", "model_weights", "clean_checkpoint", "library_versions",
            "last_good_path", "load_init", "load_resume", "trainer_checkpoint", "save_trainer"]

@@ -141,10 +141,6 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--slope-weight", type=float, metavar="W",
                    help="weight of the slope-correlation term (the pattern of the normals at any scale; v1 and v2: 0); "
                         "with --resume it changes the run's loss from there on")
-    p.add_argument("--roll-off", type=float, metavar="WHITE",
-                   help="photograph the materials through a highlight roll-off (a phone's tone curve) whose white "
-                        "point is drawn in [1, WHITE] per photo (1 = a linear camera: v1, v2 so far); with --resume it "
-                        "changes the run's photos from there on")
     p.add_argument("--ema", type=float, metavar="DECAY",
                    help="keep a moving average of the weights with this decay (e.g. 0.998; 0 = none: v1, v2 so far); "
                         "the average is the model the checkpoint gives; with --resume it starts at the resumed weights")
@@ -260,8 +256,6 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         parser.error(f"--slope-weight must be >= 0, got {args.slope_weight}")
     if args.ema is not None and not 0 <= args.ema < 1:
         parser.error(f"--ema must be in [0, 1), got {args.ema}")
-    if args.roll_off is not None and not args.roll_off >= 1:
-        parser.error(f"--roll-off must be >= 1 (1 = none), got {args.roll_off}")
     if args.flat_share is not None and not 0 <= args.flat_share < 1:
         parser.error(f"--flat-share must be in [0, 1), got {args.flat_share}")
     if args.black_share is not None and not 0 <= args.black_share < 1:
@@ -298,10 +292,6 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         if args.slope_weight is not None and args.slope_weight != config.lambda_slope:
             log(f"note: the slope term's weight {config.lambda_slope:g} -> {args.slope_weight:g} from here on")
             config.lambda_slope = args.slope_weight
-        if args.roll_off is not None and (1.0, args.roll_off) != config.camera["white"]:
-            log(f"note: the camera's highlight roll-off white point {list(config.camera['white'])} -> "
-                f"[1, {args.roll_off:g}] from here on")
-            config.camera = {**config.camera, "white": (1.0, float(args.roll_off))}
         if args.ema is not None and args.ema != config.ema:
             log(f"note: the weights' moving average (decay {config.ema:g} -> {args.ema:g}) from here on; it is the "
                 "model the checkpoint gives")
@@ -360,8 +350,6 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                 over["generator"] = dataclasses.replace(config.generator, **gen)
             if args.ema is not None:
                 over["ema"] = args.ema
-            if args.roll_off is not None:
-                over["camera"] = {**config.camera, "white": (1.0, float(args.roll_off))}
             if args.flat_share is not None:
                 over["flat_share"] = args.flat_share
             if args.black_share is not None:

@@ -23,8 +23,6 @@ STAGES = ("pretrain", "finetune", "fit")
 FOURIER_MODES = ("complex", "magnitude")
 PERCEPTUAL_BACKENDS = ("auto", "vgg19", "vgg19-random", "pyramid")
 QUALITY_MODES = ("fixed", "auto")
-#: How L_d counts a pixel (``TrainConfig.diffuse_weighting``).
-DIFFUSE_WEIGHTINGS = ("uniform", "diffuse_share", "explained")
 SCHEDULES = ("alternating", "joint")
 
 
@@ -60,20 +58,6 @@ class TrainConfig:
             diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`).
         lambda_diffuse: weight of L_d (1 = the paper's; 0 = off: the diffuse map is then shaped by the photo terms
             and the anchor alone).
-        diffuse_weighting: how L_d counts each pixel: "uniform" (the paper's) or "diffuse_share" (a fine-tune
-            only: by the share of the pixel's flash radiance the diffuse term gives in the starting checkpoint's
-            maps of the photo, :func:`svbrdf.trainer.render.diffuse_fraction`; the guessed diffuse is the photo's
-            local pattern, which is the base colour's only where the diffuse term makes the photo: not in a glossy
-            material's highlight, not on a near-black base colour), or "explained" (by how much of the photo's
-            light the starting maps' flash render explains, :func:`svbrdf.trainer.losses.explained_fraction`:
-            reflections of the room, which only add light, count less).
-        unexplained_ratio: a fine-tune only (0 = off): the pixels where the photo has more than this many times
-            the light the starting maps' flash render explains (after one gain: where
-            :func:`svbrdf.trainer.losses.explained_fraction` is below ``1 / ratio``) are left out of the re-render
-            loss and L_d: a glint of a glass tile the starting lobe cannot make, a room's reflection; computed once
-            from the anchor (docs/benchmarks/refine-detail/unexplained/).
-        diffuse_robust: L_d's bounded penalty scale (0 = plain L1, the paper's; ``robust`` of
-            :func:`svbrdf.trainer.losses.diffuse_loss`): a pixel whose error is far above it stops pulling.
         lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
             as in the paper).
         lambda_specular_prior: weight of the dielectric prior on the specular albedo
@@ -103,10 +87,7 @@ class TrainConfig:
             False: as predicted).
         flash_position: where the flash (with the camera, co-located) is over the photo, (x, y) in the renderer's
             units (:func:`svbrdf.runtime.render.plane_positions`: x right, y up, 1 = half the photo width), at the
-            render config's camera distance; None = above the photo's centre (the paper's geometry), unless
-            ``locate_flash``.
-        locate_flash: place the flash over the photo's highlight (:func:`svbrdf.runtime.burn_in.highlight_centre`)
-            instead of over its centre; ignored when ``flash_position`` is given.
+            render config's camera distance; None = above the photo's centre (the paper's geometry).
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
             (False: the paper's unclipped renderings).
@@ -163,9 +144,6 @@ class TrainConfig:
     perceptual_min_clipped: float = 0.0
     diffuse_target: str = "absolute"
     lambda_diffuse: float = 1.0
-    diffuse_weighting: str = "uniform"
-    diffuse_robust: float = 0.0
-    unexplained_ratio: float = 0.0
     lambda_render: float = 0.0
     lambda_flash: float = 0.0
     lambda_specular_prior: float = 0.0
@@ -179,7 +157,6 @@ class TrainConfig:
     uniform_specular: bool = False
     highlight_fill: bool = False
     flash_position: Optional[Tuple[float, float]] = None
-    locate_flash: bool = False
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
@@ -219,9 +196,8 @@ class TrainConfig:
 
     @property
     def needs_anchor(self) -> bool:
-        """Whether a fine-tune keeps its starting maps (the anchor): for ``lambda_anchor``, a ``diffuse_weighting``
-        or ``unexplained_ratio``."""
-        return self.lambda_anchor > 0 or self.diffuse_weighting != "uniform" or self.unexplained_ratio > 0
+        """Whether a fine-tune keeps its starting maps (the anchor): for ``lambda_anchor``."""
+        return self.lambda_anchor > 0
 
     def iters(self, stage: str) -> int:
         """Iterations of ``stage`` ("pretrain", "finetune" or "fit")."""
@@ -261,11 +237,6 @@ class TrainConfig:
              f"got {self.perceptual!r}")
         need(self.diffuse_target in DIFFUSE_TARGETS, f"diffuse_target must be one of {DIFFUSE_TARGETS}, "
              f"got {self.diffuse_target!r}")
-        need(self.diffuse_weighting in DIFFUSE_WEIGHTINGS, f"diffuse_weighting must be one of "
-             f"{DIFFUSE_WEIGHTINGS}, got {self.diffuse_weighting!r}")
-        need(self.unexplained_ratio == 0 or self.unexplained_ratio > 1,
-             f"unexplained_ratio must be 0 (off) or > 1, got {self.unexplained_ratio}")
-        need(self.diffuse_robust >= 0, f"diffuse_robust must be >= 0, got {self.diffuse_robust}")
         need(self.schedule in SCHEDULES, f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
         need(self.schedule != "joint" or (self.nr_updates, self.ds_updates, self.d_updates) == (1, 1, 1),
              "schedule 'joint' needs nr_updates = ds_updates = d_updates = 1")
@@ -486,4 +457,4 @@ def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
 
 
 __all__ = ["TrainConfig", "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
-           "QUALITY_MODES", "SCHEDULES", "DIFFUSE_WEIGHTINGS"]
+           "QUALITY_MODES", "SCHEDULES"]

@@ -10,7 +10,7 @@ Every loss is computed in at least float32, also under bf16 autocast.
 from __future__ import annotations
 
 from functools import lru_cache
-from typing import Dict, Optional, Sequence
+from typing import Dict, Sequence
 
 import torch
 import torch.nn.functional as F
@@ -124,21 +124,14 @@ DIFFUSE_TARGETS = ("absolute", "normalized")
 STD_EPS = 0.01
 
 
-def _standardize(x: torch.Tensor, eps: float = STD_EPS, weight: Optional[torch.Tensor] = None) -> torch.Tensor:
-    """Per image and channel over (H, W): ``(x - mean) / (std + eps)``; with ``weight`` ((B or 1, 1, H, W) >= 0)
-    the mean and std are weighted."""
-    if weight is None:
-        mean = x.mean(dim=(-2, -1), keepdim=True)
-        std = x.std(dim=(-2, -1), keepdim=True, unbiased=False)
-        return (x - mean) / (std + eps)
-    total = weight.sum(dim=(-2, -1), keepdim=True) + 1e-6
-    mean = (weight * x).sum(dim=(-2, -1), keepdim=True) / total
-    var = (weight * (x - mean) ** 2).sum(dim=(-2, -1), keepdim=True) / total
-    return (x - mean) / (var.clamp_min(1e-12).sqrt() + eps)
+def _standardize(x: torch.Tensor, eps: float = STD_EPS) -> torch.Tensor:
+    """Per image and channel over (H, W): ``(x - mean) / (std + eps)``."""
+    mean = x.mean(dim=(-2, -1), keepdim=True)
+    std = x.std(dim=(-2, -1), keepdim=True, unbiased=False)
+    return (x - mean) / (std + eps)
 
 
-def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = "absolute",
-                 weight: Optional[torch.Tensor] = None, robust: float = 0.0) -> torch.Tensor:
+def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = "absolute") -> torch.Tensor:
     """L_d: mean absolute error between the predicted diffuse albedo and the guessed diffuse map.
 
     The guess is min-max rescaled over the photo (:func:`guessed_diffuse`), so its level and contrast say nothing
@@ -147,85 +140,33 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
     0.01)``), so L_d only asks the diffuse map to follow the guess's pattern and leaves its level and contrast to
     the photo (a re-render term).
 
-    With ``weight`` each pixel's error counts by its weight (the mean of ``weight * |p - g|``, not renormalised:
-    a tile weighted 0.1 everywhere pulls a tenth as hard) and the standardisation uses weighted statistics, so
-    pixels weighted ~0 neither pull nor set the tile's mean and contrast (``TrainConfig.diffuse_weighting``: the
-    share of the photo the diffuse term explains, :func:`svbrdf.trainer.render.diffuse_fraction`).
-
-    With ``robust = c > 0`` each pixel's error ``e = |p - g|`` costs ``c (1 - exp(-e / c))`` instead of ``e``: the
-    same as L1 for errors well below ``c`` (slope 1 at 0), bounded by ``c`` and with a pull that fades for errors
-    well above it (``TrainConfig.diffuse_robust``). The guess is the photo's local pattern, so a mirror reflection
-    of the room or a glint is in it as a few pixels far from any base colour: they stop pulling, the texture does
-    not. ``c`` is in the units compared (tile standard deviations with ``"normalized"``).
-
     Args:
         pred_diffuse: (B, 3, H, W) predicted linear diffuse albedo in [0, 1].
         guess: (B, 3, H, W) guessed diffuse crop in [0, 1] (:func:`guessed_diffuse`).
         target: "absolute" or "normalized".
-        weight: optional (B or 1, 1, H, W) per-pixel weights in [0, 1] (None: every pixel 1, the paper's).
-        robust: the bounded penalty's scale ``c`` (0: plain L1, the paper's).
 
     Returns:
         scalar.
     """
-    if robust < 0:
-        raise ValueError(f"robust must be >= 0, got {robust}")
     if target not in DIFFUSE_TARGETS:
         raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
     p, g = _f32(pred_diffuse), _f32(guess)
-    w = None if weight is None else _f32(weight)
-    if w is not None and (w.ndim != 4 or w.shape[1] != 1 or w.shape[-2:] != p.shape[-2:]):
-        raise ValueError(f"weight must be (B or 1, 1, H, W) with the tile's size, got {tuple(w.shape)}")
     if target == "normalized":
-        p, g = _standardize(p, weight=w), _standardize(g, weight=w)
-    err = (p - g).abs()
-    if robust > 0:
-        err = robust * -torch.expm1(-err / robust)
-    return err.mean() if w is None else (w * err).mean()
-
-
-def explained_fraction(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = CLIP_LEVEL,
-                       eps: float = 1e-4) -> torch.Tensor:
-    """How much of each pixel's light a rendering explains, an L_d weight (``TrainConfig.diffuse_weighting=
-    "explained"``): ``min(1, g R / P)`` on the luminances (channel means), with ``g`` the one gain that matches
-    their medians over the photo's unclipped pixels (the exposure is unknown).
-
-    A reflection of the room or a glint that the maps' flash render does not have only adds light, so there the
-    photo is brighter than the render and the fraction falls (a pixel twice as bright counts half).
-
-    Args:
-        rendering: (B, 3, H, W) linear flash render of a photo's maps.
-        photo: (B, 3, H, W) the linear photo.
-        clip_level: a pixel whose brightest channel is at or above it is clipped (:func:`clipped_fraction`) and
-            does not set the gain.
-        eps: added to the photo's luminance.
-
-    Returns:
-        (B, 1, H, W) in [0, 1].
-    """
-    r, p = rendering.mean(dim=1, keepdim=True), photo.mean(dim=1, keepdim=True)
-    gains = []
-    for rb, pb, ok in zip(r, p, photo.amax(dim=1, keepdim=True) < clip_level):
-        rv, pv = (rb[ok], pb[ok]) if bool(ok.any()) else (rb.flatten(), pb.flatten())
-        gains.append(pv.median() / rv.median().clamp_min(1e-6))
-    g = torch.stack(gains).reshape(-1, 1, 1, 1)
-    return (g * r / (p + eps)).clamp(0.0, 1.0)
+        p, g = _standardize(p), _standardize(g)
+    return (p - g).abs().mean()
 
 
 class DiffuseLoss(nn.Module):
-    """Module form of :func:`diffuse_loss` (``target`` and ``robust`` fixed at construction)."""
+    """Module form of :func:`diffuse_loss` (``target`` fixed at construction)."""
 
-    def __init__(self, target: str = "absolute", robust: float = 0.0):
+    def __init__(self, target: str = "absolute"):
         super().__init__()
         if target not in DIFFUSE_TARGETS:
             raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
-        if robust < 0:
-            raise ValueError(f"robust must be >= 0, got {robust}")
-        self.target, self.robust = target, robust
+        self.target = target
 
-    def forward(self, pred_diffuse: torch.Tensor, guess: torch.Tensor,
-                weight: Optional[torch.Tensor] = None) -> torch.Tensor:
-        return diffuse_loss(pred_diffuse, guess, self.target, weight, self.robust)
+    def forward(self, pred_diffuse: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
+        return diffuse_loss(pred_diffuse, guess, self.target)
 
 
 @lru_cache(maxsize=4)
@@ -234,21 +175,18 @@ def _srgb_level(linear: float) -> float:
     return float(linear_to_srgb(torch.full((1, 3, 1, 1), linear, dtype=torch.float64))[0, 0, 0, 0])
 
 
-def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99,
-                weight: Optional[torch.Tensor] = None) -> torch.Tensor:
+def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float = 0.99) -> torch.Tensor:
     """Per-pixel re-render loss: mean absolute difference of the sRGB-encoded rendering and photo tile.
 
     A photo value at or above ``clip_level`` is saturated: it only says the radiance was at least that much, so
     there the loss is one-sided, ``max(0, enc(clip_level) - enc(rendering))`` (no pull down on a bright
     highlight the camera clipped). The rendering is not clipped: an over-bright pixel where the photo is not
-    saturated is pulled down. With ``weight`` each pixel's error counts by its weight (the mean of ``weight *
-    err``, not renormalised; ``TrainConfig.unexplained_ratio`` leaves out light the flash model cannot make).
+    saturated is pulled down.
 
     Args:
         rendering: (B, 3, H, W) linear radiance (>= 0; may exceed 1) at the photo tile's position.
         photo: (B, 3, H, W) linear photo tile in [0, 1].
         clip_level: linear value from which a photo channel counts as saturated.
-        weight: optional (B or 1, 1, H, W) per-pixel weights in [0, 1] (None: every pixel 1).
 
     Returns:
         scalar.
@@ -259,7 +197,7 @@ def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float 
         p = linear_to_srgb(x, clip=True)
         level = _srgb_level(float(clip_level))
         err = torch.where(x >= clip_level, (level - r).clamp_min(0.0), (r - p).abs())
-        return err.mean() if weight is None else (_f32(weight) * err).mean()
+        return err.mean()
 
 
 class RenderLoss(nn.Module):
@@ -269,9 +207,8 @@ class RenderLoss(nn.Module):
         super().__init__()
         self.clip_level = clip_level
 
-    def forward(self, rendering: torch.Tensor, photo: torch.Tensor,
-                weight: Optional[torch.Tensor] = None) -> torch.Tensor:
-        return render_loss(rendering, photo, self.clip_level, weight)
+    def forward(self, rendering: torch.Tensor, photo: torch.Tensor) -> torch.Tensor:
+        return render_loss(rendering, photo, self.clip_level)
 
 
 def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.Tensor:
@@ -717,7 +654,6 @@ class DetailAmountLoss(nn.Module):
 
 __all__ = [
     "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
-    "explained_fraction",
     "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
     "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
     "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",

@@ -87,12 +87,6 @@ class PriorConfig:
         size: side of the training images, px.
         photo_size: side of the photos the crops come from, px (>= ``size``).
         crop_share: fraction of batches that are crops of ``photo_size`` photos (the rest: whole ``size`` photos).
-        crop_context: a U-Net (``generator.arch="unet"``) sees each crop with its whole photo's context
-            (:meth:`~svbrdf.trainer.models.Generator.photo_context`, without gradient), as the fine-tune's tiles
-            (:attr:`svbrdf.trainer.config.TrainConfig.photo_context`) and the prediction's windows do. Costs a
-            forward pass of the encoder over the ``photo_size`` photos per crop batch. Off in both presets:
-            continuing the CPU v2 candidate with it for 1,500 iterations made the stage one worse on its held-out
-            whole photos (roughness RMSE 0.226 -> 0.446; docs/benchmarks/refine-detail/photo-context).
         batch: materials per iteration.
         iters: iterations.
         lr, lr_min, betas: Adam; the learning rate decays from ``lr`` to ``lr_min`` on a cosine over ``iters``.
@@ -163,7 +157,6 @@ class PriorConfig:
     size: int = 128
     photo_size: int = 256
     crop_share: float = 0.5
-    crop_context: bool = False
     batch: int = 8
     iters: int = 5000
     lr: float = 5e-4
@@ -218,7 +211,6 @@ class PriorConfig:
              f"size must be >= 32 and a multiple of {self.generator_multiple()}, got {self.size}")
         need(self.photo_size >= self.size, f"photo_size {self.photo_size} must be >= size {self.size}")
         need(0.0 <= self.crop_share <= 1.0, f"crop_share must be in [0, 1], got {self.crop_share}")
-        need(not self.crop_context or self.generator.arch == "unet", "crop_context needs generator.arch='unet'")
         need(0.0 <= self.physical_share <= 1.0, f"physical_share must be in [0, 1], got {self.physical_share}")
         need(self.batch >= 1 and self.iters >= 1, "batch and iters must be >= 1")
         need(self.lr > 0 and 0 <= self.lr_min <= self.lr, f"need lr > 0 and 0 <= lr_min <= lr, got {self.lr}, "
@@ -517,23 +509,11 @@ def flatten_normals(maps: torch.Tensor, chosen: torch.Tensor) -> torch.Tensor:
 
 def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, families: List[str], crop: bool
                ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
-    """Photos of materials from :func:`draw_materials` (second half of :func:`sample_batch`).
-
-    With ``config.crop_context`` a crop batch's ``info`` also holds ``"whole"``, the (B, 3, P, P) photos the crops
-    come from, and ``"origins"``, the (B, 2) top-left (row, column) of each crop in its photo.
-    """
+    """Photos of materials from :func:`draw_materials` (second half of :func:`sample_batch`): ``(photos (B, 3, S,
+    S), maps (B, 8, S, S), info)`` with ``info`` = ``{"families", "crop", "draws"}``."""
     simulate = simulate_photos_batched if config.batched else simulate_photos
-    info: Dict[str, Any] = {"families": families, "crop": crop}
-    if crop and config.crop_context and config.size < maps.shape[-1]:
-        whole, maps, draws = simulate(maps, config, rng)
-        s, n = config.size, maps.shape[-1] - config.size + 1
-        origins = torch.tensor([[int(torch.randint(0, n, (), generator=rng)) for _ in range(2)] for _ in draws])
-        rows, cols = (to_device(origins[:, k, None] + torch.arange(s), whole.device) for k in (0, 1))
-        photos, maps = _windows(whole, rows, cols), _windows(maps, rows, cols)
-        info.update(whole=whole, origins=origins)
-        return photos, maps, {**info, "draws": draws}
     photos, maps, draws = simulate(maps, config, rng, crop=config.size if crop else None)
-    return photos, maps, {**info, "draws": draws}
+    return photos, maps, {"families": families, "crop": crop, "draws": draws}
 
 
 def relit_pair(pred: torch.Tensor, target: torch.Tensor, view: torch.Tensor, light: torch.Tensor,
@@ -726,12 +706,7 @@ class PriorTrainer:
             group["lr"] = self.lr_at(self.step)
         self.generator.train()
         with torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.bf16):
-            if "whole" in info:  # crop_context: the crops see their whole photos' flash spot and global vectors
-                with torch.no_grad():
-                    ctx = self.generator.photo_context(info["whole"].to(self.device))
-                pred = self.generator(photos, ctx, info["origins"].to(self.device))
-            else:
-                pred = self.generator(photos)
+            pred = self.generator(photos)
         terms = prior_loss(pred.float(), maps, self.config, self.rng, relit=self._relit)
         self.optimizer.zero_grad(set_to_none=True)
         if self.config.batched:

@@ -49,30 +49,6 @@ def _shading(maps: torch.Tensor, view: torch.Tensor, light: torch.Tensor, config
     return m["diffuse"], dw, sr
 
 
-def diffuse_fraction(
-    maps: torch.Tensor,
-    view: torch.Tensor,
-    light: torch.Tensor,
-    config: RenderConfig = ZHAO,
-    light_dist2: Optional[torch.Tensor] = None,
-    eps: float = 1e-6,
-) -> torch.Tensor:
-    """The share of each pixel's flash radiance that the diffuse term gives (the rest is the specular lobe's).
-
-    Where it is low (a near-black base colour, the highlight of a glossy material) the photo's local pattern is the
-    lobe's and the relief's, not the base colour's. Same formula as :func:`render_maps`: ``d / (d + s)`` with ``d``
-    the diffuse radiance averaged over the three channels and ``s`` the specular radiance.
-
-    Args:
-        maps, view, light, config, light_dist2: as :func:`render_maps`.
-        eps: added to the denominator (a pixel that reflects nothing counts as all-specular, 0).
-
-    Returns:
-        (B, 1, H, W) in [0, 1].
-    """
-    diffuse, dw, sr = _shading(maps, view, light, config, light_dist2)
-    d = (dw * diffuse).mean(dim=1, keepdim=True)
-    return (d / (d + sr + eps)).clamp(0.0, 1.0)
 
 
 def unpack(maps: torch.Tensor) -> Dict[str, Union[torch.Tensor, Tuple[torch.Tensor, ...]]]:

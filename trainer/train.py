@@ -35,7 +35,7 @@ import torch
 
 from svbrdf.runtime.camera import radius2
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.burn_in import highlight_centre, photo_burn_in
+from svbrdf.runtime.burn_in import photo_burn_in
 from svbrdf.runtime.flash_trend import even_lighting, postprocess
 from svbrdf.runtime.manifest import DECODERS
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
@@ -44,13 +44,13 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads
 from svbrdf.trainer.guard import NumericalGuard
-from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, explained_fraction, flash_basis,
+from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss,
                                    SUPERVISED_WEIGHTS)
 from svbrdf.trainer.models import Discriminator, Generator, PhotoContext, pack_maps
 from svbrdf.trainer.perceptual import PerceptualLoss
-from svbrdf.trainer.render import FlashGeometry, diffuse_fraction
+from svbrdf.trainer.render import FlashGeometry
 
 PathLike = Union[str, os.PathLike]
 
@@ -245,8 +245,8 @@ class Trainer:
 
         with torch.no_grad():
             self.guess = guessed_diffuse(self.photo).float()
-        #: (x, y) of the flash over the photo in the renderer's units (``flash_position`` / ``locate_flash``).
-        self.flash_xy = self._flash_position()
+        #: (x, y) of the flash over the photo in the renderer's units (``flash_position``; None: (0, 0)).
+        self.flash_xy = config.flash_position if config.flash_position is not None else (0.0, 0.0)
         cam = None if self.flash_xy == (0.0, 0.0) else (*self.flash_xy, config.render_config.camera_distance)
         self.geometry = FlashGeometry(h, w, config.render_config, device=self.device, camera_pos=cam)
         self.radius2 = None if self.vignetting_logit is None else \
@@ -259,9 +259,6 @@ class Trainer:
         self.eval_maps: Optional[torch.Tensor] = None
         #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``lambda_anchor``; set by load_init).
         self.anchor: Optional[torch.Tensor] = None
-        #: {name: (anchor it was computed from, (1, 1, H, W) map of the whole photo)}: what the starting maps say
-        #: once (:meth:`_from_anchor`; ``diffuse_weighting``, ``unexplained_ratio``).
-        self._anchor_maps: Dict[str, Tuple[torch.Tensor, torch.Tensor]] = {}
         #: The whole photo's context for the tiles (U-Net generators with ``photo_context``; :meth:`_context`).
         self.context: Optional[PhotoContext] = None
         self._context_step = -1
@@ -296,16 +293,6 @@ class Trainer:
             raise ImageError(f"{name}: photo has negative values (expected linear RGB >= 0)")
         return photo
 
-    def _flash_position(self) -> Tuple[float, float]:
-        cfg = self.config
-        if cfg.flash_position is not None:
-            return cfg.flash_position
-        if not cfg.locate_flash:
-            return (0.0, 0.0)
-        h, w = self.photo.shape[-2:]
-        row, col = highlight_centre(self.photo[0].permute(1, 2, 0).cpu().numpy())
-        return (2.0 * col / w - 1.0, (h - 2.0 * row) / w)  # plane_positions' frame: y up, half widths
-
     def _adam(self, params) -> torch.optim.Adam:
         return torch.optim.Adam(params, lr=self.config.lr, betas=tuple(self.config.betas), eps=1e-8)
 
@@ -317,44 +304,6 @@ class Trainer:
         y0 = int(torch.randint(h - self.tile + 1, (1,), generator=rng))
         x0 = int(torch.randint(w - self.tile + 1, (1,), generator=rng))
         return y0, x0
-
-    def _from_anchor(self, name: str) -> torch.Tensor:
-        """A (1, 1, H, W) map of the whole photo from the starting maps, computed once per anchor (the anchor as a
-        checkpoint stores it, so a resumed run gets the same): ``"share"``, the share of the flash radiance the
-        diffuse term gives (:func:`svbrdf.trainer.render.diffuse_fraction`), or ``"explained"``, how much of the
-        photo's light their flash render explains (:func:`svbrdf.trainer.losses.explained_fraction`)."""
-        cached = self._anchor_maps.get(name)
-        if cached is None or cached[0] is not self.anchor:
-            start, g = self.anchor.half().float(), self.geometry
-            with torch.no_grad():
-                if name == "explained":
-                    value = explained_fraction(g.render(start), self.photo, CLIP_LEVEL)
-                else:
-                    value = diffuse_fraction(start, g.view, g.light, g.config, g.dist2)
-            cached = self._anchor_maps[name] = (self.anchor, value)
-        return cached[1]
-
-    def _diffuse_weight(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
-        """L_d's per-pixel weight on the tile at (y0, x0) (``config.diffuse_weighting``, times the kept pixels of
-        ``config.unexplained_ratio``): None for "uniform" without a ratio or without starting maps; else the
-        starting maps' diffuse share (``"diffuse_share"``) or explained fraction (``"explained"``) there
-        (:meth:`_from_anchor`)."""
-        keep = self._explained_keep(y0, x0, h, w)
-        if self.config.diffuse_weighting == "uniform" or self.anchor is None:
-            return keep
-        name = "explained" if self.config.diffuse_weighting == "explained" else "share"
-        weight = self._from_anchor(name)[..., y0:y0 + h, x0:x0 + w]
-        return weight if keep is None else weight * keep
-
-    def _explained_keep(self, y0: int, x0: int, h: int, w: int) -> Optional[torch.Tensor]:
-        """The (1, 1, h, w) pixels of the tile at (y0, x0) that the re-render loss and L_d count (1) or leave out
-        (0) under ``config.unexplained_ratio``: out where the photo has more than ``ratio`` times the light the
-        starting maps' flash render explains (their explained fraction, :meth:`_from_anchor`, below ``1 /
-        ratio``); None when off or without starting maps."""
-        if self.config.unexplained_ratio <= 0 or self.anchor is None:
-            return None
-        frac = self._from_anchor("explained")[..., y0:y0 + h, x0:x0 + w]
-        return (frac >= 1.0 / self.config.unexplained_ratio).float()
 
     def _crop(self, t: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
@@ -490,8 +439,7 @@ class Trainer:
                 logged["perceptual"] = lp = self.perceptual(x, rendering).float()
             weighted.append(cfg.lambda_perceptual * lp)
         if cfg.lambda_render > 0:
-            logged["render"] = lr = render_loss(radiance, x, CLIP_LEVEL,
-                                                self._explained_keep(y0, x0, maps.shape[-2], maps.shape[-1]))
+            logged["render"] = lr = render_loss(radiance, x, CLIP_LEVEL)
             weighted.append(cfg.lambda_render * lr)
         if cfg.lambda_specular_prior > 0:
             logged["specular_prior"] = lsp = specular_prior_loss(maps)
@@ -508,9 +456,7 @@ class Trainer:
             shared = shared + term
         total = shared
         if "ds" in keys and cfg.lambda_diffuse > 0:
-            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target,
-                                                  self._diffuse_weight(y0, x0, maps.shape[-2], maps.shape[-1]),
-                                                  cfg.diffuse_robust)
+            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target)
             total = shared + cfg.lambda_diffuse * ld
         for key in keys:
             for name, value in logged.items():

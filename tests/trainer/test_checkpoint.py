@@ -185,3 +185,30 @@ def test_last_good_copy_skips_checkpoints_after_nonfinite_steps(tmp_path):
 def test_save_refuses_non_checkpoints(tmp_path):
     with pytest.raises(ModelError, match="refusing"):
         ckpt_io.save_checkpoint(tmp_path / "x.pt", {"generator": {}})
+
+
+@pytest.mark.parametrize("kind,name,off,on", [("train_config", "diffuse_weighting", "uniform", "explained"),
+                                              ("train_config", "unexplained_ratio", 0.0, 2.0),
+                                              ("train_config", "diffuse_robust", 0.0, 0.05),
+                                              ("train_config", "locate_flash", False, True),
+                                              ("refine", "locate_flash", False, True),
+                                              ("prior_config", "crop_context", False, True)])
+def test_a_retired_option_loads_at_its_off_value_and_fails_in_one_line_when_on(tmp_path, trained, kind, name, off,
+                                                                              on):
+    """Checkpoints from before the retired options were deleted record them; off they are dropped, on they fail."""
+    _, path = trained
+    ckpt = torch.load(path, weights_only=True)
+    base = dict(ckpt.get(kind) or {})
+    for value, ok in ((off, True), (on, False)):
+        old = tmp_path / f"{kind}-{name}-{value}.pt"
+        torch.save({**ckpt, kind: {**base, name: value}}, old)
+        if ok:
+            loaded = ckpt_io.load_checkpoint(old)
+            assert name not in loaded[kind] and loaded[kind] == base
+            if kind == "train_config":
+                assert name not in make_trainer(random_photo(), resume=old, threads=1).config.to_dict()
+        else:
+            with pytest.raises(ModelError) as err:
+                ckpt_io.load_checkpoint(old)
+            msg = str(err.value)
+            assert "\n" not in msg and f"retired option {name}={on!r}" in msg and str(old) in msg

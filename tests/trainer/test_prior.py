@@ -220,23 +220,6 @@ def tiny_v2(**kw) -> PriorConfig:
     return dataclasses.replace(prior_preset("v2"), **base)
 
 
-def test_crops_with_context_come_with_their_whole_photos_and_train(monkeypatch):
-    cfg = tiny_v2(crop_share=1.0, log_every=1, crop_context=True)
-    photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(0))
-    assert photos.shape == (2, 3, 32, 32) and info["whole"].shape == (2, 3, 64, 64)
-    for i, (y, x) in enumerate(info["origins"].tolist()):
-        torch.testing.assert_close(photos[i], info["whole"][i, :, y:y + 32, x:x + 32])
-    trainer = PriorTrainer(dataclasses.replace(cfg, iters=1), threads=1)
-    seen = []
-    photo_context = type(trainer.generator).photo_context
-    monkeypatch.setattr(type(trainer.generator), "photo_context",
-                        lambda g, p: seen.append(p.shape) or photo_context(g, p))
-    rec = trainer.iteration()
-    assert seen == [(2, 3, 64, 64)] and rec["crop"] and math.isfinite(rec["total"])
-    with pytest.raises(ValueError, match="crop_context"):
-        tiny(crop_context=True)  # a "wen" generator has no photo context
-
-
 def test_v1_preset_is_the_default_and_v2_changes_only_what_it_names():
     assert prior_preset("v1") == PriorConfig()
     v1, v2 = PriorConfig(), prior_preset("v2")
@@ -783,23 +766,6 @@ def test_a_roll_off_range_is_drawn_per_photo_alike_in_both_streams_and_none_leav
     assert float((s_lin >= 1.0).float().mean()) > float((s >= 1.0).float().mean())  # the numpy camera's roll-off
     with pytest.raises(ValueError):
         tiny_v2(camera={**quiet, "white": (0.5, 2.0)})
-
-
-def test_cli_roll_off_starts_a_run_with_it_and_changes_it_on_a_resume(tmp_path, capsys):
-    out = tmp_path / "v2"
-    args = ["--size", "32", "--photo-size", "64", "--batch", "1", "--threads", "1", "--log-every", "1",
-            "--eval-every", "0", "--material-reuse", "1"]
-    assert cli.main(["prior", "--preset", "v2", "--out", str(out), "--iters", "1", *args]) == 0
-    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["camera"]["white"] == [1.0, 1.0]
-    capsys.readouterr()
-    assert cli.main(["prior", "--out", str(out), "--resume", "--iters", "2", "--roll-off", "4", "--threads", "1"]) == 0
-    assert "highlight roll-off white point [1.0, 1.0] -> [1, 4] from here on" in capsys.readouterr().err
-    assert ckpt_io.load_checkpoint(out / "checkpoint.pt")["prior_config"]["camera"]["white"] == [1.0, 4.0]
-    assert cli.main(["prior", "--preset", "v2", "--out", str(tmp_path / "r"), "--iters", "1", "--roll-off", "3",
-                     *args]) == 0
-    assert ckpt_io.load_checkpoint(tmp_path / "r" / "checkpoint.pt")["prior_config"]["camera"]["white"] == [1.0, 3.0]
-    assert cli.main(["prior", "--out", str(tmp_path / "bad"), "--roll-off", "0.5"]) == 2
-    assert capsys.readouterr().err.strip().splitlines()[-1].startswith("svbrdf-train: error:")
 
 
 def test_flat_share_makes_the_chosen_materials_flat_and_none_leaves_the_stream_as_it_was():

@@ -1,6 +1,5 @@
 """The torch renderer (svbrdf.trainer.render) agrees with numpy, has correct and finite gradients."""
 
-import dataclasses
 import math
 
 import numpy as np
@@ -11,7 +10,7 @@ from hypothesis import strategies as st
 
 from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.render import DESCHAINTRE, ZHAO, RenderConfig, light_vectors, render, shade
-from svbrdf.trainer.render import FlashGeometry, diffuse_fraction, render_maps
+from svbrdf.trainer.render import FlashGeometry, render_maps
 
 CONFIGS = [
     ZHAO,
@@ -142,24 +141,4 @@ def test_unpack_gives_each_map_of_the_packed_layout_as_a_view():
         assert m[name].data_ptr() == x[:, SLICES[name]].data_ptr()  # a view, no copy
     assert torch.equal(torch.cat(m["normal"], dim=1), x[:, SLICES["normal"]])
 
-
-def test_diffuse_fraction_is_the_diffuse_terms_share_of_the_render():
-    rng = np.random.default_rng(5)
-    maps = _random_maps(rng, 12, 16, max_tilt_deg=30.0)
-    geo = FlashGeometry(12, 16, ZHAO)
-    packed = _packed(maps, torch.float64)
-    frac = diffuse_fraction(packed, geo.view.double(), geo.light.double(), ZHAO)
-    assert frac.shape == (1, 1, 12, 16) and float(frac.min()) >= 0 and float(frac.max()) <= 1
-    lum = render_maps(packed, geo.view.double(), geo.light.double(), ZHAO).mean(dim=1, keepdim=True)
-    black = packed.clone()
-    black[:, SLICES["diffuse"]] = 0.0
-    lobe = render_maps(black, geo.view.double(), geo.light.double(), ZHAO).mean(dim=1, keepdim=True)
-    torch.testing.assert_close(frac * lum, lum - lobe, rtol=1e-5, atol=1e-8)  # share x total = the diffuse part
-    flat = Maps(diffuse=np.full((12, 16, 3), 0.5), specular=np.full((12, 16, 1), 0.04),
-                roughness=np.full((12, 16, 1), 0.3), normal=np.dstack([np.zeros((12, 16, 2)), np.ones((12, 16))]))
-    share = diffuse_fraction(_packed(flat), geo.view, geo.light, ZHAO)[0, 0]
-    assert float(share[6, 8]) < 0.6 < float(share[0, 0])  # a glossy highlight at the centre is the lobe's
-    black = dataclasses.replace(flat, diffuse=np.full((12, 16, 3), 0.002))
-    black_share = diffuse_fraction(_packed(black), geo.view, geo.light, ZHAO)
-    assert bool((black_share[0, 0] < share).all()) and float(black_share[0, 0, 6, 8]) < 0.01  # mostly the lobe's
 

@@ -9,7 +9,6 @@ from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.manifest import network_input_record
 from svbrdf.runtime.maps import MAP_NAMES, SLICES
 from svbrdf.trainer.config import REFINE_RECIPES, resolve
-from svbrdf.trainer.losses import CLIP_LEVEL, diffuse_loss, guessed_diffuse, render_loss
 from svbrdf.trainer.checkpoint import save_checkpoint
 from svbrdf.trainer.stage import finetune_config, make_trainer
 from svbrdf.trainer.train import Trainer, predict_full
@@ -169,63 +168,6 @@ def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_
     assert stored.dtype == torch.float16 and stored.shape == start.shape
     resumed = _trained(photo_b, resume=path, iters=4, threads=1)
     assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
-
-
-def test_diffuse_share_weighs_l_d_by_the_starting_maps_and_survives_resume(tmp_path, anchored_start):
-    ckpt, photo_b, start = anchored_start
-    cfg = resolve("tiny", iters_finetune=2, tile=48, lambda_anchor=0.0, diffuse_weighting="diffuse_share")
-    path = tmp_path / "ft.pt"
-    tuned = _trained(photo_b, "finetune", init=ckpt, config=cfg, threads=1, checkpoint_path=path)
-    assert tuned.anchor is not None and "ds/anchor" not in tuned.history[0]  # the starting maps, not a pull
-    weight = tuned._diffuse_weight(0, 0, 48, 48)
-    assert weight.shape == (1, 1, 48, 48) and 0 <= float(weight.min()) <= float(weight.max()) <= 1
-    assert float(weight.std()) > 0  # per pixel, from the starting maps' diffuse share
-    plain = _trained(photo_b, "finetune", init=ckpt, config=dataclasses.replace(cfg, diffuse_weighting="uniform"),
-                     threads=1)
-    assert plain.anchor is None and plain._diffuse_weight(0, 0, 48, 48) is None
-    assert tuned.history[0]["ds/diffuse"] != pytest.approx(plain.history[0]["ds/diffuse"])
-    resumed = _trained(photo_b, resume=path, iters=3, threads=1)
-    assert resumed.step == 3 and torch.equal(resumed._diffuse_weight(0, 0, 48, 48), weight)
-    explained = _trained(photo_b, "finetune", init=ckpt, threads=1,
-                         config=dataclasses.replace(cfg, diffuse_weighting="explained", iters_finetune=1))
-    by_light = explained._diffuse_weight(0, 0, 48, 48)
-    assert by_light.shape == (1, 1, 48, 48) and not torch.equal(by_light, weight)
-    assert 0 <= float(by_light.min()) <= float(by_light.max()) <= 1
-    scratch = _trained(photo_b, "fit", resolve("tiny", iters_fit=1, diffuse_weighting="diffuse_share"), threads=1)
-    assert scratch._diffuse_weight(0, 0, 8, 8) is None  # no starting maps: every pixel counts
-    with pytest.raises(ValueError, match="diffuse_weighting"):
-        resolve("tiny", diffuse_weighting="specular")
-
-
-def test_unexplained_ratio_leaves_a_glint_out_of_the_photo_terms_and_survives_resume(tmp_path, anchored_start):
-    ckpt, photo_b, start = anchored_start
-    glinted = 0.2 * photo_b
-    glinted[..., 10:14, 20:24] = 0.98  # a glint far brighter than the starting maps' flash render there
-    cfg = resolve("tiny", iters_finetune=2, tile=48, lambda_anchor=0.0, lambda_render=1.0, unexplained_ratio=2.0)
-    path = tmp_path / "ft.pt"
-    tuned = _trained(glinted, "finetune", init=ckpt, config=cfg, threads=1, checkpoint_path=path)
-    keep = tuned._explained_keep(0, 0, 48, 48)
-    assert tuned.anchor is not None and keep.shape == (1, 1, 48, 48)
-    assert float(keep[..., 10:14, 20:24].max()) == 0.0  # the glint is out
-    assert 0.5 < float(keep.mean()) < 1.0  # most of the photo counts
-    assert torch.equal(tuned._diffuse_weight(0, 0, 48, 48), keep)  # L_d leaves out the same pixels
-    # Whatever the photo holds at the left-out pixels, the photo terms' gradients are the same.
-    maps = tuned.generator(glinted).float().detach().requires_grad_(True)
-    brighter = glinted.clone()
-    brighter[..., 10:14, 20:24] = 0.5
-    grads = []
-    for photo in (glinted, brighter):
-        loss = render_loss(tuned._radiance(maps, 0, 0), photo, CLIP_LEVEL, keep) + diffuse_loss(
-            maps[:, SLICES["diffuse"]], guessed_diffuse(glinted), "normalized", keep)
-        grads.append(torch.autograd.grad(loss, maps)[0])
-    torch.testing.assert_close(grads[0], grads[1])
-    resumed = _trained(glinted, resume=path, iters=3, threads=1)
-    assert resumed.step == 3 and torch.equal(resumed._explained_keep(0, 0, 48, 48), keep)
-    plain = _trained(glinted, "finetune", init=ckpt, config=dataclasses.replace(cfg, unexplained_ratio=0.0),
-                     threads=1)
-    assert plain._explained_keep(0, 0, 48, 48) is None and plain._diffuse_weight(0, 0, 48, 48) is None
-    with pytest.raises(ValueError, match="unexplained_ratio"):
-        resolve("tiny", unexplained_ratio=0.5)
 
 
 def test_anchor_maps_pull_only_the_named_maps(anchored_start):
