@@ -504,7 +504,7 @@ def test_a_resume_takes_a_new_checkpoint_interval(tmp_path, monkeypatch):
 
 
 def test_material_reuse_photographs_the_same_materials_anew(monkeypatch):
-    from svbrdf.trainer import prior as prior_mod
+    from svbrdf.trainer.prior import trainer as prior_mod  # the module whose names PriorTrainer uses
 
     drawn = []
     real = prior_mod.draw_materials
@@ -517,7 +517,7 @@ def test_material_reuse_photographs_the_same_materials_anew(monkeypatch):
 
 
 def test_a_non_finite_loss_in_the_batched_stream_leaves_the_weights_finite_and_is_counted(monkeypatch):
-    from svbrdf.trainer import prior as prior_mod
+    from svbrdf.trainer.prior import trainer as prior_mod  # the module whose names PriorTrainer uses
 
     real, calls = prior_mod.prior_loss, []
 
@@ -639,7 +639,7 @@ def test_a_failed_compile_falls_back_to_the_plain_relighting_with_a_note():
 
 
 def test_cli_compile_flag_compiles_the_relighting_and_says_when_it_falls_back(tmp_path, capsys, monkeypatch):
-    import svbrdf.trainer.prior as prior_mod
+    from svbrdf.trainer.prior import trainer as prior_mod  # the module whose names PriorTrainer uses
 
     made = []
 

@@ -1,0 +1,356 @@
+"""Training the stage one on the procedural stream: :class:`PriorTrainer` (resumable, atomic checkpoints)."""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import time
+from pathlib import Path
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
+
+import torch
+
+from svbrdf.trainer import checkpoint as ckpt_io
+from svbrdf.trainer.config import resolve
+from svbrdf.trainer.device import bf16_support, pick_device, set_threads
+from svbrdf.trainer.models import Generator, linearise_height
+from svbrdf.trainer.prior.config import STAGE, PriorConfig
+from svbrdf.trainer.prior.loss import CompiledRelit, map_errors, prior_loss, relit_pair
+from svbrdf.trainer.prior.photos import draw_materials, photograph, sample_batch
+
+PathLike = Union[str, Path]
+#: Callback ``(trainer, record) -> stop?`` called after every iteration.
+Callback = Callable[["PriorTrainer", Dict[str, Any]], bool]
+
+
+class PriorTrainer:
+    """Train the stage-one generator on the procedural stream.
+
+    Args:
+        config: settings.
+        device: torch device name (default CUDA if available, else CPU).
+        threads: CPU threads (default: all cores).
+        checkpoint_path: where :meth:`run` saves checkpoints (None = never).
+        log_path: JSONL log, one line per iteration (None = none).
+        callback: :data:`Callback`.
+        compile: compare the relit renderings through :class:`CompiledRelit` (faster on a CPU; same loss to float
+            rounding).
+    """
+
+    def __init__(self, config: PriorConfig, *, device: Optional[str] = None, threads: Optional[int] = None,
+                 checkpoint_path: Optional[PathLike] = None, log_path: Optional[PathLike] = None,
+                 callback: Optional[Callback] = None, compile: bool = False):
+        config.validate()
+        self.config = config
+        self.device = pick_device(device)
+        if self.device.type == "cpu":
+            set_threads(threads)
+        self.checkpoint_path = None if checkpoint_path is None else Path(checkpoint_path)
+        self.log_path = None if log_path is None else Path(log_path)
+        self.callback = callback
+        torch.manual_seed(config.seed)
+        #: The networks' memory layout: channels-last on a CPU, where oneDNN's convolutions (forward and backward)
+        #: take half the time in it (one thread, v2 batch: 5.6-6.2 -> 3.2 s a step, profiled); as is on a GPU (not measured).
+        self.memory_format = torch.channels_last if self.device.type == "cpu" else torch.contiguous_format
+        self.generator = Generator(config.generator).to(self.device, memory_format=self.memory_format)
+        self.optimizer = torch.optim.Adam([p for p in self.generator.parameters() if p.requires_grad],
+                                          lr=config.lr, betas=config.betas)
+        self.rng = torch.Generator().manual_seed(config.seed)
+        self.step = 0
+        self.history: List[Dict[str, Any]] = []
+        self.evals: List[Dict[str, Any]] = []
+        self.seconds = 0.0
+        self.interrupted = False
+        #: Set (by a signal handler, another thread) to end :meth:`run` after the current iteration: it writes the
+        #: (possibly short) log record and the checkpoint, sets ``interrupted`` and returns; resume continues.
+        self.stop_requested = False
+        #: True when the last :meth:`run` stopped at its wall-clock limit (checkpoint saved, resumable).
+        self.timed_out = False
+        self.bf16, self.bf16_note = (bf16_support(self.device) if config.bf16 else (False, None))
+        self._relit: Callable[..., torch.Tensor] = CompiledRelit() if compile else relit_pair
+        self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
+        self._materials: Optional[Tuple[torch.Tensor, List[str], bool]] = None
+        self.averaged: Optional[torch.optim.swa_utils.AveragedModel] = None
+        self._average()
+
+    def _average(self) -> None:
+        """(Re)start the weights' moving average at the current weights (``config.ema`` > 0), else none."""
+        from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
+
+        self.averaged = (AveragedModel(self.generator, multi_avg_fn=get_ema_multi_avg_fn(self.config.ema),
+                                       use_buffers=True) if self.config.ema > 0 else None)
+
+    @property
+    def model(self) -> Generator:
+        """The model this run has learned: the weights' moving average with ``ema`` > 0 (once it has been updated),
+        else the trained weights."""
+        if self.averaged is None or int(self.averaged.n_averaged) == 0:
+            return self.generator
+        return self.averaged.module
+
+    # ------------------------------------------------------------------ schedule
+    def lr_at(self, step: int) -> float:
+        """Cosine decay from ``lr`` (step 0) to ``lr_min`` (step ``iters``)."""
+        c = self.config
+        t = min(max(step, 0), c.iters) / c.iters
+        return c.lr_min + 0.5 * (c.lr - c.lr_min) * (1.0 + math.cos(math.pi * t))
+
+    # ------------------------------------------------------------------ training
+    def _step(self) -> Tuple[Dict[str, torch.Tensor], Dict[str, Any]]:
+        """One optimiser step on a fresh batch: the (detached, on-device) loss terms and the host-side facts."""
+        t0 = time.perf_counter()
+        if self._materials is None or self.step % self.config.material_reuse == 0:
+            self._materials = draw_materials(self.config, self.rng, device=self.device)
+        photos, maps, info = photograph(self.config, self.rng, *self._materials)
+        t_data = time.perf_counter() - t0
+        photos, maps = photos.to(self.device, memory_format=self.memory_format), maps.to(self.device)
+        for group in self.optimizer.param_groups:
+            group["lr"] = self.lr_at(self.step)
+        self.generator.train()
+        with torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.bf16):
+            pred = self.generator(photos)
+        terms = prior_loss(pred.float(), maps, self.config, self.rng, relit=self._relit)
+        self.optimizer.zero_grad(set_to_none=True)
+        if self.config.batched:
+            # No read-back: a non-finite loss zeroes its gradients on the device (Adam then takes a step with a
+            # zero gradient) and is counted at the next log record.
+            finite = torch.isfinite(terms["total"])
+            terms["total"].backward()
+            for p in self.generator.parameters():
+                if p.grad is not None:
+                    p.grad = torch.where(finite, p.grad, torch.zeros_like(p.grad))
+            self.optimizer.step()
+            skipped: Any = ~finite
+        else:
+            skipped = not torch.isfinite(terms["total"])
+            if not skipped:
+                terms["total"].backward()
+                self.optimizer.step()
+        if self.averaged is not None:
+            self.averaged.update_parameters(self.generator)
+        self.step += 1
+        facts = {"step": self.step, "lr": self.lr_at(self.step - 1), "crop": info["crop"], "data_seconds": t_data,
+                 "seconds": time.perf_counter() - t0, "skipped": skipped}
+        return {k: v.detach() for k, v in terms.items()}, facts
+
+    def iteration(self) -> Dict[str, Any]:
+        """One optimiser step on a fresh batch; returns the log record."""
+        terms, facts = self._step()
+        rec: Dict[str, Any] = {k: facts[k] for k in ("step", "lr", "crop", "data_seconds", "seconds")}
+        rec.update({k: (float(v) if torch.isfinite(v) else None) for k, v in terms.items()})
+        if facts["skipped"]:
+            rec["skipped"] = True
+        return rec
+
+    def _record(self, window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]], seconds: float
+                ) -> Dict[str, Any]:
+        """The mean log record of ``window`` (``log_every`` > 1): terms averaged over its finite iterations,
+        ``iters`` in it, ``samples`` seen so far, ``seconds`` of wall time and ``s_per_iter``."""
+        last = window[-1][1]
+        rec: Dict[str, Any] = {"step": last["step"], "lr": last["lr"], "iters": len(window),
+                               "samples": last["step"] * self.config.batch, "seconds": seconds,
+                               "s_per_iter": seconds / len(window),
+                               "data_seconds": sum(f["data_seconds"] for _, f in window) / len(window),
+                               "crop_share": sum(bool(f["crop"]) for _, f in window) / len(window)}
+        keys = window[0][0].keys()
+        stacked = {k: torch.stack([t[k] for t, _ in window]) for k in keys}
+        for k, v in stacked.items():
+            ok = torch.isfinite(v)
+            rec[k] = float(v[ok].mean()) if bool(ok.any()) else None
+        skips = int(sum(int(f["skipped"]) for _, f in window))
+        if skips:
+            rec["skipped"] = skips
+        return rec
+
+    def eval_set(self) -> Tuple[torch.Tensor, torch.Tensor]:
+        """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch)."""
+        if self._eval_set is None:
+            rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
+            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0, black_share=0.0, coarse_share=0.0)
+            photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch, device=self.device)
+            self._eval_set = photos.to(self.device), maps.to(self.device)
+        return self._eval_set
+
+    @property
+    def compile_note(self) -> Optional[str]:
+        """Why ``compile`` fell back to eager (None when it was not asked for or works)."""
+        return getattr(self._relit, "note", None)
+
+    @torch.no_grad()
+    def evaluate(self) -> Dict[str, float]:
+        """Map errors of :attr:`model` on the validation batch (:func:`map_errors`)."""
+        photos, maps = self.eval_set()
+        self.model.eval()
+        return map_errors(self.model(photos), maps)
+
+    def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
+        """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback.
+
+        Args:
+            max_seconds: wall-clock limit of this call. Checked after every iteration that starts a new draw of
+                materials (every ``material_reuse`` iterations): past it, the run writes the (possibly short) log
+                record, saves its checkpoint and stops with ``timed_out`` set; a later ``resume`` continues the
+                same schedule. Log records fall on multiples of ``log_every``, so a resumed run realigns its
+                records after a short one.
+        """
+        c = self.config
+        log = None if self.log_path is None else open(self.log_path, "a", encoding="utf-8")
+        start = time.perf_counter()
+        self.timed_out = False
+        window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]] = []
+        window_start = time.perf_counter()
+        try:
+            while self.step < c.iters:
+                if c.log_every == 1:
+                    rec = self.iteration()
+                else:
+                    window.append(self._step())
+                    due = (self.step % c.log_every == 0 or self.step >= c.iters
+                           or (max_seconds is not None and self.step % c.material_reuse == 0
+                               and time.perf_counter() - start >= max_seconds)
+                           or (c.eval_every and self.step % c.eval_every == 0)
+                           or (c.checkpoint_every and self.step % c.checkpoint_every == 0)
+                           or self.stop_requested)
+                    if not due:
+                        continue
+                    rec = self._record(window, time.perf_counter() - window_start)
+                    window, window_start = [], time.perf_counter()
+                self.seconds += rec["seconds"]
+                if c.eval_every and (self.step % c.eval_every == 0 or self.step == c.iters):
+                    ev = {"step": self.step, **self.evaluate()}
+                    self.evals.append(ev)
+                    rec["eval"] = ev
+                self.history.append({k: v for k, v in rec.items() if k != "eval"})
+                if log is not None:
+                    import json
+
+                    log.write(json.dumps(rec) + "\n")
+                    log.flush()
+                stop = (bool(self.callback(self, rec)) if self.callback else False) or self.stop_requested
+                at_end = self.step == c.iters
+                late = (max_seconds is not None and time.perf_counter() - start >= max_seconds and not at_end
+                        and self.step % c.material_reuse == 0)
+                if self.checkpoint_path is not None and (
+                        at_end or stop or late or (c.checkpoint_every and self.step % c.checkpoint_every == 0)):
+                    self.save()
+                if stop:
+                    self.interrupted = True
+                    break
+                if late:
+                    self.timed_out = True
+                    break
+        finally:
+            if log is not None:
+                log.close()
+        return self.history
+
+    # ------------------------------------------------------------------ checkpoints
+    def checkpoint(self) -> Dict[str, Any]:
+        """The state as a project checkpoint (see the module docstring)."""
+        finetune = resolve(self.config.finetune_preset)
+        ckpt = ckpt_io.build_checkpoint(
+            generator=self.generator, discriminator=None, train_config=finetune.to_dict(), stage=STAGE,
+            step=self.step, iters=self.config.iters, optimizers={"g": self.optimizer}, history=self.history,
+            photo={"name": "procedural materials", "sha256": None, "height": self.config.size,
+                   "width": self.config.size},
+            rng={"torch": torch.get_rng_state(), "stream": self.rng.get_state()},
+            notes=[f"stage one learned from procedural materials ({self.step} iterations of {self.config.batch})"])
+        ckpt["prior_config"] = self.config.to_dict()
+        ckpt["evals"] = [dict(e) for e in self.evals]
+        ckpt["seconds"] = float(self.seconds)
+        if self.averaged is not None:
+            ckpt["generator_ema"] = {k: v.detach().float().cpu().clone() if v.is_floating_point() else v.cpu().clone()
+                                     for k, v in self.averaged.module.state_dict().items()}
+            ckpt["ema_updates"] = int(self.averaged.n_averaged)
+        if self.config.compact_checkpoint:
+            compact(ckpt)
+        return ckpt
+
+    def save(self, path: Optional[PathLike] = None) -> Path:
+        """Write a checkpoint atomically to ``path`` (default ``checkpoint_path``)."""
+        path = Path(path) if path is not None else self.checkpoint_path
+        if path is None:
+            raise ValueError("no checkpoint path")
+        return ckpt_io.save_checkpoint(path, self.checkpoint())
+
+    def linearise_height(self) -> float:
+        """Switch the generator's height to ``"linear"`` where it stands (:func:`~svbrdf.trainer.models.linearise_height`
+        at the validation batch) and record it in ``config.generator``, so checkpoints resume linear. Returns the slope
+        ratio ``k``. For a run resumed from a checkpoint whose tanh height saturated (the v2 run at 4745 iterations)."""
+        k = linearise_height(self.generator, self.eval_set()[0])
+        self.config = dataclasses.replace(self.config, generator=self.generator.cfg)
+        self._average()  # the average restarts at the converted weights
+        return k
+
+    def load_resume(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
+        """Continue exactly where ``ckpt`` stood (weights, Adam, step, history, stream and torch RNG states)."""
+        from svbrdf.runtime.errors import ModelError
+
+        if ckpt.get("stage") != STAGE or "prior_config" not in ckpt:
+            raise ModelError(f"{source}: not a prior checkpoint (stage {ckpt.get('stage')!r})")
+        if not ckpt.get("optimizers") or not ckpt.get("rng"):
+            raise ModelError(f"{source}: cleaned checkpoint (no optimiser/RNG state); cannot resume")
+        try:
+            self.generator.load_state_dict({k: v.float() if v.is_floating_point() else v
+                                            for k, v in ckpt["generator"].items()})
+            self.optimizer.load_state_dict(ckpt["optimizers"]["g"])
+        except (KeyError, ValueError, RuntimeError) as e:
+            raise ModelError(f"{source}: does not fit this configuration ({str(e).splitlines()[0][:120]})") from None
+        if self.averaged is not None and ckpt.get("generator_ema") is not None:
+            try:
+                self.averaged.module.load_state_dict({k: v.float() if v.is_floating_point() else v
+                                                      for k, v in ckpt["generator_ema"].items()})
+            except (KeyError, ValueError, RuntimeError) as e:
+                first = str(e).splitlines()[0][:120]
+                raise ModelError(f"{source}: its averaged weights do not fit ({first})") from None
+            self.averaged.n_averaged.fill_(int(ckpt.get("ema_updates", 1)))
+        elif self.averaged is not None:  # turned on at this resume: the average starts at the resumed weights
+            self._average()
+        self.step = int(ckpt["step"])
+        self.history = [dict(h) for h in ckpt.get("history", [])]
+        self.evals = [dict(e) for e in ckpt.get("evals", [])]
+        self.seconds = float(ckpt.get("seconds", 0.0))
+        torch.set_rng_state(ckpt["rng"]["torch"])
+        self.rng.set_state(ckpt["rng"]["stream"])
+
+
+def compact(ckpt: Dict[str, Any]) -> Dict[str, Any]:
+    """Shrink a prior checkpoint in place for ``compact_checkpoint``: float32 weights (and their average) -> float16,
+    Adam's moments (``exp_avg``, ``exp_avg_sq``) -> bfloat16 (float16 would flush small second moments to zero).
+    Loading casts them back to the parameters' float32 (``load_state_dict`` of the module and of Adam). About 6 bytes
+    per parameter instead of 12 (8 with the average): the resumed run differs from an uninterrupted one by these
+    roundings only."""
+    for key in ("generator", "generator_ema"):
+        if ckpt.get(key) is not None:
+            ckpt[key] = {k: (v.half() if v.dtype == torch.float32 else v) for k, v in ckpt[key].items()}
+    for opt in (ckpt.get("optimizers") or {}).values():
+        for state in opt["state"].values():
+            for k in ("exp_avg", "exp_avg_sq"):
+                if k in state:
+                    state[k] = state[k].to(torch.bfloat16)
+    ckpt["format_notes"] = "compact: generator float16, Adam moments bfloat16"
+    return ckpt
+
+
+def train_prior(config: PriorConfig, **kw) -> PriorTrainer:
+    """Train a prior from scratch (``kw``: see :class:`PriorTrainer`)."""
+    trainer = PriorTrainer(config, **kw)
+    trainer.run()
+    return trainer
+
+
+def resume_prior(checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optional[int] = None,
+                 **kw) -> PriorTrainer:
+    """Continue a prior run where ``checkpoint`` stood (its settings; ``iters`` may extend it)."""
+    source = checkpoint if not isinstance(checkpoint, Mapping) else "checkpoint"
+    ckpt = ckpt_io.load_checkpoint(checkpoint) if not isinstance(checkpoint, Mapping) else checkpoint
+    cfg = PriorConfig.from_dict(ckpt["prior_config"])
+    if iters is not None:
+        cfg = dataclasses.replace(cfg, iters=int(iters))
+    trainer = PriorTrainer(cfg, **kw)
+    trainer.load_resume(ckpt, source)
+    trainer.run()
+    return trainer
+
+
+__all__ = ["PriorTrainer", "Callback", "compact", "train_prior", "resume_prior"]
