@@ -63,6 +63,11 @@ class _Fail(Exception):
     """A one-line failure reported as ``svbrdf-train: error: ...`` (exit 1)."""
 
 
+#: ``svbrdf-train prior`` flags that change what a run learns: a new ``--recipe`` run takes none of them.
+RECIPE_FIXED = ("iters", "batch", "size", "photo_size", "width", "lr", "seed", "material_reuse", "slope_weight",
+                "ema", "flat_share", "black_share", "coarse_share", "height_activation")
+
+
 def build_parser() -> argparse.ArgumentParser:
     from svbrdf.runtime.choices import TARGETS
     from svbrdf.trainer.config import CLI_PRESETS
@@ -113,9 +118,16 @@ def build_parser() -> argparse.ArgumentParser:
                                    "(every --checkpoint-every iterations, atomic) and train_log.jsonl into --out; "
                                    "Ctrl-C saves and --resume continues exactly.")
     p.add_argument("--out", metavar="DIR", default="prior", help="output folder (default ./prior)")
-    p.add_argument("--preset", choices=("v1", "v2"), default="v1",
-                   help="settings: v1 = the shipped recipe (default); v2 = the U-Net candidate built for a GPU "
-                        "(svbrdf.trainer.prior.PRIOR_PRESETS); the flags below override either")
+    p.add_argument("--preset", choices=("v1", "v2"),
+                   help="starting settings: v1 (default; the first procedural stage one's); v2 = the U-Net settings "
+                        "built for a GPU, as the shipped run started (svbrdf.trainer.prior.PRIOR_PRESETS); the flags "
+                        "below override either")
+    p.add_argument("--recipe", choices=("v2", "v3"),
+                   help="rebuild a stage one as it was trained: its starting settings and every setting changed on "
+                        "the way, each applied at its iteration (svbrdf.trainer.prior.recipes): v2 = the shipped "
+                        "model (20000 iterations), v3 = the candidate (26000); --resume continues it. Only how the "
+                        "run is kept (--checkpoint-every, --eval-every, --log-every, --minutes, --device, --threads, "
+                        "--compile) may be given with it")
     p.add_argument("--iters", type=int, help="iterations (default 5000; with --resume: the new total)")
     p.add_argument("--batch", type=int, help="materials per iteration (default 8)")
     p.add_argument("--size", type=int, help="training image side in px (default 128)")
@@ -248,6 +260,12 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     ckpt_path = out / CHECKPOINT
     if args.resume and args.force:
         parser.error("--resume and --force exclude each other")
+    if args.recipe and args.preset:
+        parser.error("--recipe and --preset exclude each other (a recipe has its own starting settings)")
+    learned = [f for f in RECIPE_FIXED if getattr(args, f) is not None]
+    if args.recipe and learned and not args.resume:
+        parser.error(f"--recipe {args.recipe} fixes what the run learns; leave out "
+                     f"--{', --'.join(f.replace('_', '-') for f in learned)}")
     for flag in ("iters", "batch", "size", "photo_size", "checkpoint_every", "log_every", "material_reuse"):
         v = getattr(args, flag)
         if v is not None and v < 1:
@@ -309,8 +327,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                 f"{args.coarse_share:g} from here on")
             config.coarse_share = args.coarse_share
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
-        if args.preset != "v1":
-            ignored.append("preset")
+        ignored += [f for f in ("preset", "recipe") if getattr(args, f) is not None]
         if ignored:
             log(f"note: --{', --'.join(ignored)} ignored with --resume (the settings come from the checkpoint)")
         if out.exists() and not out.is_dir():
@@ -318,6 +335,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         out.mkdir(parents=True, exist_ok=True)
         trainer = PriorTrainer(config, **kw)
         trainer.load_resume(ckpt, source)
+        if trainer.recipe is not None:
+            log(f"recipe {trainer.recipe['name']}: its changes still to come are applied at their iterations")
         log(f"resuming {source} at iteration {trainer.step}/{config.iters}"
             + ("" if source == ckpt_path else f"; saving into {ckpt_path}"))
         was = config.generator.height_activation
@@ -340,35 +359,42 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                 if getattr(args, k) is not None}
         if args.slope_weight is not None:
             over["lambda_slope"] = args.slope_weight
+        chosen = None
         try:
-            from svbrdf.trainer.prior import prior_preset
+            if args.recipe:  # what it learns is the recipe's (the flags that change it were refused above)
+                from svbrdf.trainer.prior.recipes import recipe
 
-            config = prior_preset(args.preset)
-            gen = {k: v for k, v in (("width", args.width), ("height_activation", args.height_activation))
-                   if v is not None}
-            if gen:
-                over["generator"] = dataclasses.replace(config.generator, **gen)
-            if args.ema is not None:
-                over["ema"] = args.ema
-            if args.flat_share is not None:
-                over["flat_share"] = args.flat_share
-            if args.black_share is not None:
-                over["black_share"] = args.black_share
-            if args.coarse_share is not None:
-                over["coarse_share"] = args.coarse_share
-            config = dataclasses.replace(config, **over)
+                chosen = recipe(args.recipe)
+                config = dataclasses.replace(chosen.config_at(0), **over)
+            else:
+                from svbrdf.trainer.prior import prior_preset
+
+                config = prior_preset(args.preset or "v1")
+                gen = {k: v for k, v in (("width", args.width), ("height_activation", args.height_activation))
+                       if v is not None}
+                if gen:
+                    over["generator"] = dataclasses.replace(config.generator, **gen)
+                for flag in ("ema", "flat_share", "black_share", "coarse_share"):
+                    if getattr(args, flag) is not None:
+                        over[flag] = getattr(args, flag)
+                config = dataclasses.replace(config, **over)
         except ValueError as e:
             parser.error(str(e))
         out.mkdir(parents=True, exist_ok=True)
-        trainer = PriorTrainer(config, **kw)
+        trainer = PriorTrainer(config, recipe=chosen, **kw)
+    trainer.say = log
     c = trainer.config
-    log(f"prior: {c.iters} iterations of {c.batch} procedural materials at {c.size} px, device {trainer.device}, "
+    end = c.iters
+    if trainer.recipe is not None:  # the length its last change gives the schedule
+        end = next((int(s["iters"]) for _, s in reversed(trainer.recipe["changes"]) if "iters" in s), end)
+        log(f"recipe {trainer.recipe['name']}: {len(trainer.recipe['changes'])} changes of its settings along the run")
+    log(f"prior: {end} iterations of {c.batch} procedural materials at {c.size} px, device {trainer.device}, "
         f"generator {c.generator.arch}, bf16 {trainer.bf16}, out {out}"
         + ("" if args.minutes is None else f", stopping after {args.minutes:g} min"))
     if trainer.bf16_note:
         log(f"note: {trainer.bf16_note}")
     state = {"said": time.perf_counter()}
-    bar = Progress(c.iters, "prior", quiet=args.quiet, initial=trainer.step)
+    bar = Progress(end, "prior", quiet=args.quiet, initial=trainer.step)
 
     def progress(tr, rec) -> bool:
         bar.update(rec["step"], **loss_postfix(rec))
@@ -378,7 +404,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         if "s_per_iter" in rec and time.perf_counter() - state["said"] >= SPEED_LINE_SECONDS:
             state["said"] = time.perf_counter()
             total = "nan" if rec.get("total") is None else f"{rec['total']:.4f}"
-            log(f"it {rec['step']}/{c.iters}: {rec['s_per_iter']:.4f} s/it ({rec['data_seconds']:.4f} s data), "
+            log(f"it {rec['step']}/{tr.config.iters}: {rec['s_per_iter']:.4f} s/it ({rec['data_seconds']:.4f} s data), "
                 f"{rec['samples']} samples seen, loss {total}, lr {rec['lr']:.2e}")
         if "eval" in rec:
             ev = rec["eval"]
@@ -403,12 +429,12 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         restore()
     bar.close()
     if trainer.interrupted:
-        print(f"{PROG}: interrupted at iteration {trainer.step}/{c.iters}; checkpoint saved to {ckpt_path}; "
+        print(f"{PROG}: interrupted at iteration {trainer.step}/{trainer.config.iters}; checkpoint saved to {ckpt_path}; "
               f"resume with: {resume_cmd}", file=sys.stderr)
         return 130
     if trainer.timed_out:
         size = ckpt_path.stat().st_size / 2 ** 20
-        log(f"time limit: stopped at iteration {trainer.step}/{c.iters} ({trainer.step * c.batch} samples, "
+        log(f"time limit: stopped at iteration {trainer.step}/{trainer.config.iters} ({trainer.step * c.batch} samples, "
             f"{trainer.seconds:.0f} s of training in all); checkpoint {ckpt_path} ({size:.2f} MiB); "
             f"resume with: {resume_cmd}")
         return 0

@@ -8,6 +8,7 @@ import shutil
 import subprocess
 import sys
 from pathlib import Path
+from typing import Optional
 
 import pytest
 
@@ -22,19 +23,27 @@ pytestmark = pytest.mark.skipif(shutil.which("bash") is None or shutil.which("ti
                                 reason="needs bash and timeout")
 
 
-def call(tmp_path: Path, out: str, resume: Path, *extra: str, preflight: str = "0") -> subprocess.CompletedProcess:
-    env = {**os.environ, "OUT": str(tmp_path / out), "RESUME": str(resume), "RUN": str(tmp_path / "run"),
+def call(tmp_path: Path, out: str, resume: Optional[Path], *extra: str, preflight: str = "0",
+         start: Optional[str] = None) -> subprocess.CompletedProcess:
+    env = {**os.environ, "OUT": str(tmp_path / out), "RUN": str(tmp_path / "run"),
            "PYTHON": sys.executable, "PREFLIGHT": preflight, "MINUTES": "5", "OMP_NUM_THREADS": "1",
            "WHEELS": str(tmp_path / "no-wheels")}  # not a local .whl/ (the device's wheels, for another Python)
+    env.pop("RESUME", None), env.pop("START", None)
+    if resume is not None:
+        env["RESUME"] = str(resume)
+    if start is not None:
+        env["START"] = start
     return subprocess.run(["bash", str(SCRIPT), *extra], cwd=ROOT, env=env, capture_output=True, text=True,
                           timeout=300)
 
 
 def test_a_chunk_returns_its_checkpoint_and_log_and_the_next_call_resumes_it(tmp_path):
-    resume = tmp_path / "resume.pt"  # the committed file: absent before the first chunk
-    first = call(tmp_path, "out1", resume, *TINY, "--iters", "3", preflight="1")
+    resume = tmp_path / "resume.pt"  # what the first chunk returns: absent before it
+    missing = call(tmp_path, "out0", resume, *TINY, "--iters", "3")
+    assert missing.returncode == 2 and "no such checkpoint" in missing.stdout and "Traceback" not in missing.stderr
+    first = call(tmp_path, "out1", None, *TINY, "--iters", "3", preflight="1", start="--preset v2")
     assert first.returncode == 0, first.stdout + first.stderr
-    assert "starting --preset v2" in first.stdout and "exit status 0" in first.stdout
+    assert "no RESUME: starting --preset v2" in first.stdout and "exit status 0" in first.stdout
     assert sorted(p.name for p in (tmp_path / "out1").iterdir()) == ["console.txt", "resume.pt", "train_log.jsonl"]
     assert (tmp_path / "out1" / "resume.pt").stat().st_size < 16 * 2 ** 20
     assert ckpt_io.load_checkpoint(tmp_path / "out1" / "resume.pt")["step"] == 3
@@ -69,3 +78,10 @@ def test_the_working_tree_a_device_call_sends_stays_under_its_limit():
         f"the working tree is {total:.1f} MiB: a GPU device call sends at most 64 MiB (guarded at {TREE_BUDGET_MIB}); "
         f"gzip raw records (svbrdf-bench --report reads results.json.gz) or drop superseded artefacts; "
         f"largest: {biggest}")
+
+
+def test_without_resume_a_chunk_starts_the_shipped_recipe(tmp_path):
+    """The default start is ``--recipe v2``; it fixes what the run learns, so the tiny flags are refused at once."""
+    got = call(tmp_path, "out", None, "--size", "32")
+    assert "no RESUME: starting --recipe v2" in got.stdout and got.returncode == 2
+    assert "--recipe v2 fixes what the run learns; leave out --size" in got.stdout + got.stderr

@@ -26,8 +26,14 @@ on the training device (:func:`simulate_photos_batched`, :func:`svbrdf.trainer.c
 runs the generator under bfloat16 autocast, ``log_every`` averages the log over that many iterations (one read-back
 per record), and ``compact_checkpoint`` stores weights in float16 and Adam's moments in bfloat16.
 :meth:`PriorTrainer.run` takes a wall-clock limit (``max_seconds``) after which it saves and stops; the next run
-resumes the checkpoint on any device. :data:`PRIOR_PRESETS` names the settings: ``v1`` (the shipped recipe) and
-``v2`` (the U-Net candidate with all of the above, for a GPU).
+resumes the checkpoint on any device. :data:`PRIOR_PRESETS` names starting settings: ``v1`` (the first procedural
+stage one's) and ``v2`` (the U-Net with all of the above, for a GPU, as the shipped run started);
+:data:`svbrdf.trainer.prior.recipes.RECIPES` are the shipped runs as trained (``v2``: the settings it changed
+along the way, each at its iteration).
+
+Modules: :mod:`~svbrdf.trainer.prior.config` (:class:`PriorConfig`), :mod:`~svbrdf.trainer.prior.photos` (the
+stream of materials and photos), :mod:`~svbrdf.trainer.prior.loss`, :mod:`~svbrdf.trainer.prior.trainer`
+(:class:`PriorTrainer`), :mod:`~svbrdf.trainer.prior.presets`, :mod:`~svbrdf.trainer.prior.recipes`.
 
 Weight averaging (``ema`` > 0): beside the weights it trains, the trainer keeps an exponential moving average of
 them (:class:`torch.optim.swa_utils.AveragedModel`, updated after every optimiser step); that average is the model:

@@ -8,8 +8,8 @@ from svbrdf.trainer.models import GeneratorConfig
 from svbrdf.trainer.prior.config import PriorConfig
 
 
-#: Named prior settings (``svbrdf-train prior --preset``): ``v1`` is the shipped recipe (the defaults); ``v2`` the
-#: GPU recipe of issue 26: the U-Net candidate (``arch="unet"``, 4 levels, width 0.25: 0.71 M parameters), batches
+#: Named prior settings (``svbrdf-train prior --preset``): ``v1`` is the first procedural stage one's (the defaults);
+#: ``v2`` the GPU settings of issue 26 (the shipped run's start; the run itself: ``RECIPES["v2"]``, recipes.py): the U-Net candidate (``arch="unet"``, 4 levels, width 0.25: 0.71 M parameters), batches
 #: of 32 built on the device, 256 px photos (crops of 512 px ones), bf16, relighting under 3 point lights and 6
 #: random views and lights (half of them grazing), the detail term, one log record per 50 iterations, compact
 #: checkpoints (about 4.3 MB). ``iters`` is the length of its cosine schedule (extend it with ``--iters`` on resume).

@@ -17,6 +17,7 @@ from svbrdf.trainer.models import Generator, linearise_height
 from svbrdf.trainer.prior.config import STAGE, PriorConfig
 from svbrdf.trainer.prior.loss import CompiledRelit, map_errors, prior_loss, relit_pair
 from svbrdf.trainer.prior.photos import draw_materials, photograph, sample_batch
+from svbrdf.trainer.prior.recipes import HEIGHT, Recipe, apply_settings, pending
 
 PathLike = Union[str, Path]
 #: Callback ``(trainer, record) -> stop?`` called after every iteration.
@@ -35,11 +36,15 @@ class PriorTrainer:
         callback: :data:`Callback`.
         compile: compare the relit renderings through :class:`CompiledRelit` (faster on a CPU; same loss to float
             rounding).
+        recipe: settings to change along the run (a :class:`~svbrdf.trainer.prior.recipes.Recipe`, or its
+            checkpoint record): :meth:`run` applies each change when ``step`` reaches its iteration (:meth:`apply`),
+            the checkpoint keeps the record and a resume goes on with it. ``config`` is then the recipe's start.
     """
 
     def __init__(self, config: PriorConfig, *, device: Optional[str] = None, threads: Optional[int] = None,
                  checkpoint_path: Optional[PathLike] = None, log_path: Optional[PathLike] = None,
-                 callback: Optional[Callback] = None, compile: bool = False):
+                 callback: Optional[Callback] = None, compile: bool = False,
+                 recipe: Optional[Union[Recipe, Mapping[str, Any]]] = None):
         config.validate()
         self.config = config
         self.device = pick_device(device)
@@ -72,6 +77,11 @@ class PriorTrainer:
         self._materials: Optional[Tuple[torch.Tensor, List[str], bool]] = None
         self.averaged: Optional[torch.optim.swa_utils.AveragedModel] = None
         self._average()
+        #: The recipe's record (:meth:`~svbrdf.trainer.prior.recipes.Recipe.to_record`) or None.
+        self.recipe: Optional[Dict[str, Any]] = (recipe.to_record() if isinstance(recipe, Recipe)
+                                                 else None if recipe is None else dict(recipe))
+        #: Called with a line for every change :meth:`apply` makes (the CLI prints them).
+        self.say: Callable[[str], None] = lambda line: None
 
     def _average(self) -> None:
         """(Re)start the weights' moving average at the current weights (``config.ema`` > 0), else none."""
@@ -183,6 +193,43 @@ class PriorTrainer:
         self.model.eval()
         return map_errors(self.model(photos), maps)
 
+    def apply(self, settings: Mapping[str, Any]) -> List[str]:
+        """Change settings mid-run as a resume with the matching flags does (``{PriorConfig field: value}``, or
+        ``"height_activation": "linear"``: :meth:`linearise_height`); a setting already at its value is left alone.
+        Turning ``ema`` on starts the average at the current weights; after any change the next iteration draws new
+        materials (as a resume does). Returns one line per change made.
+
+        Raises:
+            ValueError: an unknown setting, an invalid value, or a linear height made tanh again.
+        """
+        lines = []
+        for key, value in settings.items():
+            was = self.config.generator.height_activation if key == HEIGHT else getattr(self.config, key, None)
+            if was == value:
+                continue
+            if key == HEIGHT:
+                if (was, value) != ("tanh", "linear"):
+                    raise ValueError(f"height_activation {was!r} cannot become {value!r}")
+                k = self.linearise_height()
+                lines.append(f"height: tanh -> linear at iteration {self.step} (the height layer scaled by {k:.4f})")
+                continue
+            self.config = apply_settings(self.config, {key: value})
+            if key == "ema":
+                self._average()
+            lines.append(f"{key}: {was} -> {value} at iteration {self.step}")
+        if lines:
+            self._materials = None
+        return lines
+
+    def _apply_due(self) -> None:
+        """Apply the recipe's changes at the current ``step`` (:meth:`apply`)."""
+        if self.recipe is None:
+            return
+        for it, settings in pending(self.recipe, self.step):
+            if it == self.step:
+                for line in self.apply(settings):
+                    self.say(line)
+
     def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
         """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback.
 
@@ -192,15 +239,20 @@ class PriorTrainer:
                 record, saves its checkpoint and stops with ``timed_out`` set; a later ``resume`` continues the
                 same schedule. Log records fall on multiples of ``log_every``, so a resumed run realigns its
                 records after a short one.
+
+        A recipe's changes (``recipe``) are applied before the iteration after the one they name.
         """
-        c = self.config
         log = None if self.log_path is None else open(self.log_path, "a", encoding="utf-8")
         start = time.perf_counter()
         self.timed_out = False
         window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]] = []
         window_start = time.perf_counter()
         try:
-            while self.step < c.iters:
+            while True:
+                self._apply_due()
+                c = self.config
+                if self.step >= c.iters:
+                    break
                 if c.log_every == 1:
                     rec = self.iteration()
                 else:
@@ -258,6 +310,9 @@ class PriorTrainer:
         ckpt["prior_config"] = self.config.to_dict()
         ckpt["evals"] = [dict(e) for e in self.evals]
         ckpt["seconds"] = float(self.seconds)
+        if self.recipe is not None:
+            ckpt["recipe"] = {"name": self.recipe["name"], "changes": [[int(it), dict(s)] for it, s in
+                                                                       self.recipe["changes"]]}
         if self.averaged is not None:
             ckpt["generator_ema"] = {k: v.detach().float().cpu().clone() if v.is_floating_point() else v.cpu().clone()
                                      for k, v in self.averaged.module.state_dict().items()}
@@ -312,6 +367,8 @@ class PriorTrainer:
         self.seconds = float(ckpt.get("seconds", 0.0))
         torch.set_rng_state(ckpt["rng"]["torch"])
         self.rng.set_state(ckpt["rng"]["stream"])
+        if ckpt.get("recipe") is not None:
+            self.recipe = {"name": str(ckpt["recipe"]["name"]), "changes": list(ckpt["recipe"]["changes"])}
 
 
 def compact(ckpt: Dict[str, Any]) -> Dict[str, Any]:

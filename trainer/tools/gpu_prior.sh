@@ -7,21 +7,23 @@
 #    the package; the prior's path needs torch, numpy and tqdm only: no kornia, no OpenImageIO); installs wheels
 #    from .whl/ first if that folder was carried (not needed by the prior);
 # 2. preflight: CUDA, bf16, and how many host synchronisations one batch of the on-device stream causes;
-# 3. trains for $MINUTES minutes: resumes $RESUME when it exists (the committed checkpoint of the last chunk), else
-#    starts `--preset v2`; the run saves into $RUN and stops cleanly at the limit;
+# 3. trains for $MINUTES minutes: resumes $RESUME when it is set (the checkpoint the last chunk returned; it must
+#    exist), else starts a new run with $START (default `--recipe v2`: the shipped stage one's recipe,
+#    svbrdf.trainer.prior.recipes); the run saves into $RUN and stops cleanly at the limit;
 # 4. copies the resume checkpoint ($OUT/resume.pt, < 16 MiB), this chunk's log ($OUT/train_log.jsonl) and the
 #    console output ($OUT/console.txt) into $OUT.
 #
-# Environment (all optional): MINUTES (default 8), RESUME (default docs/benchmarks/prior-v2/resume.pt), RUN
-# (default runs/prior_v2), PYTHON (default python3), PREFLIGHT (default 1), LIMIT_S (default 570: seconds from the
-# script's start after which the training is killed, inside the device tool's 600 s). Extra arguments go to
-# `svbrdf-train prior` (e.g. --iters 60000 to re-spread the schedule, --device cpu for a dry run).
-# How to call it through the device tool and commit what comes back: docs/benchmarks/prior-v2/README.md.
+# Environment (all optional): MINUTES (default 8), RESUME (default none: a new run), START (default
+# "--recipe v2"; e.g. "--recipe v3" or "--preset v2"), RUN (default runs/prior_v2), PYTHON (default python3),
+# PREFLIGHT (default 1), LIMIT_S (default 570: seconds from the script's start after which the training is killed,
+# inside the device tool's 600 s). Extra arguments go to `svbrdf-train prior` (e.g. --device cpu for a dry run).
+# Chunk by chunk: the first call without RESUME, each next one with RESUME= the resume.pt the last one returned.
 set -uo pipefail
 
 : "${OUT:?set OUT to the folder that receives the checkpoint and the logs}"
 MINUTES="${MINUTES:-8}"
-RESUME="${RESUME:-docs/benchmarks/prior-v2/resume.pt}"
+RESUME="${RESUME:-}"
+START="${START:---recipe v2}"
 RUN="${RUN:-runs/prior_v2}"
 PYTHON="${PYTHON:-python3}"
 PREFLIGHT="${PREFLIGHT:-1}"
@@ -94,12 +96,14 @@ args=(prior --out "$RUN" --minutes "$MINUTES")
 # A warm machine keeps ignored folders such as runs/ between calls: clear the last call's checkpoint and log, so
 # that $OUT gets this chunk's records only, and never a stale checkpoint when this chunk fails before saving.
 rm -f "$RUN/checkpoint.pt" "$RUN/train_log.jsonl"
-if [ -f "$RESUME" ]; then
+if [ -n "$RESUME" ]; then
+    if [ ! -f "$RESUME" ]; then say "error: RESUME=$RESUME: no such checkpoint (leave RESUME unset to start anew)"; exit 2; fi
     args+=(--resume "$RESUME")
     say "resuming $RESUME for $MINUTES min"
 else
-    args+=(--preset v2 --force)
-    say "no $RESUME: starting --preset v2 for $MINUTES min"
+    read -r -a start <<< "$START"
+    args+=("${start[@]}" --force)
+    say "no RESUME: starting $START for $MINUTES min"
 fi
 # A hard stop well inside the device tool's 600 s, in case an iteration is far slower than expected: the
 # training stops itself at MINUTES (checked every iteration), this only catches a hang; a killed run still

@@ -1,0 +1,180 @@
+"""The stage ones as they were trained: a starting :class:`PriorConfig` and the settings changed on the way, as data.
+
+The shipped v2 stage one (``models/svbrdf_prior_v2.*``) was trained in resumable chunks, and settings were switched
+on between chunks (each by a ``svbrdf-train prior --resume`` flag); no preset records that. A :class:`Recipe` does:
+``svbrdf-train prior --recipe v2 --out DIR`` starts it and :class:`~svbrdf.trainer.prior.trainer.PriorTrainer`
+applies each change when the run reaches its iteration, as those resumes did (``--resume`` continues it). A rebuild
+is seeded but not bit-identical: the shipped run changed devices (H100, H200, CPU), threads and code along the way.
+
+Where each change of :data:`RECIPES` comes from (``docs/benchmarks/prior-v2/chunks/``: the chunk READMEs' commands
+and the consoles' ``resuming ... at iteration N`` / ``note: ...`` lines; the checkpoints' ``prior_config`` and
+``history``):
+
+========= ====================================== ==========================================================
+iteration setting                                source
+========= ====================================== ==========================================================
+0         ``PRIOR_PRESETS["v2"]`` with the tanh   chunk 1 ("starting --preset v2"); the preset's linear
+          height                                 height came after the run started (commit 5cc5d9a)
+1392      ``material_reuse`` 5                    chunk 2 (``--material-reuse 5``)
+3336      ``iters`` 40000 -> 20000                chunk 3 (``--iters 20000``); the logged learning rate
+                                                 follows the 40000 cosine to 3336, the 20000 one after
+4964      ``height_activation`` linear            chunk 5 (``--height-activation linear``: the tanh
+                                                 height converted where it stands)
+5362      ``lambda_slope`` 1                      chunk 5 (``--slope-weight 1``)
+6110      ``ema`` 0.995                           chunk 6 (``--ema 0.995``)
+7174      ``flat_share`` 0.1                      chunk 7 (``--flat-share 0.1``)
+18589     ``black_share`` 0.05                    chunk 12 (``--black-share 0.05``); ends at 20000 (shipped)
+20000     ``iters`` 21000                         v3 only: chunks 14-15 (``--iters 21000``)
+21000     ``iters`` 26000, ``coarse_share`` 0.3   v3 only: /work/shared/checkpoints/prior-v3-coarse/README.md
+========= ====================================== ==========================================================
+
+How the run is kept (``checkpoint_every``, ``eval_every``, ``log_every``), the device, the threads and
+``--compile`` changed too; they do not change what is learned and are not part of a recipe (:data:`BOOKKEEPING`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+from typing import Any, Callable, Dict, List, Mapping, Tuple
+
+from svbrdf.trainer.prior.config import PriorConfig
+from svbrdf.trainer.prior.presets import prior_preset
+
+#: One change: ``(iteration, {setting: value})``, applied when a run has done ``iteration`` iterations.
+Change = Tuple[int, Mapping[str, Any]]
+
+#: Settings that say how a run is kept, not what it learns: a recipe leaves them to the command line.
+BOOKKEEPING = frozenset({"checkpoint_every", "eval_every", "log_every"})
+
+#: The change that is an operation on the weights, not a plain setting: the generator's height made linear where it
+#: stands (:meth:`~svbrdf.trainer.prior.trainer.PriorTrainer.linearise_height`).
+HEIGHT = "height_activation"
+
+
+def apply_settings(config: PriorConfig, settings: Mapping[str, Any]) -> PriorConfig:
+    """``config`` with ``settings`` ({:class:`PriorConfig` field or ``"height_activation"``: value}) applied (a new
+    config; the weights are not touched here).
+
+    Raises:
+        ValueError: an unknown setting or an invalid value.
+    """
+    names = {f.name for f in dataclasses.fields(PriorConfig)}
+    unknown = sorted(set(settings) - names - {HEIGHT})
+    if unknown:
+        raise ValueError(f"unknown prior settings: {', '.join(unknown)}")
+    plain = {k: v for k, v in settings.items() if k != HEIGHT}
+    if HEIGHT in settings:
+        plain["generator"] = dataclasses.replace(config.generator, height_activation=settings[HEIGHT])
+    return dataclasses.replace(config, **plain)
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """A prior run as it was trained.
+
+    Attributes:
+        name: the recipe's name (``svbrdf-train prior --recipe NAME``).
+        base: makes the settings the run starts from.
+        changes: ``(iteration, {setting: value})`` in increasing iteration order, iterations >= 1: applied when the
+            run has done ``iteration`` iterations, before the next one. Settings are :class:`PriorConfig` fields,
+            or ``"height_activation": "linear"`` (converts the generator's height where it stands).
+        about: one line for ``--help``.
+    """
+
+    name: str
+    base: Callable[[], PriorConfig]
+    changes: Tuple[Change, ...] = ()
+    about: str = ""
+
+    def __post_init__(self) -> None:
+        its = [it for it, _ in self.changes]
+        if any(it < 1 for it in its) or its != sorted(set(its)):
+            raise ValueError(f"recipe {self.name!r}: change iterations must be >= 1 and increasing, got {its}")
+        for it, settings in self.changes:
+            if set(settings) & BOOKKEEPING:
+                raise ValueError(f"recipe {self.name!r}: {sorted(set(settings) & BOOKKEEPING)} at {it} are not "
+                                 "recipe settings")
+            apply_settings(self.base(), settings)  # names and values checked once
+
+    def config_at(self, step: int) -> PriorConfig:
+        """The settings of the iteration after ``step`` iterations: the base with every change at or before
+        ``step`` applied."""
+        config = self.base()
+        for it, settings in self.changes:
+            if it <= step:
+                config = apply_settings(config, settings)
+        return config
+
+    @property
+    def end(self) -> int:
+        """The iteration the recipe ends at: its last ``iters``."""
+        return self.config_at(max([0] + [it for it, _ in self.changes])).iters
+
+    def scaled(self, factor: float, **overrides: Any) -> "Recipe":
+        """The same schedule at ``factor`` times the iterations (each change's iteration and every ``iters``,
+        rounded, at least 1 apart), on a base with ``overrides`` ({:class:`PriorConfig` field: value}): a recipe
+        small enough for a test or a dry run."""
+        base = self.base
+
+        def scaled_base() -> PriorConfig:
+            config = base()
+            return dataclasses.replace(config, iters=max(1, round(config.iters * factor)), **overrides)
+
+        changes: List[Change] = []
+        for it, settings in self.changes:
+            at = max(round(it * factor), changes[-1][0] + 1 if changes else 1)
+            settings = {k: (max(1, round(v * factor)) if k == "iters" else v) for k, v in settings.items()}
+            changes.append((at, settings))
+        return Recipe(self.name, scaled_base, tuple(changes), self.about)
+
+    def to_record(self) -> Dict[str, Any]:
+        """JSON-safe ``{"name", "changes": [[iteration, {setting: value}], ...]}``, what a checkpoint keeps so that
+        a resume applies the changes still to come."""
+        return {"name": self.name, "changes": [[it, dict(s)] for it, s in self.changes]}
+
+
+def pending(record: Mapping[str, Any], step: int) -> List[Change]:
+    """The changes of a checkpoint's recipe record (:meth:`Recipe.to_record`) still to apply after ``step``
+    iterations: those at ``step`` or later."""
+    return [(int(it), dict(s)) for it, s in record.get("changes", []) if int(it) >= step]
+
+
+def _v2_start() -> PriorConfig:
+    """``PRIOR_PRESETS["v2"]`` as the run started with it: a tanh height (made linear at 4964)."""
+    config = prior_preset("v2")
+    return dataclasses.replace(config, generator=dataclasses.replace(config.generator, height_activation="tanh"))
+
+
+_V2_CHANGES: Tuple[Change, ...] = (
+    (1392, {"material_reuse": 5}),
+    (3336, {"iters": 20000}),
+    (4964, {HEIGHT: "linear"}),
+    (5362, {"lambda_slope": 1.0}),
+    (6110, {"ema": 0.995}),
+    (7174, {"flat_share": 0.1}),
+    (18589, {"black_share": 0.05}),
+)
+
+#: The recipes by name (see the module docstring for where each change comes from).
+RECIPES: Dict[str, Recipe] = {
+    "v2": Recipe("v2", _v2_start, _V2_CHANGES,
+                 "the shipped stage one (models/svbrdf_prior_v2): 20000 iterations of 32 materials at 256 px"),
+    "v3": Recipe("v3", _v2_start, _V2_CHANGES + ((20000, {"iters": 21000}), (21000, {"iters": 26000,
+                                                                                       "coarse_share": 0.3})),
+                 "the v3 candidate: v2 continued to 21000, then to 26000 with a coarse relief on 30 % of the materials"),
+}
+
+
+def recipe(name: str) -> Recipe:
+    """:data:`RECIPES` ``name``.
+
+    Raises:
+        ValueError: an unknown name (the known ones listed).
+    """
+    if name not in RECIPES:
+        raise ValueError(f"unknown prior recipe {name!r}; expected one of {', '.join(RECIPES)}")
+    return RECIPES[name]
+
+
+__all__ = ["Recipe", "RECIPES", "recipe", "apply_settings", "pending", "BOOKKEEPING", "Change"]
