@@ -1,0 +1,281 @@
+"""runtime.relief: height from normals (analytic fields recovered, slopes agree, across the wrap too), ambient
+occlusion (flat = 1, pits darker than plateaus, follows the hollows, a V-groove against its closed form), input
+errors, tiny and odd-sized maps."""
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.errors import SvbrdfError
+from svbrdf.runtime.relief import (
+    AO_RADIUS, ambient_occlusion, denormalise, height_from_normals, normal_slopes, normalise, slope_correlation,
+)
+
+
+def _normals(dh_dcol: np.ndarray, dh_drow: np.ndarray) -> np.ndarray:
+    """Unit OpenGL normals of a height (pixel units) with the given derivatives along columns (right) and rows
+    (down): the slope up the image is -dh/drow, so n ~ (-dh/dcol, +dh/drow, 1)."""
+    n = np.stack([-dh_dcol, dh_drow, np.ones_like(dh_dcol)], axis=-1)
+    return (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32)
+
+
+def _sines(h=96, w=128):
+    """A periodic sum of sines (pixel units, amplitude a few px) and its analytic normals."""
+    i, j = np.mgrid[0:h, 0:w].astype(np.float64)
+    a, b = 2 * np.pi / w, 2 * np.pi / h
+    hp = 3 * np.sin(2 * a * j) * np.cos(b * i) + 2 * np.cos(3 * b * i) + 1.5 * np.sin(a * j + 2 * b * i)
+    dc = 6 * a * np.cos(2 * a * j) * np.cos(b * i) + 1.5 * a * np.cos(a * j + 2 * b * i)
+    dr = -3 * b * np.sin(2 * a * j) * np.sin(b * i) - 6 * b * np.sin(3 * b * i) + 3 * b * np.cos(a * j + 2 * b * i)
+    return hp, _normals(dc, dr)
+
+
+def _bump(h=80, w=112):
+    """A non-periodic field: an off-centre Gaussian bump on a tilted plane (pixel units), and its normals."""
+    i, j = np.mgrid[0:h, 0:w].astype(np.float64)
+    g = np.exp(-((j - 70) ** 2 + (i - 30) ** 2) / (2 * 12.0 ** 2))
+    hp = 8 * g + 0.05 * j - 0.08 * i
+    dc = 8 * g * (-(j - 70) / 12.0 ** 2) + 0.05
+    dr = 8 * g * (-(i - 30) / 12.0 ** 2) - 0.08
+    return hp, _normals(dc, dr)
+
+
+def _blur(a: np.ndarray, sigma: float) -> np.ndarray:
+    """Periodic Gaussian blur by FFT."""
+    fy = np.fft.fftfreq(a.shape[0])[:, None]
+    fx = np.fft.rfftfreq(a.shape[1])[None, :]
+    return np.fft.irfft2(np.fft.rfft2(a) * np.exp(-2 * (np.pi * sigma) ** 2 * (fx ** 2 + fy ** 2)), s=a.shape)
+
+
+def _corr(a, b):
+    a = np.ravel(a) - np.mean(a)
+    b = np.ravel(b) - np.mean(b)
+    return float(a @ b / np.sqrt((a @ a) * (b @ b)))
+
+
+# ------------------------------------------------------------------------------------------------ height
+
+@pytest.mark.parametrize("tileable", [True, False])
+def test_periodic_sines_recovered_up_to_a_constant(tileable):
+    hp, n = _sines()
+    w = hp.shape[1]
+    height, scale = height_from_normals(n, tileable=tileable)
+    assert height.dtype == np.float32 and height.shape == hp.shape
+    assert abs(float(height.mean())) < 1e-7  # mean level removed
+    err_px = np.abs(height * w - (hp - hp.mean())).max()
+    # amplitude ~6.5 px; the pair-averaged slopes' discretisation error is ~1e-3 relative at 32+ px per period
+    assert err_px < 0.03, err_px
+    assert scale == pytest.approx(2 * np.abs(height).max())
+    c = slope_correlation(height, n, tileable=tileable)
+    assert min(c["x"], c["y"]) > 0.999
+    if tileable:
+        assert min(c["wrap_x"], c["wrap_y"]) > 0.999
+
+
+def test_non_periodic_bump_on_a_tilted_plane():
+    hp, n = _bump()
+    w = hp.shape[1]
+    height, _ = height_from_normals(n)  # Neumann: the tilt is kept, nothing wraps
+    err_px = np.abs(height * w - (hp - hp.mean())).max()
+    assert err_px < 0.05, err_px  # range ~14 px
+    c = slope_correlation(height, n)
+    assert min(c["x"], c["y"]) > 0.999
+    # a periodic solve of the same map has to drop the tilt and bend the bump: visibly worse, but still integrates
+    periodic, _ = height_from_normals(n, tileable=True)
+    assert np.abs(periodic * w - (hp - hp.mean())).max() > 10 * err_px
+
+
+def test_units_width_and_normalised_map():
+    """Heights are in map widths: the same material at twice the resolution (the same normals, sampled twice as
+    densely: slopes are rise over run, resolution-free) gets the same heights and scale."""
+    hp, n = _sines(64, 64)
+    height, scale = height_from_normals(n, tileable=True)
+    i, j = np.mgrid[0:128, 0:128] / 2.0  # the 64-px field's coordinates, twice as dense
+    a, b = 2 * np.pi / 64, 2 * np.pi / 64
+    dc = (6 * a * np.cos(2 * a * j) * np.cos(b * i) + 1.5 * a * np.cos(a * j + 2 * b * i))
+    dr = (-3 * b * np.sin(2 * a * j) * np.sin(b * i) - 6 * b * np.sin(3 * b * i) + 3 * b * np.cos(a * j + 2 * b * i))
+    height2, scale2 = height_from_normals(_normals(dc, dr), tileable=True)  # derivatives per 64-px pixel
+    assert scale2 == pytest.approx(scale, rel=0.01)
+    assert np.abs(height2[::2, ::2] - height).max() < 0.01 * scale
+    h01, s = normalise(height)
+    assert s == pytest.approx(scale) and h01.dtype == np.float32
+    assert 0.0 <= h01.min() and h01.max() <= 1.0 and max(h01.max() - 0.5, 0.5 - h01.min()) == pytest.approx(0.5)
+    assert float(h01.mean()) == pytest.approx(0.5, abs=1e-6)  # mid-grey = the mean level
+    assert np.abs(denormalise(h01, s) - height).max() < 1e-6
+
+
+def test_flat_normal_map_gives_flat_height_and_open_ao():
+    n = np.zeros((33, 47, 3), np.float32)
+    n[..., 2] = 1
+    for tileable in (False, True):
+        height, scale = height_from_normals(n, tileable=tileable)
+        assert np.all(height == 0) and scale == 0.0
+        h01, s = normalise(height)
+        assert np.all(h01 == 0.5) and s == 0.0
+        assert np.all(ambient_occlusion(height, tileable=tileable) == 1.0)
+        assert np.all(ambient_occlusion(h01, s, tileable=tileable) == 1.0)
+
+
+def test_real_like_noise_slopes_agree():
+    """A noisy (not curl-free) normal map: the height matches its integrable part; slopes still agree well."""
+    rng = np.random.default_rng(5)
+    hp = _blur(rng.normal(size=(128, 160)), 3.0) * 40  # smooth random relief, pixel units
+    gr, gc = np.gradient(hp)
+    n = _normals(gc + 0.02 * rng.normal(size=gc.shape), gr + 0.02 * rng.normal(size=gr.shape))
+    for tileable in (False, True):
+        c = slope_correlation(height_from_normals(n, tileable=tileable)[0], n, tileable=tileable)
+        assert min(c["x"], c["y"]) >= 0.8, c
+        if tileable:
+            assert min(c["wrap_x"], c["wrap_y"]) >= 0.8, c
+
+
+def test_steep_and_degenerate_normals():
+    n = np.zeros((4, 5, 3), np.float32)
+    n[..., 2] = 1
+    n[1, 2] = (1.0, 0.0, 0.0)  # horizontal: clamped to the steepest slope
+    n[2, 3] = (0.0, -0.6, -0.8)  # into the surface, tilted: clamped too
+    p, q = normal_slopes(n, max_slope=10)
+    assert p[1, 2] == pytest.approx(-10) and q[1, 2] == 0
+    assert q[2, 3] == pytest.approx(10) and p[2, 3] == 0
+    n[0, 0] = 0.0  # zero-length
+    with pytest.raises(SvbrdfError, match=r"1 zero-length normal\(s\) \(first at row 0, column 0\)"):
+        height_from_normals(n)
+    p, q = normal_slopes(n, zero="flat")
+    assert p[0, 0] == 0 and q[0, 0] == 0
+    height, _ = height_from_normals(n, zero="flat")
+    assert np.isfinite(height).all()
+
+
+@pytest.mark.parametrize("bad, match", [
+    (np.zeros((4, 5)), r"expected an \(H, W, 3\) array"),
+    (np.zeros((4, 5, 4)), r"expected an \(H, W, 3\) array"),
+    (np.zeros((0, 5, 3)), r"expected an \(H, W, 3\) array"),
+    (np.full((4, 5, 3), 32768, np.uint16), "expected decoded float normals"),
+    (np.full((4, 5, 3), 3.0), "expected decoded unit normals"),
+])
+def test_bad_normal_maps(bad, match):
+    with pytest.raises(SvbrdfError, match=match):
+        height_from_normals(bad)
+
+
+@pytest.mark.parametrize("value", [np.nan, np.inf, -np.inf])
+def test_non_finite_normals(value):
+    n = np.zeros((6, 7, 3), np.float32)
+    n[..., 2] = 1
+    n[4, 5, 1] = value
+    with pytest.raises(SvbrdfError, match=r"1 pixel\(s\) are NaN or infinite \(first at row 4, column 5\)"):
+        height_from_normals(n)
+
+
+def test_bad_heights_and_sizes():
+    n = np.zeros((6, 7, 3), np.float32)
+    n[..., 2] = 1
+    with pytest.raises(SvbrdfError, match=r"height is 7x5 px but the normal map is 7x6 px"):
+        slope_correlation(np.zeros((5, 7)), n)
+    with pytest.raises(SvbrdfError, match="NaN or infinite"):
+        ambient_occlusion(np.full((4, 4), np.nan))
+    with pytest.raises(SvbrdfError, match=r"expected an \(H, W\) array"):
+        ambient_occlusion(np.zeros((4, 4, 3)))
+    with pytest.raises(SvbrdfError, match="directions=6"):
+        ambient_occlusion(np.zeros((4, 4)), directions=6)
+    with pytest.raises(SvbrdfError, match="radius"):
+        ambient_occlusion(np.zeros((4, 4)), radius=-1)
+    with pytest.raises(SvbrdfError, match="height scale"):
+        ambient_occlusion(np.zeros((4, 4)), scale=float("nan"))
+    with pytest.raises(SvbrdfError, match="zero="):
+        height_from_normals(n, zero="ignore")
+
+
+@pytest.mark.parametrize("shape", [(1, 1), (1, 9), (9, 1), (2, 3), (7, 5)])
+@pytest.mark.parametrize("tileable", [False, True])
+def test_tiny_maps(shape, tileable):
+    rng = np.random.default_rng(1)
+    n = rng.normal(size=shape + (3,)) * 0.2
+    n[..., 2] = 1
+    height, scale = height_from_normals(n, tileable=tileable)
+    assert height.shape == shape and np.isfinite(height).all() and scale >= 0
+    ao = ambient_occlusion(height, tileable=tileable)
+    assert ao.shape == shape and ao.dtype == np.float32 and np.all((0 <= ao) & (ao <= 1))
+    if shape[1] == 1:  # a 1-pixel-wide map: only vertical slopes exist
+        i = np.arange(shape[0], dtype=np.float64)
+        n1 = _normals(np.zeros((shape[0], 1)), 0.3 * np.ones((shape[0], 1)))  # h_px = 0.3 i: a ramp down
+        h1, _ = height_from_normals(n1)
+        assert np.allclose(h1[:, 0] * 1, 0.3 * (i - i.mean()), atol=1e-5)
+
+
+# ------------------------------------------------------------------------------------------------ AO
+
+def test_ao_planes_are_open():
+    i, j = np.mgrid[0:64, 0:80].astype(np.float32)
+    for plane in (0.3 * j - 0.7 * i, np.full((64, 80), 5.0, np.float32)):
+        ao = ambient_occlusion(plane / 80)  # pixel units -> map widths
+        assert np.abs(ao - 1).max() < 1e-5
+
+
+def test_ao_pit_darker_than_plateau():
+    i, j = np.mgrid[0:96, 0:96].astype(np.float64)
+    pit = -10 * np.exp(-((i - 48) ** 2 + (j - 48) ** 2) / (2 * 4.0 ** 2))  # 10 px deep, pixel units
+    ao = ambient_occlusion(pit / 96, radius=16 / 96)
+    assert ao[48, 48] < 0.8
+    assert ao[5, 5] == pytest.approx(1.0, abs=1e-6)  # the plateau far from the pit
+    assert ao[48, 48] == ao.min()
+    # the same relief as a bump: its top is open (up to the bilinear upsampling of the coarse levels, which
+    # leaks a trace of the bump's foot)
+    assert ambient_occlusion(-pit / 96, radius=16 / 96)[48, 48] > 0.995
+
+
+def test_ao_sees_walls_beyond_the_finest_samples():
+    """The flat floor of a wide round well (radius 10 px, 10 px deep): the nearest wall is 10 px away, far
+    beyond the finest level's 1-2 px samples; the coarser levels must see it (the wall subtends ~45 deg)."""
+    i, j = np.mgrid[0:128, 0:128].astype(np.float64)
+    well = np.where(np.hypot(i - 64, j - 64) < 10, -10.0, 0.0)
+    ao = ambient_occlusion(well / 128, radius=32 / 128)
+    assert ao[64, 64] < 0.85
+    assert ao[5, 5] == pytest.approx(1.0, abs=1e-6)
+
+
+def test_ao_v_groove_against_the_closed_form():
+    """At the bottom of a long 90-degree V-groove the cosine-weighted visible fraction is sin(45 deg) = 0.707;
+    the 8-direction estimate: (2 x cos^2 45 deg + 4 x 1 / (1 + 1/2) + 2 x 1) / 8 = 0.708."""
+    i, j = np.mgrid[0:64, 0:65].astype(np.float32)
+    groove = np.abs(j - 32)  # walls at 45 deg, pixel units
+    ao = ambient_occlusion(groove / 65, radius=8 / 65, tileable=True)
+    assert ao[20, 32] == pytest.approx((2 * 0.5 + 4 / 1.5 + 2) / 8, abs=1e-4)
+    assert ao[20, 32] == pytest.approx(np.sin(np.pi / 4), abs=0.01)
+    assert ao[20, 20] == pytest.approx(1.0, abs=1e-6)  # on a wall: nothing above its own plane in reach
+
+
+@pytest.mark.parametrize("tileable", [True, False])
+def test_ao_follows_the_hollows(tileable):
+    rng = np.random.default_rng(2)
+    size = 128
+    hp = _blur(rng.normal(size=(size, size)), 2.5) * 30  # pixel units
+    height = (hp / size).astype(np.float32)
+    ao = ambient_occlusion(height, tileable=tileable)
+    assert ao.dtype == np.float32 and 0 <= ao.min() and ao.max() <= 1
+    sigma = AO_RADIUS * size / 2
+    assert _corr(1 - ao, _blur(hp, sigma) - hp) >= 0.3
+    assert 0.6 <= float(ao.mean()) < 1.0
+    # written and read back through the normalised map and its scale: the same AO (16-bit quantisation aside)
+    h01, s = normalise(height)
+    q = np.round(h01 * 65535) / 65535
+    assert np.abs(ambient_occlusion(q, s, tileable=tileable) - ao).max() < 1e-2
+
+
+def test_ao_tileable_wraps():
+    """A tileable AO of a shifted (rolled) height is the rolled AO: nothing special happens at the border."""
+    rng = np.random.default_rng(3)
+    hp = _blur(rng.normal(size=(64, 96)), 2.0) * 20
+    ao = ambient_occlusion(hp / 96, tileable=True, radius=8 / 96)
+    rolled = ambient_occlusion(np.roll(hp, (16, 16), axis=(0, 1)) / 96, tileable=True, radius=8 / 96)
+    assert np.abs(np.roll(ao, (16, 16), axis=(0, 1)) - rolled).max() < 1e-5
+
+
+def test_ao_max_size_levels():
+    """Computed on a coarser grid (max_size) the AO keeps its broad shape; 4 directions are allowed."""
+    rng = np.random.default_rng(4)
+    hp = _blur(rng.normal(size=(128, 128)), 4.0) * 40
+    full = ambient_occlusion(hp / 128, tileable=True)
+    coarse = ambient_occlusion(hp / 128, tileable=True, max_size=64)
+    assert coarse.shape == full.shape
+    assert _corr(full, coarse) > 0.8
+    four = ambient_occlusion(hp / 128, tileable=True, directions=4)
+    assert _corr(full, four) > 0.8
