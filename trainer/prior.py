@@ -8,8 +8,8 @@ unchanged) is trained on an endless, seeded stream of procedural materials
 1. rendered by the one renderer (:func:`svbrdf.trainer.render.render_maps`) with inverse-square fall-off, a
    random field of view (``fov_deg``) and a flash a little off the lens axis (``light_offset``), half of the
    photos with the physical settings of the benchmark's Mitsuba inputs
-   (:func:`svbrdf.runtime.render.physical_config`: exact Smith masking, F = F0);
-2. recorded by a random camera of :mod:`svbrdf.runtime.camera` (exposure that clips bright highlights,
+   (:func:`svbrdf.runtime.core.render.physical_config`: exact Smith masking, F = F0);
+2. recorded by a random camera of :mod:`svbrdf.runtime.core.camera` (exposure that clips bright highlights,
    vignetting, Poisson-Gaussian noise, 8-bit sRGB);
 3. half of the batches are ``size`` px crops of ``photo_size`` px photos (the highlight anywhere in the tile, or
    outside it, as in the fine-tune's tiles), the other half whole ``size`` px photos.
@@ -54,13 +54,13 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 import numpy as np
 import torch
 
-from svbrdf.runtime.camera import CAMERA_KEYS, REALISTIC, Camera, expose
-from svbrdf.runtime.manifest import PRIOR_STAGE
-from svbrdf.runtime.maps import SLICES
-from svbrdf.runtime.render import RenderConfig, light_vectors, physical_config
+from svbrdf.runtime.core.camera import CAMERA_KEYS, REALISTIC, Camera, expose
+from svbrdf.runtime.inference.manifest import PRIOR_STAGE
+from svbrdf.runtime.core.maps import SLICES
+from svbrdf.runtime.core.render import RenderConfig, light_vectors, physical_config
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
-from svbrdf.runtime.render import camera_position
+from svbrdf.runtime.core.render import camera_position
 from svbrdf.trainer.camera import expose_batch, frame_radius2
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads, to_device
 from svbrdf.trainer.losses import (DETAIL_WINDOWS, detail_amount_loss, gradient_loss, relit_loss, slope_correlation_loss,
@@ -99,9 +99,9 @@ class PriorConfig:
         seed: seeds the weights and the material stream.
         fov_deg: range of the photos' horizontal field of view, degrees (uniform).
         light_offset: the flash sits up to this far from the lens, in each of x and y (half photo widths).
-        physical_share: fraction of photos rendered with :func:`~svbrdf.runtime.render.physical_config`.
-        camera: ranges of the camera model (default :data:`svbrdf.runtime.camera.REALISTIC`). ``white`` (the
-            highlight roll-off's white point, :func:`svbrdf.runtime.camera.roll_off`) may be left out: (1, 1), a
+        physical_share: fraction of photos rendered with :func:`~svbrdf.runtime.core.render.physical_config`.
+        camera: ranges of the camera model (default :data:`svbrdf.runtime.core.camera.REALISTIC`). ``white`` (the
+            highlight roll-off's white point, :func:`svbrdf.runtime.core.camera.roll_off`) may be left out: (1, 1), a
             linear camera, as every run before it existed; it is drawn only when its range is not (1, 1), so such
             a run's stream of draws is unchanged.
         lambda_render: weight of the relighting loss.
@@ -113,7 +113,7 @@ class PriorConfig:
         lambda_grad: weight of :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps.
         lambda_amount: weight of :func:`~svbrdf.trainer.losses.detail_amount_loss` on the ``amount_maps`` (asks
             for as much local variation as the truth has; 0 = off, the v1 and first v2 loss).
-        amount_maps: the maps of that term (names of :data:`svbrdf.runtime.maps.SLICES`).
+        amount_maps: the maps of that term (names of :data:`svbrdf.runtime.core.maps.SLICES`).
         lambda_slope: weight of :func:`~svbrdf.trainer.losses.slope_correlation_loss` (the pattern of the normals'
             slopes at any scale; 0 = off, the loss before the eighth session of 2026-11-26).
         amount_windows: its window sides, px (:data:`~svbrdf.trainer.losses.DETAIL_WINDOWS` by default; a window
@@ -277,7 +277,7 @@ def _uniform(rng: torch.Generator, lo: float, hi: float) -> float:
 
 
 def _draw_camera(config: PriorConfig, rng: torch.Generator) -> Dict[str, float]:
-    """One photo's camera parameters from ``config.camera``'s ranges (:data:`~svbrdf.runtime.camera.CAMERA_KEYS`,
+    """One photo's camera parameters from ``config.camera``'s ranges (:data:`~svbrdf.runtime.core.camera.CAMERA_KEYS`,
     in order); ``white`` is drawn only when its range is not (1, 1), else it is 1 and nothing is drawn for it."""
     keys = CAMERA_KEYS if config.camera["white"] != (1.0, 1.0) else CAMERA_KEYS[:-1]
     return {"white": 1.0, **{k: _uniform(rng, *config.camera[k]) for k in keys}}
