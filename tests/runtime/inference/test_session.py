@@ -15,7 +15,7 @@ from svbrdf.runtime.inference.manifest import (
 )
 from svbrdf.runtime.inference.tiling import tile_boxes
 
-from .conftest import TINY_FOV
+from ..conftest import TINY_FOV
 
 pytest.importorskip("onnxruntime")
 from svbrdf.runtime.inference.session import FULL, PreviewSession, load_session
