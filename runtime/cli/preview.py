@@ -23,7 +23,7 @@ from typing import List, Optional
 from .. import __version__
 from ..core.maps import MAP_NAMES
 from ..errors import MissingExtraError, SvbrdfError, cli_message, parse_command_line
-from .options import add_texture_options, check_options, min_tile, photo_options  # noqa: F401 (min_tile: API)
+from .options import add_texture_options, check_options, photo_options
 
 PROG = "svbrdf-preview"
 
