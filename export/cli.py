@@ -17,7 +17,7 @@ from typing import List, Optional
 
 from svbrdf.runtime.errors import SvbrdfError, cli_message, parse_command_line
 from svbrdf.runtime.install import missing_train_module, train_hint
-from svbrdf.runtime.manifest import DECODERS, part_file_name
+from svbrdf.runtime.inference.manifest import DECODERS, part_file_name
 
 PROG = "svbrdf-export"
 

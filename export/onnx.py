@@ -6,18 +6,18 @@ The graph (torch.onnx dynamo exporter, opset :data:`OPSET`, one file: ``external
   any H, W >= 8 (dynamic ``torch.export.Dim``; the Generator pads to a multiple of 4 and crops back inside
   the graph, so odd sizes come back at input size);
 * output ``"maps"``: (1, 8, H, W) float32, packed maps in their final ranges (layout of
-  :mod:`svbrdf.runtime.maps`: diffuse 0:3 linear [0, 1], specular 3:4 linear [0, 1], roughness 4:5 [0, 1],
+  :mod:`svbrdf.runtime.core.maps`: diffuse 0:3 linear [0, 1], specular 3:4 linear [0, 1], roughness 4:5 [0, 1],
   normal 5:8 unit OpenGL).
 
 Part graphs (maps on demand): beside ``NAME.onnx`` the same generator is exported once per decoder,
-``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.manifest.PARTS` (encoder + that decoder only; the
+``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.inference.manifest.PARTS` (encoder + that decoder only; the
 other decoder's weights are not in the file). Same input and output contract, the channels of the maps a part
-does not compute are NaN (specified in :mod:`svbrdf.runtime.manifest`). Each part is checked like the full graph
+does not compute are NaN (specified in :mod:`svbrdf.runtime.inference.manifest`). Each part is checked like the full graph
 (checker; onnxruntime against torch on its own channels, NaN on the others).
 
 Provenance goes twice: into the ONNX ``metadata_props`` (every manifest key except ``file``/``sha256``/
 ``parts``, values JSON-encoded; a part adds ``"part": {"name", "maps"}``) and into a manifest ``NAME.json``
-beside ``NAME.onnx`` (schema :data:`svbrdf.runtime.manifest.MANIFEST_SCHEMA`, with the file's sha256, the parity
+beside ``NAME.onnx`` (schema :data:`svbrdf.runtime.inference.manifest.MANIFEST_SCHEMA`, with the file's sha256, the parity
 result and the ``"parts"`` entry), which the runtime verifies at load. Every file is written atomically, and
 none before all the checks pass; existing files are refused (all of them) unless ``force``.
 """
@@ -37,13 +37,13 @@ import torch
 from torch import nn
 
 from svbrdf.runtime.errors import ModelError, SvbrdfError, exists_message
-from svbrdf.runtime.files import staged_write
-from svbrdf.runtime.maps import MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES
-from svbrdf.runtime.manifest import (
+from svbrdf.runtime.io.files import staged_write
+from svbrdf.runtime.core.maps import MAP_CHANNELS, MAP_NAMES, N_CHANNELS, SLICES
+from svbrdf.runtime.inference.manifest import (
     INPUT_NAME, MANIFEST_SCHEMA, MIN_SIZE, OUTPUT_NAME, PARTS, input_contract, map_layout, part_file_name,
     sha256_file,
 )
-from svbrdf.runtime.render import ZHAO, RenderConfig
+from svbrdf.runtime.core.render import ZHAO, RenderConfig
 from svbrdf.trainer.models import pack_maps
 
 #: ONNX opset written. 18 is torchlib's native opset in torch 2.13
@@ -109,7 +109,7 @@ def _provenance(meta: Mapping[str, Any], generator: nn.Module) -> Dict[str, Any]
         },
         "photo": {"name": photo.get("name"), "sha256": photo.get("sha256"),
                   "height": photo.get("height"), "width": photo.get("width")},
-        # what the runtime shows a stage one (svbrdf.runtime.manifest.recorded_even_lighting); absent: its default
+        # what the runtime shows a stage one (svbrdf.runtime.inference.manifest.recorded_even_lighting); absent: its default
         **({"network_input": dict(meta["network_input"])} if meta.get("network_input") else {}),
     }
 

@@ -2,10 +2,15 @@
 
 Public API::
 
-    from svbrdf.runtime import load_session, estimate
+    from svbrdf.runtime import PostProcess, estimate, load_session
     session = load_session()              # packaged model, or SVBRDF_MODEL, or a path
-    maps = estimate("photo.jpg", session) # -> Maps (numpy arrays; see svbrdf.runtime.maps)
+    maps = estimate("photo.jpg", session) # -> Maps (numpy arrays; see svbrdf.runtime.core.maps)
     maps.save("out/", "photo")
+    bare = estimate("photo.jpg", session, post=PostProcess.off())  # the network's maps, no correction
+
+The package is organised by role: ``core`` (maps, renderer, colour), ``io`` (image files), ``inference`` (model,
+sessions, the per-photo pipeline), ``post`` (corrections around the network, :class:`PostProcess`), ``quality``
+(label-free scores), ``outputs`` (texture sets, targets, viewer), ``batch`` (material libraries) and ``cli``.
 
 Heavy modules are imported lazily (PEP 562) so that ``import svbrdf.runtime`` stays cheap.
 """
@@ -23,14 +28,17 @@ except Exception:  # pragma: no cover - running from a source tree without an in
     __version__ = "0.0.0+local"
 
 _LAZY = {
-    "Maps": ".maps",
-    "RenderConfig": ".render",
-    "render": ".render",
-    "read_image": ".imageio",
-    "write_image": ".imageio",
-    "load_session": ".session",
-    "estimate": ".session",
-    "PreviewSession": ".session",
+    "Maps": ".core.maps",
+    "RenderConfig": ".core.render",
+    "render": ".core.render",
+    "read_image": ".io.images",
+    "write_image": ".io.images",
+    "load_session": ".inference.session",
+    "PreviewSession": ".inference.session",
+    "estimate": ".inference.pipeline",
+    "process_photo": ".inference.pipeline",
+    "PhotoOptions": ".inference.pipeline",
+    "PostProcess": ".post.settings",
     "SvbrdfError": ".errors",
     "ImageError": ".errors",
     "ModelError": ".errors",
@@ -46,8 +54,10 @@ def __getattr__(name: str):
 
 
 if TYPE_CHECKING:  # pragma: no cover
+    from .core.maps import Maps
+    from .core.render import RenderConfig, render
     from .errors import ImageError, ModelError, SvbrdfError
-    from .imageio import read_image, write_image
-    from .maps import Maps
-    from .render import RenderConfig, render
-    from .session import PreviewSession, estimate, load_session
+    from .inference.pipeline import PhotoOptions, estimate, process_photo
+    from .inference.session import PreviewSession, load_session
+    from .io.images import read_image, write_image
+    from .post.settings import PostProcess

@@ -29,7 +29,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
                                 :data:`~svbrdf.trainer.config.REFINE_RECIPES`; set by :func:`clean_checkpoint`,
                                 applied by :func:`svbrdf.trainer.stage.finetune_config`; absent: the preset's)
 
-Files are written atomically (:func:`svbrdf.runtime.files.atomic_write`).
+Files are written atomically (:func:`svbrdf.runtime.io.files.atomic_write`).
 """
 
 from __future__ import annotations
@@ -45,9 +45,9 @@ import numpy as np
 import torch
 
 from svbrdf.runtime.errors import ModelError
-from svbrdf.runtime.flash_trend import EVEN_LIGHTING_WIDTH
-from svbrdf.runtime.manifest import PRIOR_STAGE, network_input_record
-from svbrdf.runtime.files import atomic_write
+from svbrdf.runtime.post.flash_trend import EVEN_LIGHTING_WIDTH
+from svbrdf.runtime.inference.manifest import PRIOR_STAGE, network_input_record
+from svbrdf.runtime.io.files import atomic_write
 from svbrdf.trainer.config import REFINE_RECIPES
 from svbrdf.trainer.models import Generator, GeneratorConfig
 
@@ -248,9 +248,9 @@ def clean_checkpoint(src: PathLike, dst: PathLike, *, keep_discriminator: bool =
 
     Args:
         network_input: for a stage one, what the runtime shows its network, chosen by measurement when it is
-            shipped: ``"even"`` (the photo evenly lit at :data:`~svbrdf.runtime.flash_trend.EVEN_LIGHTING_WIDTH`)
+            shipped: ``"even"`` (the photo evenly lit at :data:`~svbrdf.runtime.post.flash_trend.EVEN_LIGHTING_WIDTH`)
             or ``"photo"`` (as it is); recorded as the checkpoint's ``network_input``
-            (:func:`svbrdf.runtime.manifest.network_input_record`), which the export copies into the manifest, the preview
+            (:func:`svbrdf.runtime.inference.manifest.network_input_record`), which the export copies into the manifest, the preview
             follows and ``fast``'s fine-tune input takes. None keeps what ``src`` records (nothing: the runtime's
             default, v1's).
         refine: for a stage one, the name of the fine-tune settings measured for it
@@ -293,12 +293,12 @@ def default_checkpoint(model: Optional[PathLike] = None) -> Optional[Path]:
     verified): where ``svbrdf-preview --refine``, ``svbrdf-train finetune`` and ``svbrdf-bench`` start by default.
 
     Args:
-        model: as in :func:`svbrdf.runtime.manifest.find_model` (None = ``$SVBRDF_MODEL``, else the packaged model).
+        model: as in :func:`svbrdf.runtime.inference.manifest.find_model` (None = ``$SVBRDF_MODEL``, else the packaged model).
 
     Returns:
         The path, or None where that model names no checkpoint or the file is missing or altered.
     """
-    from svbrdf.runtime.manifest import find_checkpoint, find_model
+    from svbrdf.runtime.inference.manifest import find_checkpoint, find_model
 
     try:
         return find_checkpoint(find_model(model))

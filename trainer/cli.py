@@ -69,7 +69,7 @@ RECIPE_FIXED = ("iters", "batch", "size", "photo_size", "width", "lr", "seed", "
 
 
 def build_parser() -> argparse.ArgumentParser:
-    from svbrdf.runtime.choices import TARGETS
+    from svbrdf.runtime.outputs.choices import TARGETS
     from svbrdf.trainer.config import CLI_PRESETS
 
     epilog = preset_help()
@@ -230,8 +230,8 @@ class _Callback:
 
 def _write_maps(trainer, out_dir: Path, name: str, relit: bool, extra: Optional[dict] = None,
                 target: str = "generic") -> Tuple[Dict[str, Path], float]:
-    from svbrdf.runtime.targets import write_target
-    from svbrdf.runtime.texture_set import relit_panel
+    from svbrdf.runtime.outputs.targets import write_target
+    from svbrdf.runtime.outputs.texture_set import relit_panel
 
     cfg = trainer.config
     maps = trainer.predict_maps()

@@ -13,9 +13,9 @@ import math
 from dataclasses import dataclass, field, fields
 from typing import Any, Dict, Iterable, Optional, Tuple
 
-from svbrdf.runtime.flash_trend import EVEN_LIGHTING_WIDTH
-from svbrdf.runtime.maps import MAP_NAMES
-from svbrdf.runtime.render import ZHAO, RenderConfig
+from svbrdf.runtime.post.flash_trend import EVEN_LIGHTING_WIDTH
+from svbrdf.runtime.core.maps import MAP_NAMES
+from svbrdf.runtime.core.render import ZHAO, RenderConfig
 from svbrdf.trainer.losses import DIFFUSE_TARGETS
 from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, DiscriminatorConfig, GeneratorConfig
 
@@ -66,7 +66,7 @@ class TrainConfig:
             prediction of the whole photo (the preview), compared per map as the prior is trained
             (:func:`svbrdf.trainer.losses.supervised_maps_loss`); keeps what the photo does not constrain where a
             learned stage one put it (0 = off, as in the paper; only a fine-tune has a starting point).
-        anchor_maps: the maps that pull (names of :data:`svbrdf.runtime.maps.MAP_NAMES`, each with its
+        anchor_maps: the maps that pull (names of :data:`svbrdf.runtime.core.maps.MAP_NAMES`, each with its
             :data:`~svbrdf.trainer.losses.SUPERVISED_WEIGHTS` weight); the others are left to the photo.
         lambda_flash: weight of the flash-correlation stationarity loss on both decoders
             (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
@@ -78,15 +78,15 @@ class TrainConfig:
             normal strength) can then move within a fine-tune even where the tanh output is saturated.
         camera_lr: learning rate (own Adam) of the learned camera and of the output offsets.
         flash_trend: remove the smooth radial trend around the flash highlight from the final maps
-            (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, as the preview does; False: the maps as the
+            (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, as the preview does; False: the maps as the
             generator predicts them, as in the paper).
         uniform_specular: make the final specular map one level, its median
-            (:func:`svbrdf.runtime.flash_trend.uniform_specular`, as the preview does; False: as predicted).
+            (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`, as the preview does; False: as predicted).
         highlight_fill: fill the region of a clipped flash highlight in the final maps with the material's own
-            maps from elsewhere (:func:`svbrdf.runtime.highlight_fill.fill_highlight`, before the trend removal;
+            maps from elsewhere (:func:`svbrdf.runtime.post.highlight_fill.fill_highlight`, before the trend removal;
             False: as predicted).
         flash_position: where the flash (with the camera, co-located) is over the photo, (x, y) in the renderer's
-            units (:func:`svbrdf.runtime.render.plane_positions`: x right, y up, 1 = half the photo width), at the
+            units (:func:`svbrdf.runtime.core.render.plane_positions`: x right, y up, 1 = half the photo width), at the
             render config's camera distance; None = above the photo's centre (the paper's geometry).
         saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
             discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
@@ -98,7 +98,7 @@ class TrainConfig:
         iters_pretrain, iters_finetune, iters_fit: iterations of each stage.
         seed: seeds weights and the tile sequence.
         bf16: bfloat16 autocast around the networks (falls back to fp32 where unsupported).
-        render: :class:`~svbrdf.runtime.render.RenderConfig` as a dict (see :attr:`render_config`).
+        render: :class:`~svbrdf.runtime.core.render.RenderConfig` as a dict (see :attr:`render_config`).
         checkpoint_every: iterations between checkpoints (0 = only at the end).
         maps_every: iterations between full-photo map dumps by the CLI (0 = only at the end).
         reset_optimizers: finetune with fresh Adam states instead of the pretrained ones.
@@ -119,7 +119,7 @@ class TrainConfig:
             iteration without the context, 1: 1.43x, the same maps on held-out procedural materials,
             docs/benchmarks/refine-detail/photo-context). No effect on ``"wen"``.
         even_lighting: the generator sees the photo divided by its own smooth lighting
-            (:func:`svbrdf.runtime.flash_trend.even_lighting`, a low pass of this width, a fraction of the photo
+            (:func:`svbrdf.runtime.post.flash_trend.even_lighting`, a low pass of this width, a fraction of the photo
             width) in training and prediction, the losses compare its renderings with the photo itself; 0: the
             generator sees the photo (as in the paper).
     """

@@ -2,7 +2,7 @@
 
 Total generator loss per decoder: ``0.1 L_GAN + L_d + 0.1 L_F + 0.2 L_P`` (L_P is in
 :mod:`svbrdf.trainer.perceptual`). All images and maps are linear; maps are packed (B, 8, H, W) in the layout of
-:mod:`svbrdf.runtime.maps` with final ranges (diffuse/specular/roughness in [0, 1], unit normals).
+:mod:`svbrdf.runtime.core.maps` with final ranges (diffuse/specular/roughness in [0, 1], unit normals).
 
 Every loss is computed in at least float32, also under bf16 autocast.
 """
@@ -16,8 +16,8 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from svbrdf.runtime.conversions import DIELECTRIC_F0
-from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.outputs.conversions import DIELECTRIC_F0
+from svbrdf.runtime.core.maps import SLICES
 from svbrdf.trainer.colour import linear_to_srgb
 
 #: Added under the square root of a complex modulus so its gradient stays finite at 0.
@@ -220,7 +220,7 @@ def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.
 
     Args:
         maps: (B, 8, H, W) packed maps, final ranges.
-        f0: the level pulled to (default :data:`svbrdf.runtime.conversions.DIELECTRIC_F0`).
+        f0: the level pulled to (default :data:`svbrdf.runtime.outputs.conversions.DIELECTRIC_F0`).
 
     Returns:
         scalar.
@@ -359,7 +359,7 @@ def maps_for_loss(maps: torch.Tensor) -> torch.Tensor:
     """The four maps as comparable 3-channel images in [0, 1], stacked for the Fourier loss.
 
     Args:
-        maps: (B, 8, H, W) packed maps (:mod:`svbrdf.runtime.maps` layout, final ranges).
+        maps: (B, 8, H, W) packed maps (:mod:`svbrdf.runtime.core.maps` layout, final ranges).
 
     Returns:
         (B, 4, 3, H, W): diffuse, specular (grey, broadcast to 3 channels), roughness (broadcast),
@@ -464,7 +464,7 @@ def supervised_maps_loss(pred: torch.Tensor, target: torch.Tensor, weights=None)
     as much as one on a bright material; the others as stored.
 
     Args:
-        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.maps`).
+        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.core.maps`).
         weights: per-map weights (default :data:`SUPERVISED_WEIGHTS`).
 
     Returns:
@@ -534,8 +534,8 @@ def gradient_loss(pred: torch.Tensor, target: torch.Tensor, maps: Sequence[str] 
     itself (its edges and slopes), as map errors of the same size do not.
 
     Args:
-        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.maps`), H, W >= 2.
-        maps: names of :data:`svbrdf.runtime.maps.SLICES` to compare (default: normal and roughness).
+        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.core.maps`), H, W >= 2.
+        maps: names of :data:`svbrdf.runtime.core.maps.SLICES` to compare (default: normal and roughness).
 
     Returns:
         scalar: the mean over the differences of both directions and every channel of those maps.
@@ -578,7 +578,7 @@ def slope_correlation_loss(pred: torch.Tensor, target: torch.Tensor, eps: float 
     the amplitude.
 
     Args:
-        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.maps`), unit normals.
+        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.core.maps`), unit normals.
         eps: added to the correlation's denominator.
 
     Returns:
@@ -626,8 +626,8 @@ def detail_amount_loss(pred: torch.Tensor, target: torch.Tensor, maps: Sequence[
     (which alone gets no gradient from it: a network's output is never exactly constant).
 
     Args:
-        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.maps`).
-        maps: names of :data:`svbrdf.runtime.maps.SLICES` to compare (default: normal and roughness).
+        pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.core.maps`).
+        maps: names of :data:`svbrdf.runtime.core.maps.SLICES` to compare (default: normal and roughness).
         windows: window sides, px (each clamped to the image's shorter side; H and W multiples of it where it
             fits, or the border rows are left out).
 

@@ -33,13 +33,13 @@ import torch
 import torch.nn.functional as F
 from torch import nn
 
-from svbrdf.runtime.manifest import DECODERS
-from svbrdf.runtime.maps import MAP_NAMES
+from svbrdf.runtime.inference.manifest import DECODERS
+from svbrdf.runtime.core.maps import MAP_NAMES
 
 LRELU_SLOPE = 0.2
 IN_EPS = 1e-5
 INIT_STD = 0.02
-#: Maps produced by each decoder, by module name (from the one table, :data:`svbrdf.runtime.manifest.DECODERS`).
+#: Maps produced by each decoder, by module name (from the one table, :data:`svbrdf.runtime.inference.manifest.DECODERS`).
 DECODER_MAPS: Mapping[str, Tuple[str, ...]] = {d.module: d.maps for d in DECODERS}
 
 
@@ -246,7 +246,7 @@ def height_to_normal(height: torch.Tensor, scale: float = 32.0) -> torch.Tensor:
 
 
 def pack_maps(maps: Mapping[str, torch.Tensor]) -> torch.Tensor:
-    """Concatenate ``{name: (B, C, H, W)}`` into the packed (B, 8, H, W) layout of :mod:`svbrdf.runtime.maps`."""
+    """Concatenate ``{name: (B, C, H, W)}`` into the packed (B, 8, H, W) layout of :mod:`svbrdf.runtime.core.maps`."""
     missing = [n for n in MAP_NAMES if n not in maps]
     if missing:
         raise ValueError(f"cannot pack maps: missing {', '.join(missing)}")
@@ -287,7 +287,7 @@ def flash_cue(x: torch.Tensor, centre: Optional[torch.Tensor] = None, origin: Op
 
     Returns:
         ``(offset, centre)``: (B, 2, H, W) offset of every pixel from the spot and (B, 2) the spot, both in the
-        units of :func:`svbrdf.runtime.render.plane_positions` of the whole photo (x right in [-1, 1] across its
+        units of :func:`svbrdf.runtime.core.render.plane_positions` of the whole photo (x right in [-1, 1] across its
         width, y up, scaled by its H / W). The spot is the mean position weighted by ``luminance **
         UNET_FLASH_POWER`` (a softmax of the log luminance), so a clipped highlight dominates; in a photo without
         one it drifts to the brightest area. A tile given the whole photo's ``centre``, its ``origin`` and ``size``
@@ -568,7 +568,7 @@ class Generator(nn.Module):
             size: (H, W) of the original photo to crop to (default: the padded size, 4x the latent).
 
         Returns:
-            ``{name: tensor}`` in :data:`~svbrdf.runtime.maps.MAP_NAMES` order, float32 (float64 for float64
+            ``{name: tensor}`` in :data:`~svbrdf.runtime.core.maps.MAP_NAMES` order, float32 (float64 for float64
             input): diffuse (B, 3, H, W) linear [0, 1], specular (B, 1, H, W) linear [0, 1], roughness
             (B, 1, H, W) [0, 1], normal (B, 3, H, W) unit vectors, OpenGL frame.
         """

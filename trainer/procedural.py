@@ -1,7 +1,7 @@
 """Seeded, on-the-fly procedural SVBRDF materials (torch, CPU, float32) for pretraining.
 
 :func:`sample_materials` draws ``n`` materials of ``size x size`` pixels, packed channel-first ``(n, 8, H, W)``
-in the layout of :mod:`svbrdf.runtime.maps` (diffuse linear RGB, specular grey F0, perceptual roughness, unit
+in the layout of :mod:`svbrdf.runtime.core.maps` (diffuse linear RGB, specular grey F0, perceptual roughness, unit
 OpenGL-frame normals). Every random number comes from the caller's :class:`torch.Generator`, so a generator
 state fully determines the batch.
 
@@ -67,7 +67,7 @@ from typing import List, Optional, Sequence, Tuple, Union
 
 import torch
 
-from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.core.maps import SLICES
 from svbrdf.trainer.colour import srgb_to_linear
 from svbrdf.trainer.device import to_device
 from svbrdf.trainer.models import height_to_normal, pack_maps
@@ -794,7 +794,7 @@ def sample_materials(n: int, size: int, generator: torch.Generator, families: Op
         device: where the maps are built and returned (default: the CPU); see "Devices" in the module docstring.
 
     Returns:
-        ``(maps, names)``: (n, 8, size, size) float32 packed maps (:data:`svbrdf.runtime.maps.SLICES`: diffuse
+        ``(maps, names)``: (n, 8, size, size) float32 packed maps (:data:`svbrdf.runtime.core.maps.SLICES`: diffuse
         linear RGB in [0, 1], specular in [0, 1], perceptual roughness in [0, 1], unit normals with z > 0, OpenGL
         frame) and the family name of each material.
 

@@ -1,6 +1,6 @@
 """``svbrdf-preview --refine``: fine-tune the preview model's training checkpoint on one photo, or skip it.
 
-:func:`refine` is the runtime's only entry into the trainer (imported lazily by :mod:`svbrdf.runtime.cli`, so a
+:func:`refine` is the runtime's only entry into the trainer (imported lazily by :mod:`svbrdf.runtime.cli.preview`, so a
 light install without torch still previews). The fine-tune runs the checkpoint's preset as this version defines it
 (fine-tune length, stopping rule, ...), with the architecture of the checkpoint itself
 (:func:`svbrdf.trainer.stage.finetune_config`); a preset this version does not know keeps the recorded settings.
@@ -12,9 +12,9 @@ from typing import Any, Callable, Mapping, Optional, Union
 
 import numpy as np
 
-from svbrdf.runtime.maps import Maps
-from svbrdf.runtime.preview_check import check_preview
-from svbrdf.runtime.render import RenderConfig
+from svbrdf.runtime.core.maps import Maps
+from svbrdf.runtime.quality.preview_check import check_preview
+from svbrdf.runtime.core.render import RenderConfig
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer import train
 from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
@@ -44,26 +44,26 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
     """Fine-tune stage one on ``photo`` and return the maps of the whole photo.
 
     With ``quality="auto"`` and a ``preview``, the fine-tune is skipped when the preview already explains the photo
-    (:func:`svbrdf.runtime.preview_check.check_preview`); otherwise it stops when the label-free re-render error
+    (:func:`svbrdf.runtime.quality.preview_check.check_preview`); otherwise it stops when the label-free re-render error
     stops improving (at most the preset's length).
 
     Args:
         photo: (H, W, 3) linear RGB float32 photo.
         init: the stage-one checkpoint, a path or a loaded dict, or a function without arguments that returns one
             (called only when the fine-tune runs, so a skipped fine-tune needs no checkpoint; e.g. a lookup with
-            ``svbrdf.runtime.manifest.find_checkpoint``).
+            ``svbrdf.runtime.inference.manifest.find_checkpoint``).
         quality: "fixed" (every iteration) or "auto" (see above).
         iters: fine-tune iterations (default: the preset's).
         threads: CPU threads (default: all cores).
         name: the photo's name in the run's records.
         callback: ``callback(trainer, record)`` after every iteration (:data:`svbrdf.trainer.train.Callback`).
-        preview: the instant preview of ``photo`` (:func:`svbrdf.runtime.session.estimate`), for the skip rule.
+        preview: the instant preview of ``photo`` (:func:`svbrdf.runtime.inference.pipeline.estimate`), for the skip rule.
         render_config: renderer settings of the skip rule's re-render (needed with ``preview``).
 
     Returns:
-        :class:`~svbrdf.runtime.maps.Maps` with ``meta["refine"]``: ``{"checkpoint", "iterations",
+        :class:`~svbrdf.runtime.core.maps.Maps` with ``meta["refine"]``: ``{"checkpoint", "iterations",
         "stopped_early", "notes"}`` (plus ``preview_input_rmse`` and ``preview_burn_in`` when a preview was
-        checked) and ``meta["burn_in"]`` (:func:`svbrdf.runtime.burn_in.photo_burn_in`); or, when skipped, the
+        checked) and ``meta["burn_in"]`` (:func:`svbrdf.runtime.quality.burn_in.photo_burn_in`); or, when skipped, the
         preview itself with ``meta["refine"] = {"skipped": True, "preview_input_rmse", "threshold",
         "preview_burn_in", "burn_in_threshold"}``.
     """

@@ -1,7 +1,7 @@
-"""Torch layout around the one renderer formula (:func:`svbrdf.runtime.render.shade`).
+"""Torch layout around the one renderer formula (:func:`svbrdf.runtime.core.render.shade`).
 
-Maps are packed channel-first ``(B, 8, H, W)`` in the order of :mod:`svbrdf.runtime.maps`; the view and light
-directions come from :func:`svbrdf.runtime.render.light_vectors`, computed once for the whole photo and cropped
+Maps are packed channel-first ``(B, 8, H, W)`` in the order of :mod:`svbrdf.runtime.core.maps`; the view and light
+directions come from :func:`svbrdf.runtime.core.render.light_vectors`, computed once for the whole photo and cropped
 with each tile (:class:`FlashGeometry`).
 """
 
@@ -12,8 +12,8 @@ from typing import Dict, Optional, Sequence, Tuple, Union
 
 import torch
 
-from svbrdf.runtime.maps import MAP_CHANNELS
-from svbrdf.runtime.render import ZHAO, RenderConfig, light_vectors, plane_positions, shade
+from svbrdf.runtime.core.maps import MAP_CHANNELS
+from svbrdf.runtime.core.render import ZHAO, RenderConfig, light_vectors, plane_positions, shade
 from svbrdf.trainer.device import to_device
 
 
@@ -55,7 +55,7 @@ def unpack(maps: torch.Tensor) -> Dict[str, Union[torch.Tensor, Tuple[torch.Tens
     """The maps of packed ``(B, 8, H, W)`` maps as views, split in one op.
 
     Returns ``{"diffuse": (B, 3, H, W), "specular": (B, 1, H, W), "roughness": (B, 1, H, W), "normal": (nx, ny,
-    nz)}`` (each normal component (B, 1, H, W)), in the layout of :data:`svbrdf.runtime.maps.MAP_CHANNELS`. One
+    nz)}`` (each normal component (B, 1, H, W)), in the layout of :data:`svbrdf.runtime.core.maps.MAP_CHANNELS`. One
     split's backward is one concatenation of the gradients, where a slice per map fills a zero gradient of the
     whole packed tensor and adds into it (on one CPU thread, 1.8 s of an 18 s v2 training step went to those 91 slices' backward, profiled).
     """
@@ -76,7 +76,7 @@ class FlashGeometry:
         light_pos: (3,) light position, ``None`` = co-located flash.
         device, dtype: where the tensors live.
         camera_pos: (3,) camera position, ``None`` = above the photo's centre
-            (:func:`svbrdf.runtime.render.camera_position`).
+            (:func:`svbrdf.runtime.core.render.camera_position`).
     """
 
     def __init__(self, height: int, width: int, config: RenderConfig = ZHAO,
@@ -101,7 +101,7 @@ class FlashGeometry:
 
 
 def plane_grid(height: int, width: int, device=None) -> torch.Tensor:
-    """(1, 3, H, W) float32 world positions of the pixel centres (:func:`svbrdf.runtime.render.plane_positions`),
+    """(1, 3, H, W) float32 world positions of the pixel centres (:func:`svbrdf.runtime.core.render.plane_positions`),
     cached per size and device."""
     return _plane_grid(int(height), int(width), torch.device(device if device is not None else "cpu"))
 
@@ -114,7 +114,7 @@ def _plane_grid(height: int, width: int, device: torch.device) -> torch.Tensor:
 
 def point_light_vectors(positions: torch.Tensor, camera: torch.Tensor, light: torch.Tensor
                         ) -> Tuple[torch.Tensor, torch.Tensor, torch.Tensor]:
-    """Batched torch form of :func:`svbrdf.runtime.render.light_vectors`: one camera and one point light per photo.
+    """Batched torch form of :func:`svbrdf.runtime.core.render.light_vectors`: one camera and one point light per photo.
 
     Args:
         positions: (1 or B, 3, H, W) pixel positions on the plane (:func:`plane_grid`, or windows of it).

@@ -23,7 +23,7 @@ from typing import Any, Iterable, List, Mapping, Optional, Tuple, Union
 import torch
 
 from svbrdf.runtime.errors import ModelError
-from svbrdf.runtime.manifest import recorded_even_lighting
+from svbrdf.runtime.inference.manifest import recorded_even_lighting
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig
 from svbrdf.trainer.models import DiscriminatorConfig, GeneratorConfig
@@ -38,7 +38,7 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any], keep: Iterable
     """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept).
 
     A config that shows the generator an evenly lit photo (``even_lighting`` > 0: ``fast``) shows it what the stage
-    one's ``network_input`` record says when it has one (:func:`svbrdf.runtime.manifest.recorded_even_lighting`;
+    one's ``network_input`` record says when it has one (:func:`svbrdf.runtime.inference.manifest.recorded_even_lighting`;
     the photo as it is for a stage one shipped so), as the preview does; the paper's presets (0) keep the photo.
     Such a config also takes the stage one's ``refine`` record (the fine-tune settings measured for it,
     :data:`~svbrdf.trainer.config.REFINE_RECIPES`) for every setting that still has its preset's value and is not in

@@ -33,13 +33,13 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import torch
 
-from svbrdf.runtime.camera import radius2
+from svbrdf.runtime.core.camera import radius2
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.burn_in import photo_burn_in
-from svbrdf.runtime.flash_trend import even_lighting, postprocess
-from svbrdf.runtime.manifest import DECODERS
-from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
-from svbrdf.runtime.tiling import tile_boxes, tile_weights
+from svbrdf.runtime.quality.burn_in import photo_burn_in
+from svbrdf.runtime.post.flash_trend import even_lighting, postprocess
+from svbrdf.runtime.inference.manifest import DECODERS
+from svbrdf.runtime.core.maps import MAP_NAMES, SLICES, Maps
+from svbrdf.runtime.inference.tiling import tile_boxes, tile_weights
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads
@@ -64,7 +64,7 @@ Callback = Callable[["Trainer", Dict[str, Any]], Optional[bool]]
 
 # ----------------------------------------------------------------------------------------------- photo / device
 def photo_to_tensor(image: np.ndarray) -> torch.Tensor:
-    """(H, W, 3) linear float image (e.g. from :func:`svbrdf.runtime.imageio.read_image`) -> (1, 3, H, W) float32."""
+    """(H, W, 3) linear float image (e.g. from :func:`svbrdf.runtime.io.images.read_image`) -> (1, 3, H, W) float32."""
     arr = np.asarray(image, dtype=np.float32)
     if arr.ndim != 3 or arr.shape[-1] != 3:
         raise ImageError(f"photo must be an (H, W, 3) array, got shape {arr.shape}")
@@ -75,9 +75,9 @@ def load_photo(path: PathLike) -> Tuple[torch.Tensor, Dict[str, Any]]:
     """Read a photo file as a linear (1, 3, H, W) tensor and its identity ``{name, sha256, height, width}``.
 
     Raises:
-        ImageError: unreadable file (see :func:`svbrdf.runtime.imageio.read_image`).
+        ImageError: unreadable file (see :func:`svbrdf.runtime.io.images.read_image`).
     """
-    from svbrdf.runtime.imageio import read_image
+    from svbrdf.runtime.io.images import read_image
 
     path = Path(path)
     photo = photo_to_tensor(read_image(path))
@@ -102,7 +102,7 @@ def predict_full(generator: Generator, photo: torch.Tensor, *, max_side: int = 1
         generator: the trained generator (any device; run in float32).
         photo: (1, 3, H, W) linear RGB photo, H, W >= 8.
         max_side: largest side predicted in one pass; larger photos use ``max_side`` tiles.
-        overlap: overlap between tiles, pixels (raised-cosine blend, :mod:`svbrdf.runtime.tiling`).
+        overlap: overlap between tiles, pixels (raised-cosine blend, :mod:`svbrdf.runtime.inference.tiling`).
         context: a U-Net's tiles take the whole photo's context (:meth:`Generator.photo_context`, one pass of the
             encoder over the whole photo), so they agree with each other; False: each tile alone.
 
@@ -131,7 +131,7 @@ def predict_full(generator: Generator, photo: torch.Tensor, *, max_side: int = 1
 
 
 def to_maps(packed: torch.Tensor, meta: Optional[dict] = None) -> Maps:
-    """(1, 8, H, W) packed maps -> :class:`~svbrdf.runtime.maps.Maps` (numpy, clipped to the valid ranges)."""
+    """(1, 8, H, W) packed maps -> :class:`~svbrdf.runtime.core.maps.Maps` (numpy, clipped to the valid ranges)."""
     arr = packed[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
     return Maps.unpack(arr, meta).clipped()
 
@@ -592,10 +592,10 @@ class Trainer:
 
     def predict_maps(self, meta: Optional[dict] = None) -> Maps:
         """The final texture set of the whole photo: :meth:`predict`, without its radial trend around the flash
-        highlight when ``config.flash_trend`` (:func:`svbrdf.runtime.flash_trend.remove_flash_trend`, centred on
+        highlight when ``config.flash_trend`` (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, centred on
         the photo's highlight; ``meta["flash_trend"]`` records what was removed and ``meta["burn_in_model"]`` the
-        burn-in of the maps before, :func:`svbrdf.runtime.burn_in.photo_burn_in`), with one specular level when
-        ``config.uniform_specular`` (:func:`svbrdf.runtime.flash_trend.uniform_specular`). ``meta["burn_in"]`` is
+        burn-in of the maps before, :func:`svbrdf.runtime.quality.burn_in.photo_burn_in`), with one specular level when
+        ``config.uniform_specular`` (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`). ``meta["burn_in"]`` is
         the burn-in of the maps returned, always."""
         maps = to_maps(self.predict(), meta)
         cfg = self.config

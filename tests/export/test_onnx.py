@@ -15,8 +15,8 @@ from svbrdf.export import onnx as export_onnx  # noqa: E402
 from svbrdf.export.cli import main  # noqa: E402
 from svbrdf.export.onnx import OPSET, export_generator  # noqa: E402
 from svbrdf.runtime.errors import ModelError, SvbrdfError  # noqa: E402
-from svbrdf.runtime.maps import MAP_NAMES, SLICES  # noqa: E402
-from svbrdf.runtime.manifest import DECODERS, MANIFEST_SCHEMA, PARTS, map_layout, sha256_file  # noqa: E402
+from svbrdf.runtime.core.maps import MAP_NAMES, SLICES  # noqa: E402
+from svbrdf.runtime.inference.manifest import DECODERS, MANIFEST_SCHEMA, PARTS, map_layout, sha256_file  # noqa: E402
 from svbrdf.trainer.checkpoint import build_checkpoint, save_checkpoint  # noqa: E402
 from svbrdf.trainer.config import resolve  # noqa: E402
 from svbrdf.trainer.models import DECODER_MAPS, MODEL_PRESETS, Generator  # noqa: E402
@@ -208,8 +208,10 @@ def test_cli(tmp_path, capsys):
     assert main(["--opset"]) == 2
 
 
-def test_a_stage_ones_network_input_travels_to_the_manifest_the_preview_and_the_fine_tune(tmp_path, monkeypatch):
-    from svbrdf.runtime import session as session_module
+def test_a_stage_ones_network_input_travels_to_the_manifest_the_preview_and_the_fine_tune(tmp_path):
+    from svbrdf.runtime.inference import session as session_module
+    from svbrdf.runtime.inference.pipeline import estimate
+    from svbrdf.runtime.post import PostProcess
     from svbrdf.trainer.checkpoint import clean_checkpoint, load_checkpoint
     from svbrdf.trainer.stage import finetune_config
 
@@ -225,11 +227,10 @@ def test_a_stage_ones_network_input_travels_to_the_manifest_the_preview_and_the_
     assert json.loads(out.with_suffix(".json").read_text())["network_input"] == record
     props = {p.key: json.loads(p.value) for p in onnx.load(str(out)).metadata_props}
     assert props["network_input"] == record
-    monkeypatch.setattr(session_module, "EVEN_LIGHTING", 0.25)  # the default a record overrides
     session = session_module.load_session(out, threads=1)
-    assert session.even_lighting is None
+    assert session.even_lighting is None and session.input_lighting(0.25) is None  # the record overrides a default
     photo = np.random.default_rng(0).uniform(0.1, 0.6, (32, 40, 3)).astype(np.float32)
-    assert session_module.estimate(photo, session).meta["even_lighting"] is None
+    assert estimate(photo, session, post=PostProcess(even_lighting=0.25)).meta["even_lighting"] is None
     assert finetune_config(resolve("fast"), load_checkpoint(tmp_path / "v2.pt"))[0].even_lighting == 0.0
     # without a record (v1): the runtime's default and the preset's
     with warnings.catch_warnings():

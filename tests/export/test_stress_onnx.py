@@ -18,8 +18,8 @@ pytest.importorskip("onnxruntime")
 pytest.importorskip("onnxscript")
 
 from svbrdf.export.onnx import PARITY_ATOL, export_generator  # noqa: E402
-from svbrdf.runtime.maps import SLICES  # noqa: E402
-from svbrdf.runtime.session import load_session  # noqa: E402
+from svbrdf.runtime.core.maps import SLICES  # noqa: E402
+from svbrdf.runtime.inference.session import load_session  # noqa: E402
 from svbrdf.trainer.models import MODEL_PRESETS, Generator  # noqa: E402
 
 STRESS = settings(max_examples=25, deadline=None, derandomize=True)

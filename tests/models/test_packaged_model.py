@@ -7,10 +7,11 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from svbrdf.runtime.colour import linear_to_srgb
-from svbrdf.runtime.imageio import read_image
-from svbrdf.runtime.manifest import find_checkpoint, find_model, sha256_file
-from svbrdf.runtime.session import estimate, load_session
+from svbrdf.runtime.core.colour import linear_to_srgb
+from svbrdf.runtime.io.images import read_image
+from svbrdf.runtime.inference.manifest import find_checkpoint, find_model, sha256_file
+from svbrdf.runtime.inference.pipeline import estimate
+from svbrdf.runtime.inference.session import load_session
 
 EXAMPLE = Path(str(resources.files("svbrdf.runtime"))) / "examples" / "carved_wood.png"
 LUMA = np.array([0.2126, 0.7152, 0.0722], np.float32)

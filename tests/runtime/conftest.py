@@ -37,13 +37,30 @@ def tiny_model(tmp_path_factory) -> Path:
 
 
 # ---------------------------------------------------------------------------------------- headless browsers
-# The drivers (standard library only) are svbrdf.runtime.browser's; a browser test skips when its browser is absent
-# or cannot start. CI gets them as Debian packages when it can (apt-get install chromium firefox-esr).
+# The drivers (standard library only) are tests/support/browser.py's, not the package's; a browser test skips when
+# its browser is absent or cannot start. CI gets them as Debian packages when it can (apt-get install chromium
+# firefox-esr).
+
+
+def _browser_module():
+    """tests/support/browser.py, loaded by path (the tests are not a package; --import-mode=importlib)."""
+    import importlib.util
+    import sys
+
+    name = "svbrdf_tests_support_browser"
+    if name not in sys.modules:
+        path = Path(__file__).resolve().parents[1] / "support" / "browser.py"
+        spec = importlib.util.spec_from_file_location(name, path)
+        module = importlib.util.module_from_spec(spec)
+        sys.modules[name] = module
+        spec.loader.exec_module(module)
+    return sys.modules[name]
 
 
 def _start_browser(kind, profile, **kwargs):
     """The headless browser ``kind`` (``"chromium"`` or ``"firefox"``) in the new profile folder, or skip."""
-    from svbrdf.runtime.browser import BROWSERS, find_browser
+    browser = _browser_module()
+    BROWSERS, find_browser = browser.BROWSERS, browser.find_browser
 
     names, env, cls = BROWSERS[kind]
     exe = find_browser(kind)

@@ -37,7 +37,7 @@ def test_export_without_onnx_is_one_line_and_exit_2(tmp_path):
 
 
 def test_refine_without_torch_is_one_line_and_exit_2(tmp_path):
-    res = _light("svbrdf.runtime.cli", [str(tmp_path / "photo.png"), "--refine"])
+    res = _light("svbrdf.runtime.cli.preview", [str(tmp_path / "photo.png"), "--refine"])
     assert res.returncode == 2, res.stderr
     assert res.stderr.splitlines() == [f"svbrdf-preview: error: {train_hint('--refine', 'torch')}"]
 

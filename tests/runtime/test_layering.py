@@ -1,5 +1,6 @@
 """The runtime is the bottom layer: no module of svbrdf.runtime imports torch, svbrdf.trainer or svbrdf.export,
-except the one lazy entry into the trainer for ``svbrdf-preview --refine``."""
+except the one lazy entry into the trainer for ``svbrdf-preview --refine``. Inside it, the role sub-packages are
+layered too (:data:`LAYERS`), and no module-level import makes a circle."""
 
 import ast
 import pkgutil
@@ -11,7 +12,12 @@ import svbrdf.runtime
 
 ABOVE = ("torch", "svbrdf.trainer", "svbrdf.export")
 #: (module, function) of the only import of a higher layer allowed in the runtime.
-LAZY_ENTRY = ("svbrdf.runtime.cli", "_load_refine")
+LAZY_ENTRY = ("svbrdf.runtime.inference.refine", "load_refine")
+#: The role sub-packages, bottom first: a module imports from its own layer and the ones below only. The modules
+#: directly in runtime/ (errors, install, progress) import nothing of the runtime and serve every layer.
+LAYERS = ("core", "io", "quality", "post", "outputs", "inference", "batch", "cli")
+#: (module, function, imported module) of the only imports of a higher sub-package (lazy, in that function).
+UPWARD = {("svbrdf.runtime.core.maps", "save", "svbrdf.runtime.outputs.texture_set")}
 
 
 def _modules():
@@ -20,7 +26,7 @@ def _modules():
 
 def test_every_runtime_module_imports_without_the_layers_above():
     names = _modules()
-    assert len(names) >= 15 and "svbrdf.runtime.cli" in names
+    assert len(names) >= 15 and "svbrdf.runtime.cli.preview" in names
     code = (
         "import sys, importlib\n"
         f"for name in {names!r}:\n"
@@ -42,6 +48,8 @@ def _imports(tree):
                 out.extend((a.name, func) for a in child.names)
             elif isinstance(child, ast.ImportFrom) and child.level == 0:
                 out.append((child.module or "", func))
+            elif isinstance(child, ast.ImportFrom):  # relative: kept as ("." * level + module, names)
+                out.append(("." * child.level + (child.module or ""), func, tuple(a.name for a in child.names)))
             inner = child.name if isinstance(child, (ast.FunctionDef, ast.AsyncFunctionDef)) else func
             visit(child, inner)
 
@@ -55,7 +63,78 @@ def test_no_runtime_module_imports_a_higher_layer_except_the_refine_entry():
     for name in _modules():
         path = root.joinpath(*name.split(".")[2:])
         path = path / "__init__.py" if path.is_dir() else path.with_suffix(".py")
-        for module, func in _imports(ast.parse(path.read_text(encoding="utf-8"))):
+        for module, func, *_ in _imports(ast.parse(path.read_text(encoding="utf-8"))):
             if any(module == a or module.startswith(a + ".") for a in ABOVE):
                 found.append((name, func, module))
     assert found == [(*LAZY_ENTRY, "svbrdf.trainer.refine")]
+
+
+def _runtime_imports():
+    """(module, function or None, imported runtime module) of every import of a runtime module by another, relative
+    imports resolved (``from . import x`` names a module when x is one)."""
+    root = Path(svbrdf.runtime.__file__).parent
+    names = set(_modules()) | {"svbrdf.runtime"}
+    out = []
+    for name in _modules():
+        path = root.joinpath(*name.split(".")[2:])
+        is_pkg = path.is_dir()
+        path = path / "__init__.py" if is_pkg else path.with_suffix(".py")
+        package = name if is_pkg else name.rpartition(".")[0]
+        for item in _imports(ast.parse(path.read_text(encoding="utf-8"))):
+            module, func = item[0], item[1]
+            if module.startswith("."):
+                level = len(module) - len(module.lstrip("."))
+                base = package.split(".")
+                base = base[: len(base) - (level - 1)]
+                target = ".".join(base + ([module.lstrip(".")] if module.lstrip(".") else []))
+                subs = [f"{target}.{n}" for n in item[2] if f"{target}.{n}" in names]
+                targets = subs or [target]
+            else:
+                targets = [module]
+            out.extend((name, func, t) for t in targets if t == "svbrdf.runtime" or t.startswith("svbrdf.runtime."))
+    return out
+
+
+def _layer(module: str):
+    parts = module.split(".")
+    return LAYERS.index(parts[2]) if len(parts) > 2 and parts[2] in LAYERS else -1
+
+
+def test_the_runtime_is_organised_by_role():
+    root = Path(svbrdf.runtime.__file__).parent
+    top = sorted(p.name for p in root.glob("*.py"))
+    assert len(top) <= 12, top
+    assert not list(root.rglob("browser.py")), "browser drivers live in tests/support/"
+    assert {p.name for p in root.iterdir() if (p / "__init__.py").is_file()} == set(LAYERS)
+
+
+def test_each_role_imports_only_its_own_layer_and_the_ones_below():
+    found = set()
+    for name, func, target in _runtime_imports():
+        if target == "svbrdf.runtime":  # __version__
+            continue
+        if _layer(target) > _layer(name) or (_layer(name) == -1 and _layer(target) >= 0 and
+                                                  not name == "svbrdf.runtime"):
+            found.add((name, func, target))
+    assert found == UPWARD
+
+
+def test_no_import_circle_at_module_level():
+    graph = {}
+    for name, func, target in _runtime_imports():
+        if func is None and target != name and target != "svbrdf.runtime":
+            graph.setdefault(name, set()).add(target)
+    state = {}
+
+    def visit(node, path):
+        state[node] = "open"
+        for nxt in sorted(graph.get(node, ())):
+            if state.get(nxt) == "open":
+                raise AssertionError("import circle: " + " -> ".join(path[path.index(nxt):] + [nxt]))
+            if nxt not in state:
+                visit(nxt, path + [nxt])
+        state[node] = "done"
+
+    for node in sorted(graph):
+        if node not in state:
+            visit(node, [node])

@@ -6,12 +6,12 @@ import math
 import numpy as np
 import pytest
 
-from svbrdf.runtime.camera import REALISTIC, Camera
-from svbrdf.runtime.colour import linear_to_srgb
+from svbrdf.runtime.core.camera import REALISTIC, Camera
+from svbrdf.runtime.core.colour import linear_to_srgb
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.imageio import read_image, write_image
-from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
-from svbrdf.runtime.render import ZHAO, RenderConfig, novel_lights, render, rerender_rmse
+from svbrdf.runtime.io.images import read_image, write_image
+from svbrdf.runtime.core.maps import Maps, encode_normal, normalize_normals
+from svbrdf.runtime.core.render import ZHAO, RenderConfig, novel_lights, render, rerender_rmse
 from svbrdf.trainer.bench import cases as bc
 from svbrdf.trainer.bench import metrics as bm
 from svbrdf.trainer.bench import report
@@ -387,7 +387,7 @@ def test_preview_method_with_an_exported_model(tmp_path):
 
 
 def test_skip_refine_summary_uses_the_cli_threshold():
-    from svbrdf.runtime.cli import SKIP_REFINE_RMSE
+    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_RMSE
 
     low, high = SKIP_REFINE_RMSE * 0.5, SKIP_REFINE_RMSE * 2
     recs = [_rec("preview", None, None, 1.0, 0.2, case="a", input_rmse=low),
@@ -400,7 +400,7 @@ def test_skip_refine_summary_uses_the_cli_threshold():
     assert sk["error_ratio_on_skipped"] == pytest.approx(2.0)
     # ... and the burn-in test: a preview whose network baked the flash in (burn_in_model above the threshold) is
     # refined, whatever its error and its post-processed burn-in.
-    from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN
+    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_BURN_IN
 
     recs[0] = {**recs[0], "burn_in": 0.01, "burn_in_model": SKIP_REFINE_BURN_IN + 0.1}
     sk = report.summarize(recs, ["fast"])["details"]["skip_refine"]

@@ -8,10 +8,10 @@ import json
 import numpy as np
 import pytest
 
-from svbrdf.runtime.camera import Camera, expose
-from svbrdf.runtime.imageio import write_image
-from svbrdf.runtime.maps import Maps
-from svbrdf.runtime.render import ZHAO, grazing_lights, render
+from svbrdf.runtime.core.camera import Camera, expose
+from svbrdf.runtime.io.images import write_image
+from svbrdf.runtime.core.maps import Maps
+from svbrdf.runtime.core.render import ZHAO, grazing_lights, render
 from svbrdf.trainer.bench import metrics as bm
 from svbrdf.trainer.bench.cases import load_cases
 from svbrdf.runtime.errors import ImageError

@@ -6,12 +6,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from svbrdf.runtime.colour import srgb_to_linear
+from svbrdf.runtime.core.colour import srgb_to_linear
 from svbrdf.trainer.bench.datasets import (
     Case, detect_format, find_cases, normal_curl_ratio, read_des18, read_des19, read_gt, read_xuejiao,
 )
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.io.images import write_image
 
 S = 16  # panel side of the synthetic files
 

@@ -8,7 +8,7 @@ import pytest
 
 pytest.importorskip("onnxruntime")
 
-from svbrdf.runtime.maps import MAP_NAMES  # noqa: E402
+from svbrdf.runtime.core.maps import MAP_NAMES  # noqa: E402
 from svbrdf.trainer.bench import partial  # noqa: E402
 
 

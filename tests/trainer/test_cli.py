@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 import torch
 
-from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.io.images import write_image
 from svbrdf.trainer import cli
 from svbrdf.trainer import train as train_mod
 
@@ -181,7 +181,7 @@ def test_target_preset_for_the_final_texture_set(tmp_path, photo, capsys):
 def test_target_choices_are_the_runtime_targets():
     import argparse
 
-    from svbrdf.runtime.choices import TARGETS
+    from svbrdf.runtime.outputs.choices import TARGETS
 
     parser = cli.build_parser()
     sub = next(a for a in parser._actions if isinstance(a, argparse._SubParsersAction))

@@ -1,10 +1,10 @@
-"""The torch sRGB pair (svbrdf.trainer.colour) against the runtime's numpy pair (svbrdf.runtime.colour)."""
+"""The torch sRGB pair (svbrdf.trainer.colour) against the runtime's numpy pair (svbrdf.runtime.core.colour)."""
 
 import numpy as np
 import pytest
 import torch
 
-from svbrdf.runtime import colour as np_colour
+from svbrdf.runtime.core import colour as np_colour
 from svbrdf.trainer.colour import linear_to_srgb, srgb_to_linear
 
 

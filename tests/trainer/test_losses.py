@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 import torch
 
-from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.core.maps import SLICES
 from svbrdf.trainer.colour import linear_to_srgb
 from svbrdf.trainer.losses import (
     CLIP_LEVEL,

@@ -2,7 +2,7 @@ import pytest
 import torch
 import torch.nn.functional as F
 
-from svbrdf.runtime.maps import MAP_NAMES, N_CHANNELS, SLICES
+from svbrdf.runtime.core.maps import MAP_NAMES, N_CHANNELS, SLICES
 from svbrdf.trainer.models import (
     DISC_PRESETS, MODEL_PRESETS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
     count_parameters, flash_cue, height_to_normal, linearise_height, pack_maps,

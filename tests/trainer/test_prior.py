@@ -14,8 +14,8 @@ import pytest
 import torch
 from torch.utils._python_dispatch import TorchDispatchMode
 
-from svbrdf.runtime.colour import linear_to_srgb
-from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.core.colour import linear_to_srgb
+from svbrdf.runtime.core.maps import SLICES
 from svbrdf.trainer import cli
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer import train as train_mod

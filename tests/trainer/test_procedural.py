@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 import torch
 
-from svbrdf.runtime.imageio import read_image
-from svbrdf.runtime.maps import N_CHANNELS, SLICES
+from svbrdf.runtime.io.images import read_image
+from svbrdf.runtime.core.maps import N_CHANNELS, SLICES
 from svbrdf.trainer.models import height_to_normal
 from svbrdf.trainer.procedural import FAMILIES, PARAMS, sample_materials
 from svbrdf.trainer.tools import contact_sheet

@@ -4,9 +4,9 @@ import numpy as np
 import pytest
 import torch
 
-from svbrdf.runtime import preview_check
-from svbrdf.runtime.maps import Maps
-from svbrdf.runtime.render import ZHAO, render
+from svbrdf.runtime.quality import preview_check
+from svbrdf.runtime.core.maps import Maps
+from svbrdf.runtime.core.render import ZHAO, render
 from svbrdf.trainer.checkpoint import build_checkpoint, save_checkpoint
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.models import Generator

@@ -8,8 +8,8 @@ import torch
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
-from svbrdf.runtime.render import DESCHAINTRE, ZHAO, RenderConfig, light_vectors, render, shade
+from svbrdf.runtime.core.maps import MAP_NAMES, SLICES, Maps
+from svbrdf.runtime.core.render import DESCHAINTRE, ZHAO, RenderConfig, light_vectors, render, shade
 from svbrdf.trainer.render import FlashGeometry, render_maps
 
 CONFIGS = [
@@ -119,7 +119,7 @@ def test_finite_values_and_gradients(rough, spec, diffuse, tilt, azimuth, intens
 
 @pytest.mark.parametrize("light", [None, (0.3, -0.2, 1.1)])
 def test_batched_point_light_vectors_equal_the_numpy_geometry(light):
-    from svbrdf.runtime.render import camera_position
+    from svbrdf.runtime.core.render import camera_position
     from svbrdf.trainer.render import plane_grid, point_light_vectors
 
     cfg = ZHAO.replace(fov_deg=50.0)

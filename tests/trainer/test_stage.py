@@ -6,8 +6,8 @@ import pytest
 import torch
 
 from svbrdf.runtime.errors import ModelError
-from svbrdf.runtime.manifest import network_input_record
-from svbrdf.runtime.maps import MAP_NAMES, SLICES
+from svbrdf.runtime.inference.manifest import network_input_record
+from svbrdf.runtime.core.maps import MAP_NAMES, SLICES
 from svbrdf.trainer.config import REFINE_RECIPES, resolve
 from svbrdf.trainer.checkpoint import save_checkpoint
 from svbrdf.trainer.stage import finetune_config, make_trainer

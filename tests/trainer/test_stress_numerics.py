@@ -15,8 +15,8 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.maps import MAP_NAMES, SLICES, Maps
-from svbrdf.runtime.render import RenderConfig, render
+from svbrdf.runtime.core.maps import MAP_NAMES, SLICES, Maps
+from svbrdf.runtime.core.render import RenderConfig, render
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.losses import (diffuse_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse)

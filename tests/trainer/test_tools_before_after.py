@@ -5,7 +5,7 @@ import json
 import numpy as np
 import pytest
 
-from svbrdf.runtime.imageio import read_image, write_image
+from svbrdf.runtime.io.images import read_image, write_image
 from svbrdf.trainer import train as T
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.tools import before_after
@@ -68,8 +68,8 @@ def test_an_unwritable_format_is_refused_before_any_fine_tune(tmp_path, tiny_ckp
 
 
 def test_a_row_larger_than_the_panel_size_lines_up():
-    from svbrdf.runtime.maps import Maps
-    from svbrdf.runtime.texture_set import PANEL_SIZE
+    from svbrdf.runtime.core.maps import Maps
+    from svbrdf.runtime.outputs.texture_set import PANEL_SIZE
 
     s = PANEL_SIZE + 8
     rng = np.random.default_rng(0)

@@ -3,8 +3,8 @@ highlight, written as 8-bit sRGB, never over an existing file."""
 
 import numpy as np
 
-from svbrdf.runtime.burn_in import highlight_centre
-from svbrdf.runtime.imageio import read_image
+from svbrdf.runtime.quality.burn_in import highlight_centre
+from svbrdf.runtime.io.images import read_image
 from svbrdf.trainer.tools import example_photo
 
 

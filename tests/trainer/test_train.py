@@ -9,8 +9,8 @@ import torch
 import torch.nn.functional as F
 
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.maps import SLICES
-from svbrdf.runtime.render import ZHAO
+from svbrdf.runtime.core.maps import SLICES
+from svbrdf.runtime.core.render import ZHAO
 from svbrdf.trainer import train as train_mod
 from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, resolve
 from svbrdf.trainer.render import FlashGeometry
@@ -228,7 +228,7 @@ def test_learned_vignetting_follows_a_darkened_border():
     With the networks training too, one photo does not tell a darker border from a darker base colour: at this
     test's scale a fit of 60 iterations ended at 0.08 for a 0.4 vignetting and at 0.22 for none (Intel Xeon,
     AVX-512; an EPYC passed the former ``> 0.1`` check), so the mechanism is what is tested here."""
-    from svbrdf.runtime.camera import vignette
+    from svbrdf.runtime.core.camera import vignette
 
     photo, _ = synthetic_scene(size=48)
     cfg = resolve("tiny", iters_fit=30, learn_vignetting=True, lambda_render=1.0, camera_lr=2e-2, eval_every=0,
@@ -429,10 +429,10 @@ def test_predict_full_real_generator_tiles():
 
 
 def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
-    from svbrdf.runtime.flash_trend import remove_flash_trend
+    from svbrdf.runtime.post.flash_trend import remove_flash_trend
 
-    from svbrdf.runtime.burn_in import photo_burn_in
-    from svbrdf.runtime.flash_trend import uniform_specular
+    from svbrdf.runtime.quality.burn_in import photo_burn_in
+    from svbrdf.runtime.post.flash_trend import uniform_specular
 
     for key in ("flash_trend", "uniform_specular", "highlight_fill"):
         assert getattr(resolve("fast"), key) and not getattr(resolve("paper"), key)
@@ -453,7 +453,7 @@ def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
 
 
 def test_predict_maps_fills_a_clipped_highlight_where_the_preset_asks():
-    from svbrdf.runtime.highlight_fill import fill_highlight
+    from svbrdf.runtime.post.highlight_fill import fill_highlight
 
     photo = random_photo(64, 128)
     photo[:, :, 28:34, 30:36] = 1.0  # a clipped highlight
@@ -553,7 +553,7 @@ def test_flash_position_moves_the_camera_and_the_flash_over_the_photo():
 
 
 def test_even_lighting_feeds_the_generator_the_evenly_lit_photo_and_the_losses_the_photo(monkeypatch):
-    from svbrdf.runtime.flash_trend import even_lighting
+    from svbrdf.runtime.post.flash_trend import even_lighting
 
     photo = random_photo(64, 96)
     cfg = resolve("tiny", tile=32, schedule="joint", eval_every=0, lambda_render=1.0, even_lighting=0.25)

@@ -25,7 +25,7 @@ import time
 from pathlib import Path
 from typing import List, Optional
 
-from svbrdf.runtime.files import atomic_write
+from svbrdf.runtime.io.files import atomic_write
 
 SHARED = Path(__file__).resolve().parents[2].parent / "shared" / "data"
 #: The shared real photos, relative to the data folder.
@@ -60,7 +60,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         for rep in range(args.repeats):
             for engine, flags in ENGINES.items():
                 lib = Path(tmp) / f"lib-{rep}-{len(runs)}"
-                cmd = [sys.executable, "-m", "svbrdf.runtime.batch_cli", f"@{listing}", "-o", str(lib), "-q",
+                cmd = [sys.executable, "-m", "svbrdf.runtime.cli.batch", f"@{listing}", "-o", str(lib), "-q",
                        *flags, *args.extra]
                 start = time.perf_counter()
                 res = subprocess.run(cmd, capture_output=True, text=True)

@@ -5,12 +5,12 @@ Every image under the data folder is found by :func:`svbrdf.trainer.bench.datase
 * a ground-truth panel set (Des18, Des19, Xuejiao layouts) becomes a **synthetic case**: its maps are
   area-averaged to ``size x size`` (:func:`resize_maps`, normals renormalised) and the input photo is rendered
   from them with a co-located flash above the centre, then recorded by a camera
-  (:func:`svbrdf.runtime.camera.expose`). Two settings:
+  (:func:`svbrdf.runtime.core.camera.expose`). Two settings:
 
   - **realistic** (the default): rendered by Mitsuba 3 where it is installed (:func:`render_mitsuba`: an
     independent renderer with inverse-square fall-off), else by the project renderer with the same physics
     (:func:`physical_config`: fall-off, exact Smith masking, F = F0); then a camera drawn per case from
-    :data:`svbrdf.runtime.camera.REALISTIC` (exposure +-0.5 stop, vignetting, Poisson-Gaussian noise,
+    :data:`svbrdf.runtime.core.camera.REALISTIC` (exposure +-0.5 stop, vignetting, Poisson-Gaussian noise,
     saturation, 8-bit sRGB storage). The highlight clips wherever the rendering exceeds 1 after exposure;
   - **clean** (``realistic=False``, for the inverse-crime comparison): rendered by ``renderer`` with the
     benchmark's own configuration, optional Gaussian noise (``noise``), clipped to [0, 1], optionally 8-bit
@@ -37,13 +37,13 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 import numpy as np
 import OpenImageIO as oiio
 
-from svbrdf.runtime.burn_in import highlight_centre
-from svbrdf.runtime.camera import Camera, expose, sample_camera
+from svbrdf.runtime.quality.burn_in import highlight_centre
+from svbrdf.runtime.core.camera import Camera, expose, sample_camera
 from svbrdf.trainer.bench.datasets import Case, CaptureCalibration, capture_view, find_cases, read_gt
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.imageio import read_image
-from svbrdf.runtime.maps import Maps, encode_normal, normalize_normals
-from svbrdf.runtime.render import ALPHA_MIN, ZHAO, RenderConfig, physical_config, render
+from svbrdf.runtime.io.images import read_image
+from svbrdf.runtime.core.maps import Maps, encode_normal, normalize_normals
+from svbrdf.runtime.core.render import ALPHA_MIN, ZHAO, RenderConfig, physical_config, render
 
 
 RENDERERS = ("auto", "ours", "mitsuba")
@@ -142,7 +142,7 @@ def mitsuba_available() -> bool:
 
 def render_mitsuba(maps: Maps, light_pos: Optional[Sequence[float]] = None, config: RenderConfig = ZHAO,
                    spp: int = MITSUBA_SPP, seed: int = 0) -> np.ndarray:
-    """Render a texture set with Mitsuba 3 (``scalar_rgb``), the same scene as :func:`svbrdf.runtime.render.render`.
+    """Render a texture set with Mitsuba 3 (``scalar_rgb``), the same scene as :func:`svbrdf.runtime.core.render.render`.
 
     Scene: the maps cover the plane z = 0 over x in [-1, 1]; a perspective camera at ``(0, 0, d)`` looks down
     with ``config.fov_deg`` across the width (box pixel filter, ``spp`` samples); a point light at
@@ -151,7 +151,7 @@ def render_mitsuba(maps: Maps, light_pos: Optional[Sequence[float]] = None, conf
     ``material="none"`` so F = specular map), weighted x2 so the two lobes add. Mitsuba is physically based, so
     regardless of ``config``: inverse-square fall-off (intensity ``I d^2``, so a surface point at the camera
     distance gets ``I``), exact Smith GGX masking, F = F0, no (1 - rho_s) on the diffuse term. It matches
-    :func:`~svbrdf.runtime.render.render` with ``config.replace(falloff=True, geometry="smith",
+    :func:`~svbrdf.runtime.core.render.render` with ``config.replace(falloff=True, geometry="smith",
     fresnel="none")`` up to Monte Carlo noise and texture filtering, and differs from the ZHAO settings
     the methods assume (an independent check of robustness to the image-formation model).
 
@@ -228,7 +228,7 @@ def simulate_photo(maps: Maps, *, renderer: str = "ours", config: RenderConfig =
         renderer: ``"ours"`` (the project renderer with ``config``), ``"mitsuba"`` (physical, see
             :func:`render_mitsuba`) or ``"auto"``.
         config: renderer settings.
-        camera: the camera model (:func:`svbrdf.runtime.camera.expose`); default: clip to [0, 1] only.
+        camera: the camera model (:func:`svbrdf.runtime.core.camera.expose`); default: clip to [0, 1] only.
         seed: noise and Mitsuba sampler seed.
 
     Returns:

@@ -22,9 +22,9 @@ import sys
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Optional, Sequence
 
-from svbrdf.runtime.burn_in import burn_in_scores
+from svbrdf.runtime.quality.burn_in import burn_in_scores
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.render import ZHAO
+from svbrdf.runtime.core.render import ZHAO
 
 from . import report
 from .cases import RENDERERS, BenchCase, load_cases, mitsuba_available, prepare_case

@@ -13,7 +13,7 @@ format      panels, left to right                                       aspect (
 Decoding (the evidence is in ``docs/conventions.md``; the defaults follow it):
 
 * normals are stored as ``(n + 1) / 2``; they are decoded to unit vectors and converted to the project's
-  OpenGL frame (:mod:`svbrdf.runtime.maps`). ``normal_y="up"`` means the file already stores +y up the image
+  OpenGL frame (:mod:`svbrdf.runtime.core.maps`). ``normal_y="up"`` means the file already stores +y up the image
   (green up, OpenGL); ``"down"`` flips y (DirectX files).
 * ``maps_encoding`` says how the diffuse and specular panels are stored: ``"srgb-diffuse"`` (default: the
   diffuse panel is sRGB-encoded and decoded on read, the specular panel is linear; the usual texture
@@ -25,7 +25,7 @@ Decoding (the evidence is in ``docs/conventions.md``; the defaults follow it):
   Albedos and roughness are kept in [0, 1]; roughness 0 (two Des19 files) is valid, the renderer clamps
   alpha = r^2.
 * the Des18 input panel is a gamma-encoded rendering; it is returned decoded to linear with the project's sRGB
-  curve (:func:`svbrdf.runtime.colour.srgb_to_linear`).
+  curve (:func:`svbrdf.runtime.core.colour.srgb_to_linear`).
 
 Format detection (:func:`detect_format`), in this order:
 
@@ -58,10 +58,10 @@ from typing import Dict, List, Optional, Tuple, Union
 import numpy as np
 import OpenImageIO as oiio
 
-from svbrdf.runtime.colour import srgb_to_linear
+from svbrdf.runtime.core.colour import srgb_to_linear
 from svbrdf.runtime.errors import ImageError
-from svbrdf.runtime.imageio import image_info, read_image
-from svbrdf.runtime.maps import Maps, decode_normal, normal_dx_to_gl
+from svbrdf.runtime.io.images import image_info, read_image
+from svbrdf.runtime.core.maps import Maps, decode_normal, normal_dx_to_gl
 
 PathLike = Union[str, os.PathLike]
 
@@ -218,7 +218,7 @@ def read_des18(
             specular linear), ``"linear"`` (both used as stored) or ``"srgb"`` (both sRGB-encoded).
 
     Returns:
-        ``(maps, photo)``: :class:`~svbrdf.runtime.maps.Maps` of (H, H) maps, and the input panel as an
+        ``(maps, photo)``: :class:`~svbrdf.runtime.core.maps.Maps` of (H, H) maps, and the input panel as an
         (H, H, 3) float32 linear image (sRGB-decoded).
 
     Raises:
@@ -304,7 +304,7 @@ class CaptureCalibration:
     The frame (both versions of the format): the origin at the centre of the rectified crop, +x to the right of
     the image, +y up the image, +z out of the surface; every photo shows the same square ``width_cm`` wide, so a
     pixel is the same point of the material in every view. This is the renderer's frame
-    (:mod:`svbrdf.runtime.render`) scaled by half the width.
+    (:mod:`svbrdf.runtime.core.render`) scaled by half the width.
 
     Attributes:
         path: the JSON read.

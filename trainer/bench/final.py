@@ -24,7 +24,7 @@ from pathlib import Path
 from typing import Any, Dict, List, Optional, Sequence
 
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.io.images import write_image
 
 from .cases import load_cases
 from .common import default_data, repo_root, results_paths, write_results
@@ -34,7 +34,7 @@ MODES = {"auto": ["--refine", "--quality", "auto"], "fixed": ["--refine"]}
 
 def time_final(photo: Path, out: Path, mode: str, threads: Optional[int]) -> Dict[str, Any]:
     """Run ``svbrdf-preview`` once on ``photo``; returns wall seconds and the refine facts of its sidecar."""
-    cmd = [sys.executable, "-m", "svbrdf.runtime.cli", str(photo), "-o", str(out), "--force", "-q", *MODES[mode]]
+    cmd = [sys.executable, "-m", "svbrdf.runtime.cli.preview", str(photo), "-o", str(out), "--force", "-q", *MODES[mode]]
     if threads:
         cmd += ["--threads", str(threads)]
     t0 = time.perf_counter()

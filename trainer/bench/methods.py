@@ -6,7 +6,7 @@ name       what runs; what ``seconds`` measures
 baseline   guessed diffuse map (:func:`svbrdf.trainer.losses.guessed_diffuse`) as albedo, flat normal,
            roughness 0.5, specular 0.04; the median time of the guess over ``repeats`` after one warm-up.
            Needs torch.
-preview    the ONNX generator through the runtime (:func:`svbrdf.runtime.session.estimate`); ``--model`` or
+preview    the ONNX generator through the runtime (:func:`svbrdf.runtime.inference.pipeline.estimate`); ``--model`` or
            the packaged model; median time of ``estimate`` over ``repeats`` after one warm-up (session load
            time recorded separately as ``load_seconds``). Needs a model.
 finetune   stage two of the trainer from a stage-one checkpoint (``--init``, default the one the preview
@@ -37,10 +37,10 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 
 import numpy as np
 
-from svbrdf.runtime.conversions import DIELECTRIC_F0
+from svbrdf.runtime.outputs.conversions import DIELECTRIC_F0
 from svbrdf.runtime.errors import ModelError, SvbrdfError
-from svbrdf.runtime.maps import Maps
-from svbrdf.runtime.render import ZHAO, RenderConfig
+from svbrdf.runtime.core.maps import Maps
+from svbrdf.runtime.core.render import ZHAO, RenderConfig
 
 from .cases import BenchCase
 
@@ -167,7 +167,7 @@ class Preview(Method):
         self._load_seconds = 0.0
 
     def _load(self, opts: BenchOptions):
-        from svbrdf.runtime.session import load_session
+        from svbrdf.runtime.inference.session import load_session
 
         key = (opts.model, opts.threads)
         if self._session is None or self._key != key:
@@ -187,7 +187,7 @@ class Preview(Method):
         return None
 
     def run(self, case, opts, preset, on_point):
-        from svbrdf.runtime.session import estimate
+        from svbrdf.runtime.inference.pipeline import estimate
 
         session = self._load(opts)
         maps, seconds = _timed_median(lambda: estimate(case.photo, session), opts.repeats)

@@ -2,8 +2,8 @@
 
 Conventions shared by all metrics:
 
-* maps are :class:`svbrdf.runtime.maps.Maps` (linear, channel-last float32, OpenGL normals);
-* "sRGB" means: clip to [0, 1], then encode with the exact sRGB curve (:func:`svbrdf.runtime.colour.linear_to_srgb` with ``clip=True``);
+* maps are :class:`svbrdf.runtime.core.maps.Maps` (linear, channel-last float32, OpenGL normals);
+* "sRGB" means: clip to [0, 1], then encode with the exact sRGB curve (:func:`svbrdf.runtime.core.colour.linear_to_srgb` with ``clip=True``);
 * RMSE is ``sqrt(mean((a - b)^2))`` over every pixel and channel of the compared arrays (pooled, not a mean of
   per-channel RMSEs); lower is better, 0 = identical.
 
@@ -21,19 +21,19 @@ normal_rmse          RMSE of the encoded normals (n + 1) / 2 (3 channels)
 normal_angle_deg     mean over pixels of the angle between unit normals, degrees
 ===================  =====================================================================================
 
-Re-rendering errors (:func:`svbrdf.runtime.render.rerender_rmse`, beside the renderer so that the runtime's
+Re-rendering errors (:func:`svbrdf.runtime.core.render.rerender_rmse`, beside the renderer so that the runtime's
 ``--quality auto`` rule computes the same number): both texture sets are rendered with the project renderer
-(:func:`svbrdf.runtime.render.render`, the benchmark's :class:`~svbrdf.runtime.render.RenderConfig`) under each
+(:func:`svbrdf.runtime.core.render.render`, the benchmark's :class:`~svbrdf.runtime.core.render.RenderConfig`) under each
 light, every render is converted to sRGB (clipped to [0, 1] first, as a display or a camera would), and the
 RMSE is pooled over all lights, pixels and channels:
 
-* ``rerender_rmse``: the 9 lights of :func:`svbrdf.runtime.render.novel_lights` plus the input flash (10 renders);
+* ``rerender_rmse``: the 9 lights of :func:`svbrdf.runtime.core.render.novel_lights` plus the input flash (10 renders);
 * ``input_rmse``: the input flash only. For a real photo (no ground truth) the reference is the photo itself
   (clipped to [0, 1], sRGB-encoded), so this is the only re-rendering metric there; it is given twice:
   ``input_rmse`` with the benchmark's configuration (ZHAO: no light fall-off, which favours maps that carry the
   photo's fall-off as burn-in) and ``input_rmse_falloff`` with inverse-square fall-off, as a real flash has.
 
-Highlight burn-in: the label-free score of :mod:`svbrdf.runtime.burn_in` (``burn_*`` signed disc scores and
+Highlight burn-in: the label-free score of :mod:`svbrdf.runtime.quality.burn_in` (``burn_*`` signed disc scores and
 ``ring_*`` ring scores per map, ``burn_in`` the worst map's), imported from there so the runtime reports the same
 number.
 
@@ -49,7 +49,7 @@ detail_<map>           ``std_<map>`` of the prediction / that of the ground trut
 normal_slope_corr      Pearson correlation of the predicted and true surface slopes ``(-n_x/n_z,
                        -n_y/n_z)`` (the height field's gradient), both components pooled; 0 for a flat
                        map (synthetic cases)
-grazing_rmse           ``rerender_rmse`` under :func:`~svbrdf.runtime.render.grazing_lights` (60 and 75
+grazing_rmse           ``rerender_rmse`` under :func:`~svbrdf.runtime.core.render.grazing_lights` (60 and 75
                        degrees from the normal, 4 azimuths each), where normals and roughness show
 grazing_hp_corr        mean over those lights of the correlation of the relit images' high-pass (sRGB
                        luminance minus its Gaussian blur of sigma W / 128), prediction against truth
@@ -68,10 +68,10 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from svbrdf.runtime.burn_in import BURN_METRICS, burn_in_scores
-from svbrdf.runtime.colour import linear_to_srgb
-from svbrdf.runtime.maps import MAP_NAMES, Maps, encode_normal, normalize_normals
-from svbrdf.runtime.render import ZHAO, RenderConfig, grazing_lights, novel_lights, render, rerender_rmse
+from svbrdf.runtime.quality.burn_in import BURN_METRICS, burn_in_scores
+from svbrdf.runtime.core.colour import linear_to_srgb
+from svbrdf.runtime.core.maps import MAP_NAMES, Maps, encode_normal, normalize_normals
+from svbrdf.runtime.core.render import ZHAO, RenderConfig, grazing_lights, novel_lights, render, rerender_rmse
 
 #: Keys returned by :func:`map_errors`.
 MAP_METRICS = ("diffuse_rmse", "diffuse_rmse_srgb", "specular_rmse", "specular_rmse_srgb", "roughness_rmse",
@@ -222,7 +222,7 @@ def relight_view(pred: Maps, capture, view: int, config: RenderConfig = ZHAO
 def capture_errors(pred: Maps, capture, config: RenderConfig = ZHAO) -> Dict[str, float]:
     """Relighting error of maps estimated from one view of a real multi-view capture, at its other views.
 
-    For every other view j: the maps are rendered (:func:`svbrdf.runtime.render.render` with ``config`` and
+    For every other view j: the maps are rendered (:func:`svbrdf.runtime.core.render.render` with ``config`` and
     inverse-square fall-off, the physics of a real flash) with view j's camera and flash positions; one
     exposure ``k = sum(r p) / sum(r r)`` (linear light, all channels of the unclipped pixels) scales the render
     ``r`` to the photo ``p``, as a camera's exposure would; the scaled render is clipped and sRGB-encoded and

@@ -1,4 +1,4 @@
-"""Maps on demand: time :func:`svbrdf.runtime.session.estimate` for subsets of the maps against all four.
+"""Maps on demand: time :func:`svbrdf.runtime.inference.pipeline.estimate` for subsets of the maps against all four.
 
 ::
 
@@ -35,8 +35,8 @@ from typing import Any, Dict, Optional, Sequence, Tuple
 import numpy as np
 
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.files import atomic_write
-from svbrdf.runtime.maps import MAP_NAMES
+from svbrdf.runtime.io.files import atomic_write
+from svbrdf.runtime.core.maps import MAP_NAMES
 
 PROG = "python -m svbrdf.trainer.bench.partial"
 SCHEMA = "svbrdf-bench-partial/1"
@@ -50,8 +50,8 @@ def example_photo(size: int) -> np.ndarray:
     """The bundled example photo resized to (size, size, 3), linear float32 (OpenImageIO resize)."""
     import OpenImageIO as oiio
 
-    from svbrdf.runtime.imageio import read_image
-    from svbrdf.runtime.imageio import RESIZE_FILTER
+    from svbrdf.runtime.io.images import read_image
+    from svbrdf.runtime.io.images import RESIZE_FILTER
 
     photo = read_image(Path(str(resources.files("svbrdf.runtime") / "examples" / "carved_wood.png")))
     h, w, c = photo.shape
@@ -66,7 +66,8 @@ def example_photo(size: int) -> np.ndarray:
 def run(size: int = 1024, repeats: int = 5, threads: Optional[int] = None, model: Optional[str] = None,
         progress=None) -> Dict[str, Any]:
     """Time every case of :data:`CASES`; returns the ``results.json`` document without command and machine."""
-    from svbrdf.runtime.session import DEFAULT_MAX_SIZE, estimate, load_session
+    from svbrdf.runtime.inference.pipeline import DEFAULT_MAX_SIZE, estimate
+    from svbrdf.runtime.inference.session import load_session
 
     photo = example_photo(size)
     load_before = os.getloadavg()

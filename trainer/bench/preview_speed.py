@@ -5,11 +5,11 @@ Run as ``python -m svbrdf.trainer.bench.preview_speed [--sizes 512,1024,2048,409
 
 * **steps**, in one process: the pipeline of ``svbrdf-preview`` on the bundled photo resized to each size with
   the CLI's defaults (``--max-size 2048``, ``--tile 1024``): ``read`` (decode + sRGB to linear), ``model``
-  (onnxruntime), ``post`` (downsizing, clipping, burn-in), ``relit`` (:func:`~svbrdf.runtime.texture_set.relit_panel`)
-  and ``write`` (:func:`~svbrdf.runtime.texture_set.write_texture_set` with the panel). ``before`` and ``after``
+  (onnxruntime), ``post`` (downsizing, clipping, burn-in), ``relit`` (:func:`~svbrdf.runtime.outputs.texture_set.relit_panel`)
+  and ``write`` (:func:`~svbrdf.runtime.outputs.texture_set.write_texture_set` with the panel). ``before`` and ``after``
   take turns (A/B/A/B, ``--repeats`` times per size) so that the load of a shared machine hits both alike;
   medians are reported. ``before`` is the code as it was, reproduced by its settings: no onnxruntime memory
-  arena (``session.CPU_MEM_ARENA = False``), libpng's default compression (``PNG_OPTIONS = {}``), one
+  arena (``load_session(..., cpu_mem_arena=False)``), libpng's default compression (``PNG_OPTIONS = {}``), one
   writing thread (``WRITE_WORKERS = 1``) and a full-size panel (``size=None``). The model file is the same in
   both (no variant of it was adopted; see the README). The sessions are warm here (one preview each first),
   so the arena's gain shows in the **process** part, where each pass is a process's first.
@@ -53,20 +53,23 @@ IMPORTS = ("svbrdf", "onnxruntime", "OpenImageIO", "numpy")
 # Run by a fresh interpreter: svbrdf-preview with the 'before' settings or without them.
 DRIVER = """
 import functools, sys
-from svbrdf.runtime import imageio, session, texture_set
+from svbrdf.runtime.io import images as imageio
+from svbrdf.runtime.inference import session
+from svbrdf.runtime.outputs import texture_set
 if sys.argv[1] == "before":
-    session.CPU_MEM_ARENA = False
+    session.load_session = functools.partial(session.load_session, cpu_mem_arena=False)
     imageio.PNG_OPTIONS = {}
     texture_set.WRITE_WORKERS = 1
     texture_set.relit_panel = functools.partial(texture_set.relit_panel, size=None)
-from svbrdf.runtime.cli import main
+from svbrdf.runtime.cli.preview import main
 sys.exit(main(sys.argv[2:]))
 """
 
 
 def _settings(variant: str):
     """Set the module settings of ``variant``; returns the relit-panel function to call."""
-    from svbrdf.runtime import imageio, texture_set
+    from svbrdf.runtime.io import images as imageio
+    from svbrdf.runtime.outputs import texture_set
 
     if variant == "before":
         imageio.PNG_OPTIONS = {}
@@ -78,7 +81,8 @@ def _settings(variant: str):
 
 
 def _shipped():
-    from svbrdf.runtime import imageio, texture_set
+    from svbrdf.runtime.io import images as imageio
+    from svbrdf.runtime.outputs import texture_set
 
     return dict(imageio.PNG_OPTIONS), texture_set.WRITE_WORKERS
 
@@ -103,8 +107,8 @@ def make_photos(sizes: Sequence[int], folder: Path) -> Dict[int, Path]:
 
 def one_preview(photo: Path, session, variant: str, out: Path) -> Dict[str, float]:
     """Seconds per step of one preview of ``photo`` (the CLI's pipeline and defaults) with ``variant``'s settings."""
-    from svbrdf.runtime.session import estimate
-    from svbrdf.runtime.texture_set import write_texture_set
+    from svbrdf.runtime.inference.pipeline import estimate
+    from svbrdf.runtime.outputs.texture_set import write_texture_set
 
     panel = _settings(variant)
     t0 = time.perf_counter()
@@ -122,16 +126,12 @@ def one_preview(photo: Path, session, variant: str, out: Path) -> Dict[str, floa
 
 
 def steps(photos: Dict[int, Path], threads: int, repeats: int, work: Path) -> Dict[str, Any]:
-    from svbrdf.runtime.session import load_session
-
-    from svbrdf.runtime import session as session_module
+    from svbrdf.runtime.inference.session import load_session
 
     sessions = {}
     for variant in VARIANTS:
-        session_module.CPU_MEM_ARENA = variant == "after"
-        sessions[variant] = load_session(threads=threads)
+        sessions[variant] = load_session(threads=threads, cpu_mem_arena=variant == "after")
         one_preview(photos[min(photos)], sessions[variant], variant, work / "warm")  # first-call costs out of the way
-    session_module.CPU_MEM_ARENA = True
     out: Dict[str, Any] = {}
     for size, photo in photos.items():
         runs: Dict[str, List[Dict[str, float]]] = {v: [] for v in VARIANTS}
@@ -176,7 +176,7 @@ def import_times(repeats: int) -> Dict[str, float]:
     """Median cumulative import seconds of what a preview imports, per top-level package in import order (a
     package first imported by another counts in that one's time: numpy in ``svbrdf``), with the wall time of
     the interpreter importing it all and of a bare ``python -c pass``."""
-    code = ("import svbrdf.runtime.cli, svbrdf.runtime.session, svbrdf.runtime.texture_set, onnxruntime, "
+    code = ("import svbrdf.runtime.cli.preview, svbrdf.runtime.inference.session, svbrdf.runtime.outputs.texture_set, onnxruntime, "
             "OpenImageIO")
     runs: Dict[str, List[float]] = {}
     for _ in range(repeats):
@@ -299,8 +299,10 @@ PNG_CHOICES = {
 def png_choices(photo: Path, threads: int, repeats: int, work: Path) -> Dict[str, Any]:
     """Seconds (one thread, median) and bytes of the five PNG files of a preview of ``photo`` per
     :data:`PNG_CHOICES` entry, the entries taking turns; pixels checked equal to the default's."""
-    from svbrdf.runtime import imageio, texture_set
-    from svbrdf.runtime.session import estimate, load_session
+    from svbrdf.runtime.io import images as imageio
+    from svbrdf.runtime.outputs import texture_set
+    from svbrdf.runtime.inference.pipeline import estimate
+    from svbrdf.runtime.inference.session import load_session
 
     session = load_session(threads=threads)
     maps = estimate(photo, session)
@@ -386,7 +388,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         paths = results_paths(args.out, args.force)
         sizes = [int(s) for s in args.sizes.split(",")]
         parts = set(args.parts.split(","))
-        from svbrdf.runtime.manifest import find_model
+        from svbrdf.runtime.inference.manifest import find_model
 
         model = find_model(None).path
         doc: Dict[str, Any] = {"threads": args.threads, "repeats": args.repeats,

@@ -53,10 +53,10 @@ import numpy as np
 import OpenImageIO as oiio
 
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.files import atomic_write
-from svbrdf.runtime.imageio import write_image
+from svbrdf.runtime.io.files import atomic_write
+from svbrdf.runtime.io.images import write_image
 
-from svbrdf.runtime.burn_in import BURN_METRICS, RING_METRICS
+from svbrdf.runtime.quality.burn_in import BURN_METRICS, RING_METRICS
 
 from .metrics import ARTIST_METRICS, MAP_METRICS
 
@@ -91,7 +91,7 @@ BUDGET = "budget"
 
 # ----------------------------------------------------------------------------------------------- files
 def write_text(path: Path, text: str, force: bool = False) -> Path:
-    """Write a text file atomically (:func:`~svbrdf.runtime.files.atomic_write`); refuse to overwrite unless
+    """Write a text file atomically (:func:`~svbrdf.runtime.io.files.atomic_write`); refuse to overwrite unless
     ``force``."""
     path = Path(path)
     try:
@@ -235,8 +235,8 @@ def _ratio(a: Optional[float], b: Optional[float]) -> Optional[float]:
 def skip_rule_passes(record: Mapping[str, Any]) -> bool:
     """Would ``--quality auto`` skip the fine-tune after this preview record: its input-flash RMSE at or below
     ``SKIP_REFINE_RMSE`` and the burn-in of the network's maps (``burn_in_model`` where the record has it, else
-    ``burn_in``) at or below ``SKIP_REFINE_BURN_IN`` (:mod:`svbrdf.runtime.preview_check`)."""
-    from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
+    ``burn_in``) at or below ``SKIP_REFINE_BURN_IN`` (:mod:`svbrdf.runtime.quality.preview_check`)."""
+    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
 
     burn = record.get("burn_in_model", record.get("burn_in"))
     return record.get("input_rmse") is not None and record["input_rmse"] <= SKIP_REFINE_RMSE and \
@@ -249,7 +249,7 @@ def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[
     ``burn_in``, <= ``SKIP_REFINE_BURN_IN``; label-free tests) does on these cases: how many it skips, the fine-tune
     time it saves (fraction of the summed fine-tune seconds at each run's last point) and the error price on the
     skipped cases (mean preview error / fine-tuned error)."""
-    from svbrdf.runtime.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
+    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
 
     prev = {r["case"]: r for r in records if r["method"] == "preview" and r["kind"] == kind}
     last: Dict[str, Mapping[str, Any]] = {}
@@ -413,7 +413,7 @@ def _artist_markdown(rows: Sequence[Mapping[str, Any]]) -> List[str]:
             "(one exposure fitted per view) against the real photos. Grazing: 8 lights 60-75° from the normal, "
             "against renders of the ground truth. Detail: the map's spatial std over the truth's (0 = constant or "
             "flat, 1 = as varied as the truth; median over the cases). Burn-in: the worst map's disc or ring score "
-            "(`svbrdf.runtime.burn_in`); the ground truth row is its chance level. Definitions: "
+            "(`svbrdf.runtime.quality.burn_in`); the ground truth row is its chance level. Definitions: "
             "`svbrdf.trainer.bench.metrics`.", ""]
     return out
 

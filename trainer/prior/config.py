@@ -6,9 +6,9 @@ import dataclasses
 from dataclasses import asdict, dataclass, field
 from typing import Any, Dict, Mapping, Optional, Tuple
 
-from svbrdf.runtime.camera import REALISTIC
-from svbrdf.runtime.manifest import PRIOR_STAGE
-from svbrdf.runtime.maps import SLICES
+from svbrdf.runtime.core.camera import REALISTIC
+from svbrdf.runtime.inference.manifest import PRIOR_STAGE
+from svbrdf.runtime.core.maps import SLICES
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.losses import DETAIL_WINDOWS
 from svbrdf.trainer.models import GeneratorConfig
@@ -36,9 +36,9 @@ class PriorConfig:
         seed: seeds the weights and the material stream.
         fov_deg: range of the photos' horizontal field of view, degrees (uniform).
         light_offset: the flash sits up to this far from the lens, in each of x and y (half photo widths).
-        physical_share: fraction of photos rendered with :func:`~svbrdf.runtime.render.physical_config`.
-        camera: ranges of the camera model (default :data:`svbrdf.runtime.camera.REALISTIC`). ``white`` (the
-            highlight roll-off's white point, :func:`svbrdf.runtime.camera.roll_off`) may be left out: (1, 1), a
+        physical_share: fraction of photos rendered with :func:`~svbrdf.runtime.core.render.physical_config`.
+        camera: ranges of the camera model (default :data:`svbrdf.runtime.core.camera.REALISTIC`). ``white`` (the
+            highlight roll-off's white point, :func:`svbrdf.runtime.core.camera.roll_off`) may be left out: (1, 1), a
             linear camera, as every run before it existed; it is drawn only when its range is not (1, 1), so such
             a run's stream of draws is unchanged.
         lambda_render: weight of the relighting loss.
@@ -50,7 +50,7 @@ class PriorConfig:
         lambda_grad: weight of :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps.
         lambda_amount: weight of :func:`~svbrdf.trainer.losses.detail_amount_loss` on the ``amount_maps`` (asks
             for as much local variation as the truth has; 0 = off, the v1 and first v2 loss).
-        amount_maps: the maps of that term (names of :data:`svbrdf.runtime.maps.SLICES`).
+        amount_maps: the maps of that term (names of :data:`svbrdf.runtime.core.maps.SLICES`).
         lambda_slope: weight of :func:`~svbrdf.trainer.losses.slope_correlation_loss` (the pattern of the normals'
             slopes at any scale; 0 = off, the loss before the eighth session of 2026-11-26).
         amount_windows: its window sides, px (:data:`~svbrdf.trainer.losses.DETAIL_WINDOWS` by default; a window

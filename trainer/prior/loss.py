@@ -6,8 +6,8 @@ from typing import Callable, Dict, Optional
 
 import torch
 
-from svbrdf.runtime.maps import SLICES
-from svbrdf.runtime.render import RenderConfig, camera_position
+from svbrdf.runtime.core.maps import SLICES
+from svbrdf.runtime.core.render import RenderConfig, camera_position
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.device import to_device
 from svbrdf.trainer.losses import (detail_amount_loss, gradient_loss, relit_loss, slope_correlation_loss,

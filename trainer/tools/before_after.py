@@ -6,10 +6,10 @@
 
 One row per photo and preset (photos outer, presets inner): the photo (centre square at ``--size``), base colour,
 normal, roughness, specular, then the maps re-lit by the flash and by two lights from the upper left and the
-lower right (:func:`svbrdf.runtime.texture_set.relit_panel`). Where the highlight is out of the maps it moves
+lower right (:func:`svbrdf.runtime.outputs.texture_set.relit_panel`). Where the highlight is out of the maps it moves
 with the light; where it is burnt in, it stays at the centre. Every row is a fine-tune from the same stage-one
 checkpoint (default: the packaged one), as ``svbrdf-train finetune`` runs it. A JSON beside the PNG records the
-rows' label-free burn-in (:func:`svbrdf.runtime.burn_in.photo_burn_in`) and fine-tune times.
+rows' label-free burn-in (:func:`svbrdf.runtime.quality.burn_in.photo_burn_in`) and fine-tune times.
 """
 
 from __future__ import annotations
@@ -23,14 +23,14 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple
 
 import numpy as np
 
-from svbrdf.runtime.burn_in import photo_burn_in
-from svbrdf.runtime.colour import linear_to_srgb
+from svbrdf.runtime.quality.burn_in import photo_burn_in
+from svbrdf.runtime.core.colour import linear_to_srgb
 from svbrdf.trainer.bench.datasets import Case
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.imageio import WRITE_EXTENSIONS, write_image
-from svbrdf.runtime.maps import Maps, encode_normal
-from svbrdf.runtime.render import ZHAO
-from svbrdf.runtime.texture_set import relit_panel
+from svbrdf.runtime.io.images import WRITE_EXTENSIONS, write_image
+from svbrdf.runtime.core.maps import Maps, encode_normal
+from svbrdf.runtime.core.render import ZHAO
+from svbrdf.runtime.outputs.texture_set import relit_panel
 
 
 def row_image(photo: np.ndarray, maps: Maps) -> np.ndarray:

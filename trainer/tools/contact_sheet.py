@@ -21,11 +21,11 @@ from typing import Optional, Sequence
 import numpy as np
 import torch
 
-from svbrdf.runtime.colour import linear_to_srgb
+from svbrdf.runtime.core.colour import linear_to_srgb
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.imageio import write_image
-from svbrdf.runtime.maps import SLICES, encode_normal
-from svbrdf.runtime.render import ZHAO
+from svbrdf.runtime.io.images import write_image
+from svbrdf.runtime.core.maps import SLICES, encode_normal
+from svbrdf.runtime.core.render import ZHAO
 from svbrdf.trainer.procedural import FAMILIES, sample_materials
 from svbrdf.trainer.render import FlashGeometry
 

@@ -11,10 +11,10 @@ maps of a highlight photo are clean enough to show first (issue "what a new user
 The photo is made by this project alone (no third-party content, so it is under the project's licence): a
 material of :mod:`svbrdf.trainer.procedural` (family ``--family``, seed ``--seed``) rendered by the one renderer
 with inverse-square fall-off at a 60 deg field of view, the flash on the lens axis, then recorded by the camera
-model of :mod:`svbrdf.runtime.camera` (exposure ``--ev`` stops, so the highlight clips; vignetting 0.1; shot and
+model of :mod:`svbrdf.runtime.core.camera` (exposure ``--ev`` stops, so the highlight clips; vignetting 0.1; shot and
 read noise; 8-bit sRGB): :func:`svbrdf.trainer.prior.simulate_photos` with its ranges fixed. With ``--grid``, a
 picture of what the runtime makes of it (rows: the preview without and with the post-processing of
-:mod:`svbrdf.runtime.flash_trend`, then the default refine; columns as :mod:`svbrdf.trainer.tools.before_after`),
+:mod:`svbrdf.runtime.post.flash_trend`, then the default refine; columns as :mod:`svbrdf.trainer.tools.before_after`),
 and a JSON beside it with each row's label-free burn-in.
 """
 
@@ -49,20 +49,17 @@ def make_photo(family: str, seed: int, size: int, ev: float) -> np.ndarray:
 
 def grid(photo: np.ndarray, threads: int = 1):
     """The rows (preview without and with the post-processing, default refine) and their burn-in scores."""
-    import svbrdf.runtime.session as S
-    from svbrdf.runtime.manifest import find_checkpoint
+    from svbrdf.runtime.inference.manifest import find_checkpoint
+    from svbrdf.runtime.inference.pipeline import estimate
+    from svbrdf.runtime.inference.session import load_session
+    from svbrdf.runtime.post import PostProcess
     from svbrdf.trainer.refine import refine
     from svbrdf.trainer.tools.before_after import row_image
 
-    session = S.load_session(threads=threads)
+    session = load_session(threads=threads)
     rows, scores = [], {}
     for label, flag in (("preview without post-processing", False), ("preview", True)):
-        old = S.FLASH_TREND, S.UNIFORM_SPECULAR
-        S.FLASH_TREND = S.UNIFORM_SPECULAR = flag
-        try:
-            maps = S.estimate(photo, session)
-        finally:
-            S.FLASH_TREND, S.UNIFORM_SPECULAR = old
+        maps = estimate(photo, session, post=PostProcess(flash_trend=flag, uniform_specular=flag))
         rows.append(row_image(photo, maps))
         scores[label] = maps.meta["burn_in"]["burn_in"]
     maps = refine(photo, find_checkpoint(session.info), threads=threads, name="example")
@@ -72,7 +69,7 @@ def grid(photo: np.ndarray, threads: int = 1):
 
 
 def main(argv: Optional[Sequence[str]] = None) -> int:
-    from svbrdf.runtime.imageio import write_image
+    from svbrdf.runtime.io.images import write_image
 
     p = argparse.ArgumentParser(prog="python -m svbrdf.trainer.tools.example_photo",
                                 description=__doc__.split("\n\n")[0])
@@ -94,7 +91,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
         print(f"{args.out}: {args.family} seed {args.seed}, {args.size} px, "
               f"{100 * float((photo.max(axis=-1) >= 0.98).mean()):.1f} % of pixels clipped")
         if args.grid is not None:
-            from svbrdf.runtime.imageio import read_image
+            from svbrdf.runtime.io.images import read_image
 
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")

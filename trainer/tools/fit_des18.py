@@ -40,8 +40,8 @@ import torch
 import torch.nn.functional as F
 
 from svbrdf.trainer.bench.datasets import find_cases, normal_curl_ratio, read_des18, read_gt
-from svbrdf.runtime.maps import MAP_NAMES, Maps
-from svbrdf.runtime.render import DESCHAINTRE, plane_positions
+from svbrdf.runtime.core.maps import MAP_NAMES, Maps
+from svbrdf.runtime.core.render import DESCHAINTRE, plane_positions
 from svbrdf.trainer.colour import linear_to_srgb
 from svbrdf.trainer.render import render_maps
 

@@ -1,0 +1,118 @@
+"""The per-photo options of ``svbrdf-preview`` and ``svbrdf-batch``: the arguments (:func:`add_texture_options`),
+the checks argparse cannot make (:func:`check_options`) and the :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`
+built from them (:func:`photo_options`). Light: heavy modules are imported only once the arguments are parsed."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Optional
+
+from .. import __version__
+from ..core.maps import MAP_NAMES, select_maps
+from ..errors import SvbrdfError
+from ..outputs.choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
+from ..quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
+
+PROG = "svbrdf-preview"
+
+__all__ = ["add_texture_options", "check_options", "photo_options", "min_tile"]
+
+
+def _positive(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _map_list(text: str) -> tuple:
+    """``--maps``: comma list of map names (or aliases) -> names in packing order."""
+    try:
+        return select_maps(part.strip() for part in text.split(",") if part.strip())
+    except SvbrdfError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+
+
+def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
+    """The options of how one photo becomes a texture set (model, threads, target, maps, refine, ...), shared by
+    ``svbrdf-preview`` and ``svbrdf-batch``; :func:`check_options` checks what argparse cannot."""
+    p.add_argument("--model", metavar="PATH", help="ONNX model (default: $SVBRDF_MODEL, else the packaged model)")
+    p.add_argument("--threads", metavar="N", type=_positive, help="CPU threads (default: all cores)")
+    p.add_argument("--fov", metavar="DEG", type=float,
+                   help="camera field of view across the photo width, for the relit preview "
+                        "(default: the model's training value)")
+    p.add_argument("--normal", type=normal_convention, choices=SUPPORTED_NORMAL_CONVENTIONS, default="opengl",
+                   help="normal map convention: opengl (or gl) = green up; dx = DirectX, green down (default: opengl)")
+    p.add_argument("--format", choices=("png", "exr"), default="png",
+                   help="normal/roughness/specular files: 16-bit png or float exr (default: png)")
+    p.add_argument("--max-size", metavar="N", type=_positive, default=2048,
+                   help="downsize photos whose long side exceeds N pixels (default: 2048)")
+    p.add_argument("--tile", metavar="N", type=_positive, default=1024,
+                   help="process larger images in overlapping N x N tiles to bound memory (default: 1024; "
+                        f"at least {min_tile()})")
+    p.add_argument("--target", choices=TARGETS, default="generic",
+                   help="output preset: file names, normal convention, packing and material document "
+                        "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
+    p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES,
+                   help="comma list of the maps to compute and write: diffuse (or basecolor), specular, roughness, "
+                        "normal (default: all). roughness/normal alone run only the normal-roughness decoder, "
+                        "diffuse/specular only the diffuse-specular one; no relit panel; --target generic only")
+    p.add_argument("--tileable", action="store_true",
+                   help="make the maps repeat without a visible seam, at the same size and scale (all four cut "
+                        "the same way; the sidecar records the join and seam scores)")
+    p.add_argument("--view", action="store_true",
+                   help="also write <name>_view.html: the maps relit in the browser with the project's renderer, "
+                        "one tile and repeated (--target generic, all four maps)")
+    p.add_argument("--force", action="store_true", help="overwrite existing output files")
+    p.add_argument("--refine", action="store_true",
+                   help="fine-tune the model's training checkpoint on each photo with torch before predicting")
+    how = p.add_mutually_exclusive_group()
+    how.add_argument("--iters", metavar="N", type=_positive, help="--refine iterations (default: the checkpoint's)")
+    how.add_argument("--quality", choices=("auto",),
+                     help="--refine until the label-free re-render error stops improving (at most the preset's "
+                          "length); skipped altogether when "
+                          "the preview already re-renders the photo as well as a typical fine-tune "
+                          f"(sRGB RMSE <= {SKIP_REFINE_RMSE} under the flash) and keeps the flash highlight out of "
+                          f"its maps (burn-in <= {SKIP_REFINE_BURN_IN})")
+    p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
+    p.add_argument("-v", "--verbose", action="store_true", help="print model details, and tracebacks on errors")
+    p.add_argument("--version", action="version", version=f"{prog} {__version__}")
+
+
+def check_options(args) -> Optional[str]:
+    """The usage error of the options of :func:`add_texture_options` that argparse cannot check, or None."""
+    if args.fov is not None and not 1.0 <= args.fov <= 170.0:
+        return f"--fov must be in [1, 170] degrees, got {args.fov}"
+    if args.max_size < 8:
+        return f"--max-size must be >= 8, got {args.max_size}"
+    if args.tile < min_tile():
+        return (f"--tile must be >= {min_tile()} (4 x the {min_tile() // 4} px overlap of neighbouring tiles; "
+                f"smaller tiles leave a grid in the maps), got {args.tile}")
+    if (args.iters or args.quality) and not args.refine:
+        return "--iters and --quality need --refine"
+    if args.maps != MAP_NAMES and args.target != "generic":
+        return f"--maps needs --target generic: the {args.target} preset converts all four maps"
+    if getattr(args, "view", False) and (args.maps != MAP_NAMES or args.target != "generic"):
+        return "--view needs all four maps and --target generic (it relights the project's own texture set)"
+    return None
+
+
+def min_tile() -> int:
+    """The smallest ``--tile``: each tile keeps the full blending overlap
+    (:data:`~svbrdf.runtime.inference.tiling.DEFAULT_OVERLAP`) on both sides and as much again of its own. Smaller tiles
+    see too little of the photo (the generator normalises each tile by its own statistics) and leave a grid in
+    the maps."""
+    from ..inference.tiling import DEFAULT_OVERLAP
+
+    return 4 * DEFAULT_OVERLAP
+
+
+def photo_options(args: argparse.Namespace, **changes):
+    """The :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions` of parsed arguments (:func:`add_texture_options`),
+    with ``changes``."""
+    from ..inference.pipeline import PhotoOptions
+
+    return PhotoOptions.from_mapping(args).replace(**changes) if changes else PhotoOptions.from_mapping(args)

@@ -1,0 +1,47 @@
+"""Block and box means of (H, W, C) arrays: the low-pass filters shared by the image reader, the scores and the
+post-processing (pure numpy)."""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["block_mean", "box_mean"]
+
+
+def block_mean(arr: np.ndarray, k: int, partial: bool = False) -> np.ndarray:
+    """Mean over k x k blocks of an (H, W, C) array, float32, the block grid starting at the top-left corner.
+
+    When H or W is not a multiple of ``k``, the last block row/column is dropped (``partial=False``: every block has
+    k x k pixels, as the low-frequency scores want) or averaged over the pixels it has (``partial=True``: the strip
+    reader, which must cover the whole image). Rows are summed first, over contiguous memory: 4x faster at 1024 px
+    than one reduction over both block axes.
+
+    Returns:
+        (H // k, W // k, C), or (ceil(H / k), ceil(W / k), C) with ``partial``; ``k = 1`` returns the array as
+        float32.
+    """
+    if k == 1:
+        return np.asarray(arr, dtype=np.float32)
+    r, w, c = arr.shape
+    if partial:
+        rr, cc = -(-r // k) * k, -(-w // k) * k
+        a = np.zeros((rr, cc, c), np.float32)
+        a[:r, :w] = arr
+    else:
+        rr, cc = (r // k) * k, (w // k) * k
+        a = np.ascontiguousarray(arr[:rr, :cc], dtype=np.float32)
+    rows = a.reshape(rr // k, k, cc * c).sum(axis=1, dtype=np.float32)
+    sums = rows.reshape(rr // k, cc // k, k, c).sum(axis=2)
+    if not partial:
+        return sums / np.float32(k * k)
+    n_rows = np.minimum(k, r - k * np.arange(rr // k)).astype(np.float32)
+    n_cols = np.minimum(k, w - k * np.arange(cc // k)).astype(np.float32)
+    return sums / (n_rows[:, None, None] * n_cols[None, :, None])
+
+
+def box_mean(x: np.ndarray, r: int) -> np.ndarray:
+    """Mean of ``x`` (h, w, C) over the (2r + 1)^2 window around each pixel (edges repeated), float64."""
+    a = np.pad(x.astype(np.float64), ((r + 1, r), (r + 1, r), (0, 0)), mode="edge")
+    c = a.cumsum(0).cumsum(1)
+    n = 2 * r + 1
+    return (c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]) / (n * n)

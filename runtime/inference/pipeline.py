@@ -1,0 +1,397 @@
+"""The per-photo pipeline: photo -> :class:`~svbrdf.runtime.core.maps.Maps` (:func:`estimate`), and photo -> texture set
+files with the options of the CLIs (:class:`PhotoOptions`, :func:`process_photo`, :func:`write_maps`); no torch
+(``--refine`` calls into the trainer, :mod:`svbrdf.runtime.inference.refine`).
+
+::
+
+    session = load_session()                     # model lookup: see svbrdf.runtime.inference.manifest
+    maps = estimate("photo.jpg", session)        # Maps, linear, OpenGL normals, meta with timings
+    normal = estimate("photo.jpg", session, maps=["normal"]).normal   # runs only the normal decoder
+
+Pipeline of :func:`estimate`:
+
+1. read the photo with :func:`svbrdf.runtime.io.images.read_image` (linear float32) or take an array;
+2. if its long side exceeds ``max_size``, downsize it (and warn) with OpenImageIO ``ImageBufAlgo.resize`` and
+   the ``"blackman-harris"`` filter (:data:`~svbrdf.runtime.io.images.RESIZE_FILTER`): a non-negative kernel, so a
+   linear photo stays >= 0 and a flash highlight does not ring into negative values as with the default
+   lanczos3. A file at least twice ``max_size`` is read in strips averaged over pixel blocks first, so memory
+   does not grow with the file's size (:func:`~svbrdf.runtime.io.images.read_image`);
+3. divide the photo by its own smooth lighting (:func:`svbrdf.runtime.post.flash_trend.even_lighting`,
+   :attr:`PostProcess.even_lighting`): the network sees the material evenly lit, not the flash's fall-off and broad highlight
+   (what the model records decides: :attr:`PreviewSession.even_lighting`; a stage one shipped with
+   ``network_input`` "photo" sees the photo as it is); run the model on that (the full graph, or the part graph
+   of the one decoder the requested maps need: see :meth:`PreviewSession.graph_for`) in one pass when the image
+   fits in one ``tile`` x ``tile`` window, else in overlapping tiles blended with
+   :func:`svbrdf.runtime.inference.tiling.tiled_apply` (memory bounded by one tile's inference). The generator uses
+   instance normalisation, so tiles see their own statistics: expect differences from a single pass that are small
+   for stationary materials but not only at the seams;
+4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`);
+5. give the base colour the photo's colour balance (:func:`~svbrdf.runtime.post.photo_colour.photo_colour`, :attr:`PostProcess.colour_from_photo`): the
+   generator's instance normalisation hides a photo's overall colour from it, and the learned stage one predicts a
+   nearly grey base colour for every material (docs/benchmarks/prior/README.md, "Colour");
+6. remove the smooth radial trend around the photo's flash highlight from the base colour, specular and roughness
+   (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, :attr:`PostProcess.flash_trend`; first the highlight fill, :attr:`PostProcess.highlight_fill`): what the network left of the
+   highlight and the fall-off (docs/benchmarks/accuracy/README.md, "Now");
+7. make the specular one level, its median (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`,
+   :attr:`PostProcess.uniform_specular`): its spatial variation is noise by measurement.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import warnings
+from dataclasses import dataclass, field, fields
+from pathlib import Path
+from typing import Any, Callable, Iterable, Optional, Tuple, Union
+
+import numpy as np
+
+from ..core.maps import MAP_NAMES, N_CHANNELS, SLICES, Maps, select_maps
+from ..errors import ImageError, SvbrdfError
+from ..io.images import ImageWarning, image_info, read_image, resize_long_side
+from ..post import PostProcess
+from ..post import apply as apply_post
+from ..post.flash_trend import even_lighting
+from .manifest import MIN_SIZE
+from .session import PreviewSession, load_session
+from .tiling import DEFAULT_OVERLAP, tile_boxes, tiled_apply
+
+#: Long side (pixels) larger photos are downsized to, and the tile size of the tiled inference.
+DEFAULT_MAX_SIZE = 2048
+DEFAULT_TILE = 1024
+
+__all__ = ["estimate", "process_photo", "write_maps", "PhotoOptions", "warn_if_greyscale", "DEFAULT_MAX_SIZE",
+           "DEFAULT_TILE", "DEFAULT_OVERLAP"]
+
+
+#: Largest channel spread (linear) of a photo taken as greyscale by :func:`warn_if_greyscale`.
+GREY_TOLERANCE = 1.0 / 512
+
+
+def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
+    """Warn (:class:`~svbrdf.runtime.io.images.ImageWarning`) when an (H, W, 3) photo has no colour: a one-channel
+    file (read as R = G = B) or three channels equal within :data:`GREY_TOLERANCE`. The model then invents the
+    colour of the diffuse and specular maps. Returns whether it warned."""
+    grey = all(float(np.abs(image[..., c] - image[..., 1]).max()) <= GREY_TOLERANCE for c in (0, 2))
+    if grey:
+        warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the "
+                                   f"diffuse and specular maps"), stacklevel=2)
+    return grey
+
+
+def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tuple:
+    """``(name, (H, W, 3) linear image with long side <= max_size, (height, width) before downsizing)``."""
+    if isinstance(photo, np.ndarray):
+        name = "<array>"
+        if photo.ndim != 3 or photo.shape[-1] != 3:
+            raise ImageError(f"{name}: expected an (H, W, 3) linear RGB array, got shape {photo.shape}")
+        image = np.asarray(photo, dtype=np.float32)
+        if not np.all(np.isfinite(image)):
+            raise ImageError(f"{name}: image has NaN/Inf values")
+        if min(image.shape[:2]) >= MIN_SIZE and max(image.shape[:2]) > max_size:
+            small = resize_long_side(image, max_size)
+            if min(small.shape[:2]) < MIN_SIZE:  # refused by the caller
+                return name, small, image.shape[:2]
+            warnings.warn(ImageWarning(f"{name}: downsized from {image.shape[1]}x{image.shape[0]} to "
+                                       f"{small.shape[1]}x{small.shape[0]} pixels (max_size={max_size})"),
+                          stacklevel=3)
+            return name, small, image.shape[:2]
+        return name, image, image.shape[:2]
+    image = read_image(photo, max_size=max_size)
+    if max(image.shape[:2]) < max_size:  # not downsized
+        return str(photo), image, image.shape[:2]
+    info = image_info(photo)
+    size = (info["width"], info["height"]) if info["orientation"] in (5, 6, 7, 8) else (info["height"], info["width"])
+    return str(photo), image, size
+
+
+def estimate(
+    photo: Union[str, os.PathLike, np.ndarray],
+    session: Optional[PreviewSession] = None,
+    *,
+    max_size: int = DEFAULT_MAX_SIZE,
+    tile: int = DEFAULT_TILE,
+    overlap: int = DEFAULT_OVERLAP,
+    maps: Union[None, str, Iterable[str]] = None,
+    post: PostProcess = PostProcess(),
+) -> Maps:
+    """SVBRDF maps of one flash photo: all four, or only ``maps`` (running only the decoder they need).
+
+    Args:
+        photo: image file path, or an (H, W, 3) float32 **linear** RGB array; at least 8 x 8 pixels.
+        session: a loaded :class:`PreviewSession` (default: :func:`load_session` with the default lookup).
+        max_size: longer photos are downsized so their long side is ``max_size`` (see the module docstring).
+        tile: images whose long side (after downsizing) exceeds ``tile`` are processed in ``tile`` x ``tile``
+            windows; ``tile >= 8``.
+        overlap: overlap of neighbouring windows, ``0 <= 2 * overlap <= tile``.
+        maps: the maps to compute, names of :data:`~svbrdf.runtime.core.maps.MAP_NAMES` (or aliases; see
+            :func:`~svbrdf.runtime.core.maps.select_maps`); default: the session's ``maps`` (all four unless the
+            session was loaded for a subset). The maps of one decoder (``roughness``/``normal`` or
+            ``diffuse``/``specular``) run that decoder's part graph when the model has it; a model exported
+            without parts runs the full graph and warns once (``UserWarning``).
+        post: the corrections around the network (:class:`~svbrdf.runtime.post.PostProcess`; default: all, as
+            shipped).
+
+    Returns:
+        :class:`Maps` at the processed size with the requested maps (the others ``None``): diffuse (H, W, 3)
+        linear [0, 1], specular and roughness (H, W, 1) [0, 1], normal (H, W, 3) unit OpenGL. ``meta`` holds
+        ``source``, ``model`` (path, sha256, verified, ``graph``: ``"full"`` or the part that ran), ``maps``
+        (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
+        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
+        ``burn_in``: the label-free highlight burn-in of the maps returned
+        (:func:`svbrdf.runtime.quality.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, the worst map's
+        disc or ring score, 0.1-0.3 for a stationary material, higher when the flash stayed in the maps), ``burn_in_model`` the same of
+        the network's maps before the flash trend was removed (``post.flash_trend``; what the skip rule of
+        ``--quality auto`` reads), ``flash_trend`` what was removed and ``uniform_specular`` the specular level
+        (``post.uniform_specular``). ``render_config`` is the
+        session's (the model's training renderer).
+
+    Raises:
+        ImageError: unreadable photo, bad array, or an image smaller than 8 px (before or after downsizing).
+        ModelError: no usable model (when ``session`` is None), or a part file that does not match the manifest.
+        SvbrdfError: unknown map names, or the model returned NaN/Inf maps (float photos with absurd values, near
+            the float32 limit).
+        ValueError: invalid ``max_size``, ``tile`` or ``overlap``.
+
+    Warns:
+        ImageWarning: a greyscale photo (:func:`warn_if_greyscale`); a photo downsized to ``max_size`` (files of
+            any size are read in strips: :func:`~svbrdf.runtime.io.images.read_image`).
+    """
+    if max_size < MIN_SIZE or tile < MIN_SIZE or not 0 <= 2 * overlap <= tile:
+        raise ValueError(f"need max_size >= {MIN_SIZE}, tile >= {MIN_SIZE} and 0 <= 2 * overlap <= tile; "
+                         f"got max_size={max_size}, tile={tile}, overlap={overlap}")
+    names = None if maps is None else select_maps(maps)
+    timings = {}
+    t = time.perf_counter()
+    name, image, (in_h, in_w) = _as_image(photo, max_size)
+    if min(in_h, in_w) < MIN_SIZE:
+        raise ImageError(f"{name}: image is {in_w}x{in_h} pixels; the model needs at least {MIN_SIZE}x{MIN_SIZE}")
+    timings["read"] = time.perf_counter() - t
+    if session is None:
+        session = load_session(maps=names)
+    names = names or session.maps
+    graph = session.graph_for(names)
+
+    t = time.perf_counter()
+    warn_if_greyscale(image, name)  # the photo is already downsized (by _as_image)
+    h, w = image.shape[:2]
+    if min(h, w) < MIN_SIZE:
+        raise ImageError(f"{name}: {in_w}x{in_h} downsized to {w}x{h} is below {MIN_SIZE} px; raise max_size")
+    timings["resize"] = time.perf_counter() - t
+
+    t = time.perf_counter()
+    width = session.input_lighting(post.even_lighting)
+    net_input = even_lighting(image, width) if width else image
+    packed = tiled_apply(lambda x: session.run(x, names), net_input, tile, overlap)
+    timings["infer"] = time.perf_counter() - t
+    computed = np.concatenate([np.arange(N_CHANNELS)[SLICES[n]] for n in names])
+    # A part graph leaves the other maps' channels NaN; overflow shows in the computed ones (e.g. float photos near
+    # the float32 limit).
+    if not np.isfinite(packed[..., computed]).all():
+        raise SvbrdfError(f"{name}: the model returned NaN/Inf maps (photo values up to {float(image.max()):.3g}; "
+                          f"expected linear RGB of order 1)")
+
+    t = time.perf_counter()
+    meta = {
+        "source": name,
+        "model": {"path": str(session.path), "sha256": session.info.sha256, "verified": session.info.verified,
+                  "graph": graph},
+        "maps": list(names),
+        "even_lighting": width,  # what the network was shown: the photo evenly lit at this width, or None
+        "input_size": [in_h, in_w],
+        "size": [h, w],
+        "resized": (h, w) != (in_h, in_w),
+        "tiles": len(tile_boxes(h, w, tile, overlap)),
+        "tile": tile,
+        "overlap": overlap,
+        "threads": session.threads,
+    }
+    out = apply_post(Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped(), image,
+                     post)
+    timings["post"] = time.perf_counter() - t
+    out.meta["timings"] = timings
+    return out
+
+
+@dataclass(frozen=True)
+class PhotoOptions:
+    """How one photo becomes a texture set: the options both CLIs share (``svbrdf-preview``, ``svbrdf-batch``; built
+    from their arguments by :func:`svbrdf.runtime.cli.options.photo_options`), with the shipped defaults.
+
+    Attributes:
+        model: ONNX model path (None: ``$SVBRDF_MODEL``, else the packaged model).
+        threads: CPU threads (None: every core).
+        fov: camera field of view across the photo width, degrees, for the relit panel (None: the model's).
+        normal: normal map convention of ``target`` generic: ``"opengl"`` (green up) or ``"dx"``.
+        format: normal/roughness/specular files of ``target`` generic: ``"png"`` (16-bit) or ``"exr"`` (float).
+        max_size: photos whose long side is longer are downsized to it (pixels).
+        tile: larger images run in overlapping ``tile`` x ``tile`` windows (pixels).
+        target: output preset (:data:`svbrdf.runtime.outputs.choices.TARGETS`).
+        maps: the maps to compute and write (names of :data:`~svbrdf.runtime.core.maps.MAP_NAMES`, in that order).
+        tileable: make the maps repeat without a seam (:func:`svbrdf.runtime.post.tileable.make_tileable`).
+        view: also write the viewer page (:func:`svbrdf.runtime.outputs.viewer.write_viewer`).
+        force: overwrite existing files.
+        refine: fine-tune the model's training checkpoint on the photo first (torch).
+        iters: refine iterations (None: the checkpoint's).
+        quality: ``"auto"``: refine until the re-render error stops improving, or skip it when the preview already
+            explains the photo; None: ``iters``.
+        quiet: no refine progress bar.
+        post: the corrections around the network (:class:`~svbrdf.runtime.post.PostProcess`).
+    """
+
+    model: Optional[str] = None
+    threads: Optional[int] = None
+    fov: Optional[float] = None
+    normal: str = "opengl"
+    format: str = "png"
+    max_size: int = DEFAULT_MAX_SIZE
+    tile: int = DEFAULT_TILE
+    target: str = "generic"
+    maps: Tuple[str, ...] = MAP_NAMES
+    tileable: bool = False
+    view: bool = False
+    force: bool = False
+    refine: bool = False
+    iters: Optional[int] = None
+    quality: Optional[str] = None
+    quiet: bool = False
+    post: PostProcess = field(default_factory=PostProcess)
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "maps", select_maps(self.maps))
+
+    @classmethod
+    def from_mapping(cls, values: Any) -> "PhotoOptions":
+        """The options among ``values`` (a mapping, or an object such as an ``argparse.Namespace``); other keys
+        are ignored."""
+        get = values.get if isinstance(values, dict) else (lambda k, d=None: getattr(values, k, d))
+        missing = object()
+        kwargs = {}
+        for f in fields(cls):
+            v = get(f.name, missing)
+            if v is not missing:
+                kwargs[f.name] = v
+        return cls(**kwargs)
+
+    def replace(self, **changes) -> "PhotoOptions":
+        from dataclasses import replace
+
+        return replace(self, **changes)
+
+    def render_config(self, session: PreviewSession):
+        """The session's render configuration with ``fov`` when given."""
+        config = session.render_config
+        return config if self.fov is None else config.replace(fov_deg=self.fov)
+
+
+def _refine(refine, image, session, config, options: "PhotoOptions", name: str):
+    """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear), or with ``--quality auto`` keep
+    the preview when it already explains the photo; returns the Maps (``meta["refine"]`` says which)."""
+    from ..progress import Progress, loss_postfix
+    from .manifest import find_checkpoint
+
+    preview = None
+    if options.quality == "auto":  # the skip rule compares the instant preview with the photo
+        with warnings.catch_warnings():  # the photo itself was checked (and named) by the caller
+            warnings.simplefilter("ignore", ImageWarning)
+            preview = estimate(image, session, max_size=options.max_size, tile=options.tile, maps=MAP_NAMES,
+                               post=options.post)
+
+    bar = None
+
+    def progress(trainer, record):  # the Progress is made at the first iteration, when the length is known
+        nonlocal bar
+        if bar is None:
+            bar = Progress(trainer.iters, f"refine {name}", quiet=options.quiet, initial=record["step"] - 1)
+        bar.update(record["step"], **loss_postfix(record))
+
+    try:
+        return refine(image, lambda: find_checkpoint(session.info), quality=options.quality or "fixed",
+                      iters=options.iters, threads=options.threads, name=name, callback=progress, preview=preview,
+                      render_config=config)
+    finally:
+        if bar is not None:
+            bar.close()
+
+
+def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, config=None,
+                  refine: Optional[Callable] = None, name: Optional[str] = None):
+    """The texture set of one photo file with ``options``: the preview, or the refine with ``refine`` (see
+    :func:`svbrdf.runtime.inference.refine.load_refine`). The one per-photo path of ``svbrdf-preview`` and
+    ``svbrdf-batch`` (each builds its :class:`PhotoOptions` from its arguments).
+
+    Args:
+        photo: the photo file (PNG, JPEG, TIFF, EXR, ...; read as linear RGB).
+        options: what to compute (:class:`PhotoOptions`; ``refine`` needs ``refine``).
+        session: the loaded model (:func:`~svbrdf.runtime.inference.session.load_session`).
+        config: the :class:`~svbrdf.runtime.core.render_config.RenderConfig` of the maps and the relit panel
+            (default: :meth:`PhotoOptions.render_config` of the session).
+        refine: :func:`svbrdf.trainer.refine.refine`, for ``options.refine``.
+        name: the photo's name in the refine's progress bar (default: the file name).
+
+    Returns:
+        ``(maps, relit, detail)``: the :class:`~svbrdf.runtime.core.maps.Maps` (the requested maps, at the processed
+        size, ``render_config`` = ``config``), the relit panel (sRGB (h, 3 w, 3), None without all four maps) and a
+        short report (``"model 0.41 s"``, ``"refined 300 it"``, ...).
+
+    Raises:
+        SvbrdfError: the photo cannot be read or processed; with ``options.tileable``, maps smaller than
+            :data:`~svbrdf.runtime.post.tileable.MIN_SIZE` a side (the message names ``photo``).
+    """
+    from ..outputs.texture_set import relit_panel
+
+    if config is None:
+        config = options.render_config(session)
+    if options.refine:
+        if refine is None:
+            raise ValueError("options.refine needs the refine function (svbrdf.runtime.inference.refine.load_refine)")
+        image = read_image(photo, max_size=options.max_size)
+        warn_if_greyscale(image, str(photo))
+        maps = _refine(refine, image, session, config, options, name or photo.name)
+        record = maps.meta["refine"]
+        if record.get("skipped"):
+            detail = f"refine skipped: the preview explains the photo (RMSE {record['preview_input_rmse']:.3f}, " \
+                     f"burn-in {record['preview_burn_in']:.2f})"
+        else:
+            detail = f"refined {record['iterations']} it"
+        # The fine-tune trains (and its losses render) every map; only the requested ones are written.
+        maps = maps.subset(options.maps)
+        maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256},
+                         maps=list(options.maps))
+    else:
+        maps = estimate(photo, session, max_size=options.max_size, tile=options.tile, maps=options.maps,
+                        post=options.post)
+        tiles = maps.meta["tiles"]
+        detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
+    maps.render_config = config
+    if options.tileable:
+        from ..post.tileable import make_tileable
+
+        try:
+            maps = make_tileable(maps)
+        except SvbrdfError as exc:  # a photo too small for it: say which one
+            raise SvbrdfError(f"{photo}: --tileable: {exc}") from None
+        worst = [s["after"] for s in maps.meta["tileable"]["join"].values() if s["after"] is not None]
+        detail += f", tileable (join score {max(worst):.2f})" if worst else ", tileable"
+    relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
+    return maps, relit, detail
+
+
+def write_maps(maps: Maps, relit: Optional[np.ndarray], out_dir: Path, name: str, options: PhotoOptions,
+               extra_meta: dict) -> dict:
+    """Write ``maps`` (and ``relit``) as the texture set ``name`` in ``out_dir`` for ``options.target`` (all or
+    nothing, :mod:`svbrdf.runtime.outputs.texture_set`), and with ``options.view`` its viewer page
+    (:func:`svbrdf.runtime.outputs.viewer.write_viewer`); returns the written paths by role."""
+    from ..outputs.targets import write_target
+    from ..outputs.texture_set import write_texture_set
+
+    if options.target != "generic":
+        return write_target(maps, out_dir, name, options.target, force=options.force, extra_meta=extra_meta, relit=relit)
+    paths = write_texture_set(maps, out_dir, name, normal=options.normal, fmt=options.format,
+                              force=options.force, extra_meta=extra_meta, relit=relit)
+    if options.view:
+        from ..outputs.viewer import write_viewer
+
+        paths["viewer"] = write_viewer(paths["sidecar"], force=options.force)
+    return paths

@@ -1,0 +1,26 @@
+"""The runtime's one call into the trainer: :func:`svbrdf.trainer.refine.refine` for ``--refine``, imported only
+when asked (the runtime imports no torch otherwise; tests/runtime/test_layering.py)."""
+
+from __future__ import annotations
+
+from ..errors import MissingExtraError
+from ..install import missing_train_module, train_hint
+
+__all__ = ["load_refine"]
+
+
+def load_refine():
+    """The runtime's one call into the trainer, :func:`svbrdf.trainer.refine.refine`, imported only for ``--refine``.
+
+    Raises:
+        MissingExtraError: torch or kornia (the training side) is not installed; the message names the pip command
+            for this installation (:func:`svbrdf.runtime.install.train_hint`).
+    """
+    try:
+        from svbrdf.trainer.refine import refine
+    except ImportError as exc:
+        module = missing_train_module(exc)
+        if module is None:
+            raise
+        raise MissingExtraError(train_hint("--refine", module)) from None
+    return refine

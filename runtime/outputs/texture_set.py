@@ -1,0 +1,376 @@
+"""Writing a texture set (the four maps, a JSON sidecar, an optional relit preview) and the relit panel.
+
+Files written by :func:`write_texture_set` into ``out_dir`` for a set called ``name``:
+
+======================  ===========================================  ======================================
+file                    content                                      encoding
+======================  ===========================================  ======================================
+<name>_basecolor.png    diffuse albedo                               sRGB-encoded, 8-bit PNG
+<name>_normal.<ext>     unit normals, OpenGL (default) or DirectX    (n + 1) / 2, data
+<name>_roughness.<ext>  perceptual roughness r (GGX alpha = r**2)    linear data, 1 channel
+<name>_specular.<ext>   specular albedo rho_s (grey Schlick F0)      linear, 1 channel
+<name>.json             sidecar: BRDF model, render config, files,   JSON
+                        colour spaces, normal convention, metadata
+<name>_relit.png        optional preview (see :func:`relit_panel`)   sRGB-encoded, 8-bit PNG
+======================  ===========================================  ======================================
+
+``<ext>`` is ``png`` (16-bit) by default or ``exr`` (32-bit float). Maps are clipped to their valid range
+(:meth:`Maps.clipped`) before writing. A :class:`Maps` holding a subset of the maps writes only their files;
+the sidecar's ``"maps"`` lists the maps written.
+
+How it is written: a layout (this module's :func:`generic_layout`, or a ``--target`` preset of
+:mod:`svbrdf.runtime.outputs.targets`) turns the maps into a *plan*, file role -> :class:`TextureFile` (an image with
+its bit depth and colour encoding, or a document), and :func:`commit` writes any plan all or nothing.
+
+Safety: if a file of the plan exists and ``force`` is false, an :class:`~svbrdf.runtime.errors.ImageError`
+names it and nothing is written. The files are first written into a hidden staging folder inside ``out_dir``
+and then moved into place (:func:`svbrdf.runtime.io.files.staged_write`), so a failure never leaves half a set.
+The files of a plan are encoded concurrently (:data:`WRITE_WORKERS` threads): OpenImageIO releases the GIL
+while it compresses, and on two cores two threads write the five files of a 1024 px set 1.5x faster than one
+(docs/benchmarks/preview-speed).
+
+The relit panel (:func:`relit_panel`) is rendered at its display size, :data:`PANEL_SIZE` pixels on the long
+side of each view, from maps downsized for it: three renders at full resolution cost more than the whole
+model at 1024 px and more, and a side-by-side panel is looked at, not measured.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import os
+from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence
+
+import numpy as np
+
+from ..core.colour import linear_to_srgb
+from ..errors import ImageError
+from ..io.files import staged_write
+from ..io.images import write_image
+from ..core.maps import SUPPORTED_NORMAL_CONVENTIONS, Maps, encode_normal, normal_gl_to_dx
+from ..core.render import ZHAO, RenderConfig, novel_lights, render
+
+#: Sidecar format version (bump when keys change meaning).
+SIDECAR_VERSION = 1
+#: File name templates of the sidecar and the relit preview, shared by every layout (``{name}``: the set).
+SIDECAR_FILE = "{name}.json"
+RELIT_FILE = "{name}_relit.png"
+#: Long side, in pixels, of each view of the relit panel (smaller sets keep their size; ``None``: full size).
+PANEL_SIZE = 512
+#: Threads that encode the files of a plan (1: one after the other).
+WRITE_WORKERS = 2
+
+_NORMAL_AXES = {
+    "opengl": "+x right, +y up the image (green up), +z out of the surface",
+    "dx": "+x right, +y down the image (green down, DirectX), +z out of the surface",
+}
+
+
+@dataclass(frozen=True)
+class TextureFile:
+    """One file of a texture-set plan: an image (``pixels``) or a document (``text``).
+
+    Attributes:
+        file: file name inside the output folder.
+        info: its entry in the sidecar's ``"files"`` (content, colour space, bits, ...; ``"file"`` is added).
+        pixels: image as (H, W, C) float, C in 1, 3, 4 (see :func:`~svbrdf.runtime.io.images.write_image`).
+        bits: bit depth of the image (PNG 8 or 16, EXR 16 or 32).
+        srgb: the image is linear colour to sRGB-encode (RGB only; alpha stays linear); otherwise the values
+            are stored as given (data maps, or an image already sRGB-encoded).
+        text: a document (glTF, USD, MaterialX, the sidecar), written as UTF-8.
+    """
+
+    file: str
+    info: Mapping[str, Any]
+    pixels: Optional[np.ndarray] = None
+    bits: int = 8
+    srgb: bool = False
+    text: Optional[str] = None
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What a layout makes of a texture set: its files and what the sidecar says about them.
+
+    Attributes:
+        files: role -> file, in the order the sidecar lists them (sidecar and relit preview excluded).
+        normal: normal convention on disk, ``"opengl"`` or ``"dx"``.
+        target: the sidecar's ``"target"`` entry (``None`` for the project's own layout: no entry).
+    """
+
+    files: Mapping[str, TextureFile]
+    normal: str
+    target: Optional[Mapping[str, Any]] = None
+
+
+#: The project's own layout: role -> (map, file name template; ``{ext}`` is the format of the data maps).
+GENERIC_FILES: Mapping[str, tuple] = {
+    "basecolor": ("diffuse", "{name}_basecolor.png"),
+    "normal": ("normal", "{name}_normal.{ext}"),
+    "roughness": ("roughness", "{name}_roughness.{ext}"),
+    "specular": ("specular", "{name}_specular.{ext}"),
+}
+
+
+def _json_default(obj):
+    if dataclasses.is_dataclass(obj) and not isinstance(obj, type):
+        return dataclasses.asdict(obj)
+    if isinstance(obj, np.generic):
+        return obj.item()
+    if isinstance(obj, np.ndarray):
+        return obj.tolist()
+    if isinstance(obj, os.PathLike):
+        return os.fspath(obj)
+    raise TypeError(f"value of type {type(obj).__name__}")
+
+
+def _brdf_description(config: RenderConfig) -> dict:
+    geometry = {
+        "schlick": "Smith-Schlick, k = alpha / 2",
+        "smith": "exact separable Smith GGX",
+    }[config.geometry]
+    fresnel = {
+        "schlick": "Schlick (spherical-Gaussian exponent), F0 = specular",
+        "none": "F = F0 = specular",
+    }[config.fresnel]
+    return {
+        "model": "Cook-Torrance microfacet + Lambert diffuse",
+        "distribution": "GGX",
+        "alpha": "roughness ** 2",
+        "geometry": geometry,
+        "fresnel": fresnel,
+        "diffuse": "(1 - specular) * diffuse / pi" if config.diffuse_conservation else "diffuse / pi",
+        "render_config": config.to_dict(),
+    }
+
+
+def generic_layout(maps: Maps, name: str, normal: str = "opengl", fmt: str = "png") -> Layout:
+    """The project's own layout (module docstring) of the maps present in ``maps``, clipped to their ranges.
+
+    Args:
+        maps: the texture set (unclipped; :meth:`Maps.clipped` is applied here).
+        name: base name of the files.
+        normal: normal convention on disk, ``"opengl"`` or ``"dx"``.
+        fmt: ``"png"`` (16-bit) or ``"exr"`` (32-bit float) for the data maps.
+    """
+    data_bits = 16 if fmt == "png" else 32
+    m = maps.clipped()
+    info = {
+        "basecolor": {"map": "diffuse", "colour_space": "sRGB", "bits": 8},
+        "normal": {"map": "normal", "colour_space": "data", "bits": data_bits, "encoding": "(n + 1) / 2",
+                   "convention": normal},
+        "roughness": {"map": "roughness", "colour_space": "data", "bits": data_bits, "alpha": "roughness ** 2"},
+        "specular": {"map": "specular", "colour_space": "linear", "bits": data_bits},
+    }
+    files = {}
+    for role, (map_name, template) in GENERIC_FILES.items():
+        arr = getattr(m, map_name)
+        if arr is None:
+            continue
+        if role == "normal":
+            arr = encode_normal(normal_gl_to_dx(arr) if normal == "dx" else arr)
+        bits = 8 if role == "basecolor" else data_bits
+        files[role] = TextureFile(template.format(name=name, ext=fmt), info[role], arr, bits,
+                                  srgb=role == "basecolor")
+    return Layout(files, normal)
+
+
+def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> Dict[str, Path]:
+    """Write a plan (role -> :class:`TextureFile`) into ``out_dir``, all or nothing.
+
+    The files are written into a hidden staging folder inside ``out_dir`` (created with its parents when
+    missing), :data:`WRITE_WORKERS` at a time, and moved into place, in the plan's order, once all were
+    written (:func:`~svbrdf.runtime.io.files.staged_write`). When several writes fail, the error of the first
+    file in plan order is raised.
+
+    Returns:
+        Paths written, keyed by role.
+
+    Raises:
+        ImageError: a file exists (and not ``force``), ``out_dir`` is not a folder, or a write failed. The
+            message names the target file; nothing is left behind.
+    """
+    out_dir = Path(out_dir)
+
+    def write(f: TextureFile) -> None:
+        if f.text is not None:
+            (stage / f.file).write_text(f.text, encoding="utf-8")
+        else:
+            write_image(stage / f.file, f.pixels, bits=f.bits, srgb_encode=f.srgb,
+                        colour_space="sRGB" if f.srgb or f.info.get("colour_space") == "sRGB" else "linear")
+
+    with staged_write(out_dir, [f.file for f in plan.values()], force=force, error=ImageError) as stage:
+        workers = max(1, min(WRITE_WORKERS, len(plan)))
+        if workers == 1:
+            for f in plan.values():
+                write(f)
+        else:
+            with ThreadPoolExecutor(workers) as pool:  # leaving the block waits for every write
+                jobs = [pool.submit(write, f) for f in plan.values()]
+            for job in jobs:
+                job.result()
+    return {role: out_dir / f.file for role, f in plan.items()}
+
+
+def write_layout(
+    maps: Maps,
+    out_dir,
+    name: str,
+    layout: Callable[[Maps, RenderConfig], Layout],
+    *,
+    force: bool = False,
+    extra_meta: Optional[dict] = None,
+    relit: Optional[np.ndarray] = None,
+) -> Dict[str, Path]:
+    """Check the inputs, plan a texture set with ``layout`` (plus the sidecar and the relit preview) and
+    :func:`commit` it. The writer behind :func:`write_texture_set` and
+    :func:`~svbrdf.runtime.outputs.targets.write_target`; their docs give the arguments.
+
+    Args:
+        layout: ``layout(maps, config) -> Layout`` with ``config`` the maps' render config (``ZHAO`` when
+            ``maps.render_config`` is ``None``).
+    """
+    out_dir = Path(out_dir)
+    if not name or name in (".", "..") or "/" in name or os.sep in name:
+        raise ImageError(f"{out_dir}: invalid texture-set name {name!r}")
+    if out_dir.exists() and not out_dir.is_dir():
+        raise ImageError(f"{out_dir}: exists and is not a folder")
+    for map_name, arr in maps.items():
+        if not np.all(np.isfinite(arr)):
+            raise ImageError(f"{out_dir / name}: map {map_name!r} has NaN/Inf values")
+    if relit is not None:
+        relit = np.asarray(relit, dtype=np.float32)
+        if relit.ndim != 3 or relit.shape[-1] != 3:
+            raise ValueError(f"relit must be (h, w, 3), got {relit.shape}")
+
+    config = maps.render_config or ZHAO
+    plan = layout(maps, config)
+    files = dict(plan.files)
+    if relit is not None:
+        files["relit"] = TextureFile(RELIT_FILE.format(name=name), {
+            "colour_space": "sRGB", "bits": 8, "content": "renders under the flash and novel lights, side by side"},
+            np.clip(relit, 0.0, 1.0), bits=8)
+    h, w = maps.shape
+    sidecar = {
+        "format_version": SIDECAR_VERSION,
+        "name": name,
+        "size": {"width": w, "height": h},
+        "maps": list(maps.names),
+        "brdf": _brdf_description(config),
+        "normal_convention": {"name": plan.normal, "axes": _NORMAL_AXES[plan.normal]},
+        "files": {role: {"file": f.file, **f.info} for role, f in files.items()},
+        "meta": {**maps.meta, **(extra_meta or {})},
+    }
+    if plan.target is not None:
+        sidecar["target"] = dict(plan.target)
+    try:
+        text = json.dumps(sidecar, indent=2, default=_json_default, allow_nan=False) + "\n"
+    except (TypeError, ValueError) as exc:  # e.g. an arbitrary object or a NaN timing in the metadata
+        raise ValueError(f"sidecar metadata is not JSON-serialisable: {exc}") from None
+    sidecar_file = TextureFile(SIDECAR_FILE.format(name=name), {}, text=text)
+    # Roles in the order of the existence check (and its message): the layout's files, sidecar, relit.
+    ordered = {**plan.files, "sidecar": sidecar_file, **({"relit": files["relit"]} if relit is not None else {})}
+    return commit(out_dir, ordered, force=force)
+
+
+def write_texture_set(
+    maps: Maps,
+    out_dir,
+    name: str,
+    *,
+    normal: str = "opengl",
+    fmt: str = "png",
+    force: bool = False,
+    extra_meta: Optional[dict] = None,
+    relit: Optional[np.ndarray] = None,
+) -> Dict[str, Path]:
+    """Write a texture set in the project's own layout (see the module docstring for the files), all or nothing.
+
+    Args:
+        maps: the texture set (all four maps or a subset: only the maps present are written); ``maps.meta``
+            is copied into the sidecar and ``maps.render_config`` selects the BRDF it describes (default:
+            ``ZHAO``).
+        out_dir: output folder, created (with parents) if missing.
+        name: base name of the files (no path separators).
+        normal: normal-map convention on disk, ``"opengl"`` (default, +y up) or ``"dx"`` (+y down).
+        fmt: ``"png"`` (16-bit) or ``"exr"`` (float) for the normal, roughness and specular maps.
+        force: overwrite existing files.
+        extra_meta: more metadata for the sidecar (e.g. model sha256, timings); overrides ``maps.meta`` keys.
+        relit: optional (h, w, 3) float image, already sRGB-encoded in [0, 1] (e.g. :func:`relit_panel`),
+            written as ``<name>_relit.png``.
+
+    Returns:
+        Paths written, keyed ``basecolor``, ``normal``, ``roughness``, ``specular`` (those present), ``sidecar``
+        (and ``relit``).
+
+    Raises:
+        ImageError: a target exists (and not ``force``), bad name, ``out_dir`` is not a folder, NaN/Inf in a
+            map, or a write failed. Nothing is left behind in these cases.
+        ValueError: unknown ``normal``/``fmt``, bad ``relit`` shape, or metadata that is not JSON-serialisable.
+    """
+    if normal not in SUPPORTED_NORMAL_CONVENTIONS:
+        raise ValueError(f"normal must be one of {SUPPORTED_NORMAL_CONVENTIONS}, got {normal!r}")
+    if fmt not in ("png", "exr"):
+        raise ValueError(f"fmt must be 'png' or 'exr', got {fmt!r}")
+    return write_layout(maps, out_dir, name, lambda m, config: generic_layout(m, name, normal, fmt),
+                        force=force, extra_meta=extra_meta, relit=relit)
+
+
+def relit_panel(
+    maps: Maps,
+    config: RenderConfig = ZHAO,
+    lights: Optional[Sequence[Optional[Sequence[float]]]] = None,
+    exposure: Optional[float] = None,
+    size: Optional[int] = PANEL_SIZE,
+) -> np.ndarray:
+    """Renders of a texture set under several point lights, side by side, ready to save as an sRGB PNG.
+
+    Args:
+        maps: the texture set, (H, W) maps; all four are needed (``ValueError`` otherwise).
+        config: renderer settings (:func:`svbrdf.runtime.core.render.render`).
+        lights: light positions (scene units), ``None`` entries meaning the camera flash. Default: the flash,
+            then two novel lights at camera height from the upper left and the lower right (the corner
+            lights of :func:`svbrdf.runtime.core.render.novel_lights`).
+        exposure: linear scale applied to every render before clamping. Default (``None``): one scale for all
+            panels such that the 99th percentile of the first (flash) render maps to 1, so dark materials stay
+            visible and the relative brightness of the panels is kept.
+        size: long side of each view in pixels: larger maps are first downsized to it (aspect kept; OpenImageIO
+            resize, :func:`svbrdf.runtime.io.images.resize_long_side`, normals renormalised), so the cost no longer
+            grows with the photo. Default :data:`PANEL_SIZE`; ``None`` renders at the maps' size.
+
+    Returns:
+        (h, N * w, 3) float32, sRGB-encoded in [0, 1]: ``linear_to_srgb(clip(exposure * render_i, 0, 1))``, with
+        (h, w) the maps' (H, W) downsized so that ``max(h, w) <= size``.
+    """
+    maps.require(what="the relit panel")
+    if size is not None:
+        if size < 1:
+            raise ValueError(f"size must be >= 1 or None, got {size}")
+        maps = _downsized(maps, size)
+    if lights is None:
+        corners = novel_lights(config)
+        lights = (None, corners[0], corners[-1])
+    if not lights:
+        raise ValueError("lights must not be empty")
+    renders = [render(maps, lp, config) for lp in lights]
+    if exposure is None:
+        p99 = float(np.percentile(renders[0], 99))
+        exposure = 1.0 / p99 if p99 > 0 else 1.0
+    panel = np.concatenate([np.clip(r * exposure, 0.0, 1.0) for r in renders], axis=1)
+    return np.clip(linear_to_srgb(panel), 0.0, 1.0)
+
+
+def _downsized(maps: Maps, size: int) -> Maps:
+    """The maps with their long side reduced to ``size`` (the same object when it is not longer)."""
+    if max(maps.shape) <= size:
+        return maps
+    from ..io.images import resize_long_side
+
+    return maps._with({n: resize_long_side(a, size) for n, a in maps.items()}).clipped()
+
+
+__all__ = ["PANEL_SIZE", "WRITE_WORKERS", "write_texture_set", "relit_panel", "SIDECAR_VERSION", "TextureFile", "Layout", "generic_layout",
+           "commit", "write_layout", "GENERIC_FILES", "SIDECAR_FILE", "RELIT_FILE"]

@@ -1,0 +1,535 @@
+"""A texture set in the browser: one self-contained HTML page that relights the maps with the project's renderer.
+
+:func:`write_viewer` reads a texture set written in the project's own layout (its JSON sidecar and the files it
+names) and writes ``<name>_view.html``: no network, no other file. The page shows
+
+* the material at its own resolution under a point light that follows the pointer (the wheel moves the light up
+  and down), rendered by a WebGL 2 fragment shader that is a port of :func:`svbrdf.runtime.core.render.shade` with the
+  scene of :func:`svbrdf.runtime.core.render.render` (plane z = 0, pixel centres, +y up the image, camera at (0, 0, d),
+  ``d = 1 / tan(fov / 2)``);
+* the same maps repeated :data:`TILED_REPEATS` x :data:`TILED_REPEATS` on a larger plane, seen from
+  ``TILED_REPEATS`` times higher with the same field of view (what a tileable set looks like on a wall);
+* the four maps beside them.
+
+One source of truth: the render settings (field of view, intensity, fall-off, diffuse weighting, geometry and
+Fresnel terms) are the sidecar's ``brdf.render_config``, the normal convention its ``normal_convention``, and the
+clamps (``ALPHA_MIN``, ``COS_EPS``, ``NORM_EPS``) are written into the shader from :mod:`svbrdf.runtime.core.render`.
+The maps are embedded as the stored values (zlib-compressed, base64): the base colour as its 8-bit sRGB codes,
+decoded in the shader with the exact sRGB curve (:mod:`svbrdf.runtime.core.colour`); normal, roughness and specular as
+16-bit data. The page's output is ``srgb(clip(exposure * L, 0, 1))`` with ``L`` the linear radiance of
+``render``; the default exposure is the relit panel's (:func:`svbrdf.runtime.outputs.texture_set.relit_panel`: the 99th
+percentile of the flash render maps to 1). ``tests/runtime/outputs/test_viewer.py`` checks the shader against ``render``
+in headless Chromium and headless Firefox, from a ``file://`` URL.
+
+The URL's fragment sets the light and the exposure when the page opens (and when it changes), so that a view can
+be shared or scripted: ``<name>_view.html#light=x,y,z&exposure=e`` (scene units as in ``setLight``; either part
+may be left out). The caption under the material view is that link for the current view.
+
+Without WebGL 2 (turned off, or refused for the graphics driver, as headless Firefox does on a machine without a
+GPU unless told otherwise: tests/support/browser.py) the page says so in red above the views and still
+shows the four maps.
+
+Script API of the page (``window.svbrdfViewer``, for tests and automation): ``ready`` (a Promise),
+``setLight(x, y, z)`` (scene units; renders both views at once), ``getLight()``, ``setExposure(e)``,
+``getExposure()``, ``config`` (the render config), ``size`` ([W, H] of the embedded maps) and
+``readPixels(view)`` (``"material"`` or ``"tiled"``: the view's RGBA bytes, top row first, base64).
+"""
+
+from __future__ import annotations
+
+import base64
+import html
+import json
+import zlib
+from pathlib import Path
+from typing import Optional, Tuple
+
+import numpy as np
+
+from ..errors import ImageError, SvbrdfError
+from ..core.maps import MAP_NAMES, Maps, decode_normal, normal_dx_to_gl
+from ..core.render import ALPHA_MIN, COS_EPS, NORM_EPS, RenderConfig
+
+#: File name template of the page, beside the texture set's files.
+VIEWER_FILE = "{name}_view.html"
+#: Long side, in pixels, of the maps embedded in the page (larger sets are downsized for it).
+VIEWER_SIZE = 1024
+#: Repeats per side of the tiled view.
+TILED_REPEATS = 3
+#: The generic layout's file roles the page needs.
+ROLES = ("basecolor", "normal", "roughness", "specular")
+
+__all__ = ["VIEWER_FILE", "VIEWER_SIZE", "TILED_REPEATS", "read_texture_set", "viewer_html", "write_viewer"]
+
+
+def _sidecar(path: Path) -> dict:
+    try:
+        meta = json.loads(Path(path).read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise ImageError(f"{path}: cannot read the sidecar ({exc.strerror or exc})") from None
+    except ValueError as exc:
+        raise ImageError(f"{path}: not a texture-set sidecar (invalid JSON: {exc})") from None
+    if not isinstance(meta, dict) or "files" not in meta or "brdf" not in meta:
+        raise ImageError(f"{path}: not a texture-set sidecar (no 'files' or 'brdf' entry)")
+    if "target" in meta:
+        raise ImageError(f"{path}: a --target {meta['target'].get('name', '?')} set; the viewer reads the "
+                         f"project's own layout (--target generic)")
+    missing = [r for r in ROLES if r not in meta["files"]]
+    if missing:
+        raise ImageError(f"{path}: the viewer needs all four maps; this set has no {', '.join(missing)}")
+    return meta
+
+
+def _stored(sidecar_path: Path, meta: dict) -> Tuple[dict, RenderConfig, str]:
+    """The stored values of each role ((H, W, C) float32 in [0, 1], as in the files), the config, the convention."""
+    from ..io.images import read_image
+
+    folder = Path(sidecar_path).parent
+    stored = {}
+    for role in ROLES:
+        stored[role] = read_image(folder / meta["files"][role]["file"], raw=True)
+    try:
+        config = RenderConfig(**meta["brdf"]["render_config"])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise ImageError(f"{sidecar_path}: invalid brdf.render_config ({exc})") from None
+    convention = meta.get("normal_convention", {}).get("name", "opengl")
+    if convention not in ("opengl", "dx"):
+        raise ImageError(f"{sidecar_path}: unknown normal convention {convention!r}")
+    return stored, config, convention
+
+
+def read_texture_set(sidecar_path) -> Tuple[Maps, RenderConfig]:
+    """Read a texture set in the project's own layout from its sidecar, decoded as the project decodes it.
+
+    Returns:
+        ``(maps, config)``: :class:`Maps` (base colour sRGB-decoded to linear with the exact curve, normals
+        ``2 v - 1`` renormalised and turned to OpenGL, roughness and specular as stored) and the sidecar's
+        :class:`RenderConfig`.
+
+    Raises:
+        ImageError: not a generic sidecar with all four maps, or a file that cannot be read.
+    """
+    from ..core.colour import srgb_to_linear
+
+    meta = _sidecar(Path(sidecar_path))
+    stored, config, convention = _stored(Path(sidecar_path), meta)
+    normal = decode_normal(stored["normal"][..., :3])
+    if convention == "dx":
+        normal = normal_dx_to_gl(normal)
+    maps = Maps(diffuse=srgb_to_linear(stored["basecolor"][..., :3]), specular=stored["specular"][..., :1],
+                roughness=stored["roughness"][..., :1], normal=normal, render_config=config)
+    return maps, config
+
+
+def _pack(arr: np.ndarray, bits: int) -> str:
+    """(H, W, C) values in [0, 1] -> base64 of the zlib-compressed little-endian uint8/uint16 codes."""
+    scale = 255.0 if bits == 8 else 65535.0
+    codes = np.rint(np.clip(arr, 0.0, 1.0) * scale).astype("<u1" if bits == 8 else "<u2")
+    return base64.b64encode(zlib.compress(np.ascontiguousarray(codes).tobytes(), 6)).decode("ascii")
+
+
+def _downsized(stored: dict, size: int) -> dict:
+    h, w = stored["basecolor"].shape[:2]
+    if max(h, w) <= size:
+        return stored
+    from ..io.images import resize_long_side
+
+    return {role: np.clip(resize_long_side(np.ascontiguousarray(a, dtype=np.float32), size), 0.0, 1.0)
+            for role, a in stored.items()}
+
+
+def viewer_html(stored: dict, config: RenderConfig, name: str, normal: str = "opengl",
+                exposure: Optional[float] = None, note: str = "") -> str:
+    """The page for the stored values of a texture set (see the module docstring).
+
+    Args:
+        stored: role (:data:`ROLES`) -> (H, W, C) float array of the values as stored in the files, in [0, 1]:
+            the base colour sRGB-encoded (quantised to 8 bits here), the normal ``(n + 1) / 2``, roughness and
+            specular linear (16 bits here).
+        config: the render settings (the sidecar's).
+        name: the set's name (page title).
+        normal: the stored normal convention, ``"opengl"`` or ``"dx"``.
+        exposure: default exposure (linear scale before clipping); ``None``: 1.
+        note: one line shown under the title (e.g. whether the maps tile).
+    """
+    h, w = stored["basecolor"].shape[:2]
+    data = {
+        "width": w, "height": h,
+        "basecolor": _pack(stored["basecolor"][..., :3], 8),
+        "normal": _pack(stored["normal"][..., :3], 16),
+        "roughness": _pack(stored["roughness"][..., :1], 16),
+        "specular": _pack(stored["specular"][..., :1], 16),
+    }
+    settings = {
+        "config": config.to_dict(), "cameraDistance": config.camera_distance, "normal": normal,
+        "exposure": 1.0 if exposure is None else float(exposure), "repeats": TILED_REPEATS,
+    }
+    shader = _FRAGMENT.replace("@ALPHA_MIN@", repr(float(ALPHA_MIN))).replace("@COS_EPS@", repr(float(COS_EPS)))
+    shader = shader.replace("@NORM_EPS@", repr(float(NORM_EPS)))
+    page = _PAGE.replace("@TITLE@", html.escape(name)).replace("@NOTE@", html.escape(note))
+    page = page.replace("@SETTINGS@", json.dumps(settings)).replace("@DATA@", json.dumps(data))
+    page = page.replace("@FRAGMENT@", shader).replace("@VERTEX@", _VERTEX)
+    return page
+
+
+def _default_exposure(maps: Maps, config: RenderConfig) -> float:
+    """The relit panel's exposure: the 99th percentile of the flash render maps to 1."""
+    from ..core.render import render
+
+    p99 = float(np.percentile(render(maps, None, config), 99))
+    return 1.0 / p99 if p99 > 0 else 1.0
+
+
+def write_viewer(sidecar_path, out: Optional[Path] = None, *, force: bool = False,
+                 size: Optional[int] = VIEWER_SIZE) -> Path:
+    """Write the viewer page of the texture set described by ``sidecar_path`` (module docstring).
+
+    Args:
+        sidecar_path: ``<name>.json`` of a set in the project's own layout with all four maps.
+        out: the page (default: :data:`VIEWER_FILE` beside the sidecar).
+        force: overwrite an existing page.
+        size: long side of the embedded maps (larger sets are downsized; ``None``: as stored).
+
+    Returns:
+        The written path.
+
+    Raises:
+        ImageError: not such a sidecar, a file cannot be read, or the page exists and not ``force``.
+    """
+    from ..io.files import atomic_write
+
+    sidecar_path = Path(sidecar_path)
+    meta = _sidecar(sidecar_path)
+    stored, config, convention = _stored(sidecar_path, meta)
+    if size is not None:
+        stored = _downsized(stored, size)
+    maps, _ = read_texture_set(sidecar_path)
+    if size is not None and max(maps.shape) > size:
+        from ..core.colour import srgb_to_linear
+
+        normal = decode_normal(stored["normal"][..., :3])
+        maps = Maps(diffuse=srgb_to_linear(stored["basecolor"][..., :3]), specular=stored["specular"][..., :1],
+                    roughness=stored["roughness"][..., :1],
+                    normal=normal_dx_to_gl(normal) if convention == "dx" else normal)
+    tiled = (meta.get("meta") or {}).get("tileable")
+    note = (f"tileable maps ({tiled.get('method')})" if isinstance(tiled, dict)
+            else "these maps were not made tileable (svbrdf-preview --tileable): the repeats show seams")
+    page = viewer_html(stored, config, str(meta.get("name") or sidecar_path.stem), convention,
+                       _default_exposure(maps, config), note)
+    out = Path(out) if out is not None else sidecar_path.parent / VIEWER_FILE.format(name=sidecar_path.stem)
+    with atomic_write(out, force=force, error=ImageError) as tmp:
+        tmp.write_text(page, encoding="utf-8")
+    return out
+
+
+_VERTEX = """#version 300 es
+in vec2 aPos;
+void main() { gl_Position = vec4(aPos, 0.0, 1.0); }
+"""
+
+# A port of svbrdf.runtime.core.render.shade, line by line (same names), with the scene of render().
+_FRAGMENT = """#version 300 es
+precision highp float;
+precision highp int;
+uniform sampler2D uTex0;   // rgb: base colour, sRGB codes / 255; a: specular (linear)
+uniform sampler2D uTex1;   // rgb: stored normal (n + 1) / 2; a: roughness
+uniform vec2 uSize;        // maps (W, H)
+uniform vec2 uCanvas;      // drawing buffer (W, H)
+uniform float uReps;       // plane half-width in half-photo-widths: 1 = the photo, N = N x N repeats
+uniform int uExact;        // 1: one canvas pixel per map pixel, read with texelFetch
+uniform vec3 uLight;
+uniform float uCamD;       // d of the render config
+uniform float uIntensity;
+uniform int uFalloff;
+uniform int uConserve;
+uniform int uGeometry;     // 0 schlick, 1 smith
+uniform int uFresnel;      // 0 schlick, 1 none
+uniform float uDx;         // -1: stored normals are DirectX (y down)
+uniform float uExposure;
+out vec4 outColor;
+
+const float PI = 3.141592653589793;
+const float ALPHA_MIN = @ALPHA_MIN@;
+const float COS_EPS = @COS_EPS@;
+const float NORM_EPS = @NORM_EPS@;
+
+vec3 normalize3(vec3 a) { return a * inversesqrt(dot(a, a) + NORM_EPS); }
+
+float srgbToLinear(float c) { return c <= 0.04045 ? c / 12.92 : pow((c + 0.055) / 1.055, 2.4); }
+float linearToSrgb(float c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * pow(c, 1.0 / 2.4) - 0.055; }
+
+void main() {
+  vec2 fc = gl_FragCoord.xy;  // pixel centres, origin at the bottom left
+  // render(): x = 2 (j + 0.5) / W - 1, y = (H / W)(1 - 2 (i + 0.5) / H), i counted from the top
+  float x = uReps * (2.0 * fc.x / uCanvas.x - 1.0);
+  float y = uReps * (2.0 * fc.y - uCanvas.y) / uCanvas.x;
+  vec4 t0, t1;
+  if (uExact == 1) {
+    ivec2 ij = ivec2(int(fc.x), int(uSize.y) - 1 - int(fc.y));
+    t0 = texelFetch(uTex0, ij, 0);
+    t1 = texelFetch(uTex1, ij, 0);
+  } else {
+    vec2 uv = vec2((x + 1.0) * 0.5, (1.0 - y * uSize.x / uSize.y) * 0.5);  // repeats wrap (REPEAT)
+    t0 = texture(uTex0, uv);
+    t1 = texture(uTex1, uv);
+  }
+  vec3 diffuse = vec3(srgbToLinear(t0.r), srgbToLinear(t0.g), srgbToLinear(t0.b));
+  float specular = t0.a;
+  float roughness = t1.a;
+  // decode_normal: 2 v - 1, z >= 0, unit length (a zero vector -> (0, 0, 1)); DirectX -> OpenGL
+  vec3 nd = t1.rgb * 2.0 - 1.0;
+  nd.y *= uDx;
+  nd.z = max(nd.z, 0.0);
+  float nlen = length(nd);
+  vec3 n = nlen < 1e-8 ? vec3(0.0, 0.0, 1.0) : nd / nlen;
+
+  vec3 p = vec3(x, y, 0.0);
+  vec3 cam = vec3(0.0, 0.0, uReps * uCamD);
+  vec3 v = normalize(cam - p);
+  vec3 ld = uLight - p;
+  float light_dist2 = dot(ld, ld);
+  vec3 l = ld / sqrt(light_dist2);
+
+  // shade()
+  n = normalize3(n);
+  vec3 h = normalize3(v + l);
+  float n_l = max(dot(n, l), COS_EPS);
+  float n_v = max(dot(n, v), COS_EPS);
+  float n_h = max(dot(n, h), COS_EPS);
+  float v_h = max(dot(v, h), COS_EPS);
+  float alpha = max(roughness * roughness, ALPHA_MIN);
+  float a2 = alpha * alpha;
+  float denom = n_h * n_h * (a2 - 1.0) + 1.0;
+  float d_term = a2 / (PI * denom * denom);
+  float vis;
+  if (uGeometry == 0) {
+    float k = alpha * 0.5;
+    vis = 1.0 / ((n_l * (1.0 - k) + k) * (n_v * (1.0 - k) + k));
+  } else {
+    float g1_l = 2.0 / (1.0 + sqrt(a2 + (1.0 - a2) * n_l * n_l) / n_l);
+    float g1_v = 2.0 / (1.0 + sqrt(a2 + (1.0 - a2) * n_v * n_v) / n_v);
+    vis = g1_l * g1_v / (n_l * n_v);
+  }
+  float fres = uFresnel == 0 ? specular + (1.0 - specular) * exp2((-5.55473 * v_h - 6.98316) * v_h) : specular;
+  float light = uIntensity * n_l;
+  if (uFalloff == 1) { light = light * (uCamD * uCamD) / light_dist2; }
+  float spec_radiance = light * fres * vis * d_term * 0.25;
+  float diff_weight = light / PI;
+  if (uConserve == 1) { diff_weight = diff_weight * (1.0 - specular); }
+  vec3 radiance = diff_weight * diffuse + spec_radiance;
+
+  vec3 c = clamp(radiance * uExposure, 0.0, 1.0);
+  outColor = vec4(linearToSrgb(c.r), linearToSrgb(c.g), linearToSrgb(c.b), 1.0);
+}
+"""
+
+_PAGE = """<!DOCTYPE html>
+<html lang="en"><head><meta charset="utf-8"><title>@TITLE@: svbrdf viewer</title>
+<style>
+body { font: 14px sans-serif; margin: 12px; background: #222; color: #ddd; }
+#views { display: flex; gap: 16px; align-items: flex-start; flex-wrap: wrap; }
+canvas { background: #000; display: block; cursor: crosshair; }
+#tiled { width: 640px; }
+#material { width: 320px; }
+#maps { display: grid; grid-template-columns: 150px 150px; gap: 6px; }
+#maps canvas { width: 150px; cursor: default; }
+.cap { font-size: 12px; color: #aaa; margin: 2px 0 6px; }
+#err { color: #f88; }
+a { color: #aaa; }
+</style></head><body>
+<h2 style="margin:0 0 4px">@TITLE@</h2>
+<div class="cap">@NOTE@. Move the pointer over a view to move the light; the wheel moves it up and down.</div>
+<div id="err"></div>
+<div id="views">
+ <div><canvas id="tiled"></canvas><div class="cap">repeated <span id="reps"></span> x <span id="reps2"></span></div></div>
+ <div><canvas id="material"></canvas><div class="cap">the material (one tile)</div>
+  <div>exposure <input id="exp" type="range" min="-4" max="4" step="0.05" value="0"></div>
+  <div class="cap"><a id="lightpos" href="#" title="this view's link (light and exposure)"></a></div></div>
+ <div id="maps">
+  <div><canvas id="m_basecolor"></canvas><div class="cap">base colour (sRGB)</div></div>
+  <div><canvas id="m_normal"></canvas><div class="cap">normal</div></div>
+  <div><canvas id="m_roughness"></canvas><div class="cap">roughness</div></div>
+  <div><canvas id="m_specular"></canvas><div class="cap">specular (shown sRGB)</div></div>
+ </div>
+</div>
+<script id="vs" type="x-shader/x-vertex">@VERTEX@</script>
+<script id="fs" type="x-shader/x-fragment">@FRAGMENT@</script>
+<script>
+"use strict";
+(function () {
+  var S = @SETTINGS@;
+  var D = @DATA@;
+  var W = D.width, H = D.height, d = S.cameraDistance;
+  var light = [0, 0, d];
+  var exposure = S.exposure;
+  var views = {};
+  var resolveReady, rejectReady;
+  var ready = new Promise(function (res, rej) { resolveReady = res; rejectReady = rej; });
+
+  function fail(msg) { document.getElementById("err").textContent = msg; rejectReady(new Error(msg)); }
+
+  async function unpack(b64, bits) {
+    var bin = atob(b64), bytes = new Uint8Array(bin.length);
+    for (var i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
+    var stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate"));
+    var buf = await new Response(stream).arrayBuffer();
+    return bits === 8 ? new Uint8Array(buf) : new Uint16Array(buf);
+  }
+
+  function makeView(id, reps, exact, width, height) {
+    var canvas = document.getElementById(id);
+    canvas.width = width; canvas.height = height;
+    var gl = canvas.getContext("webgl2", {antialias: false, preserveDrawingBuffer: true});
+    if (!gl) throw new Error("this browser gives the page no WebGL 2 (turned off, or not offered for this " +
+                             "graphics driver): the relit views cannot be drawn; the maps are shown");
+    function compile(type, src) {
+      var s = gl.createShader(type); gl.shaderSource(s, src.trim()); gl.compileShader(s);
+      if (!gl.getShaderParameter(s, gl.COMPILE_STATUS)) throw new Error(gl.getShaderInfoLog(s));
+      return s;
+    }
+    var prog = gl.createProgram();
+    gl.attachShader(prog, compile(gl.VERTEX_SHADER, document.getElementById("vs").textContent));
+    gl.attachShader(prog, compile(gl.FRAGMENT_SHADER, document.getElementById("fs").textContent));
+    gl.linkProgram(prog);
+    if (!gl.getProgramParameter(prog, gl.LINK_STATUS)) throw new Error(gl.getProgramInfoLog(prog));
+    gl.useProgram(prog);
+    var buf = gl.createBuffer();
+    gl.bindBuffer(gl.ARRAY_BUFFER, buf);
+    gl.bufferData(gl.ARRAY_BUFFER, new Float32Array([-1, -1, 3, -1, -1, 3]), gl.STATIC_DRAW);
+    var loc = gl.getAttribLocation(prog, "aPos");
+    gl.enableVertexAttribArray(loc);
+    gl.vertexAttribPointer(loc, 2, gl.FLOAT, false, 0, 0);
+    var linear = !exact && gl.getExtension("OES_texture_float_linear");
+    return {gl: gl, prog: prog, canvas: canvas, reps: reps, exact: exact, linear: !!linear, tex: []};
+  }
+
+  function upload(view, unit, pixels) {
+    var gl = view.gl, tex = gl.createTexture();
+    gl.activeTexture(gl.TEXTURE0 + unit);
+    gl.bindTexture(gl.TEXTURE_2D, tex);
+    gl.pixelStorei(gl.UNPACK_ALIGNMENT, 1);
+    gl.texImage2D(gl.TEXTURE_2D, 0, gl.RGBA32F, W, H, 0, gl.RGBA, gl.FLOAT, pixels);
+    var f = view.linear ? gl.LINEAR : gl.NEAREST;
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MIN_FILTER, f);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_MAG_FILTER, f);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_S, gl.REPEAT);
+    gl.texParameteri(gl.TEXTURE_2D, gl.TEXTURE_WRAP_T, gl.REPEAT);
+    view.tex.push(tex);
+  }
+
+  function draw(view) {
+    var gl = view.gl, p = view.prog, c = S.config;
+    function u(name) { return gl.getUniformLocation(p, name); }
+    gl.viewport(0, 0, view.canvas.width, view.canvas.height);
+    gl.uniform1i(u("uTex0"), 0); gl.uniform1i(u("uTex1"), 1);
+    gl.uniform2f(u("uSize"), W, H);
+    gl.uniform2f(u("uCanvas"), view.canvas.width, view.canvas.height);
+    gl.uniform1f(u("uReps"), view.reps);
+    gl.uniform1i(u("uExact"), view.exact ? 1 : 0);
+    gl.uniform3f(u("uLight"), light[0], light[1], light[2]);
+    gl.uniform1f(u("uCamD"), d);
+    gl.uniform1f(u("uIntensity"), c.intensity);
+    gl.uniform1i(u("uFalloff"), c.falloff ? 1 : 0);
+    gl.uniform1i(u("uConserve"), c.diffuse_conservation ? 1 : 0);
+    gl.uniform1i(u("uGeometry"), c.geometry === "smith" ? 1 : 0);
+    gl.uniform1i(u("uFresnel"), c.fresnel === "none" ? 1 : 0);
+    gl.uniform1f(u("uDx"), S.normal === "dx" ? -1 : 1);
+    gl.uniform1f(u("uExposure"), exposure);
+    gl.drawArrays(gl.TRIANGLES, 0, 3);
+  }
+
+  function drawAll() {
+    for (var k in views) draw(views[k]);
+    var l = light.map(function (v) { return v.toFixed(3); }), a = document.getElementById("lightpos");
+    a.textContent = "light (" + l.join(", ") + "), exposure " + exposure.toFixed(3);
+    a.href = "#light=" + l.join(",") + "&exposure=" + exposure.toFixed(3);
+  }
+
+  function showMap(id, rgbaOf) {
+    var c = document.getElementById(id); c.width = W; c.height = H;
+    var ctx = c.getContext("2d"), img = ctx.createImageData(W, H);
+    for (var i = 0; i < W * H; i++) { var px = rgbaOf(i); img.data.set(px, 4 * i); }
+    ctx.putImageData(img, 0, 0);
+  }
+
+  // #light=x,y,z (scene units) and exposure=e in the URL's fragment, e.g. view.html#light=-1.2,0.8,0.6&exposure=2
+  function fromFragment() {
+    var q = new URLSearchParams(location.hash.replace(/^#/, ""));
+    var l = (q.get("light") || "").split(",").map(Number), e = Number(q.get("exposure"));
+    if (l.length === 3 && l.every(isFinite)) light = l;
+    if (q.has("exposure") && isFinite(e) && e > 0) {
+      exposure = e; document.getElementById("exp").value = Math.log2(exposure);
+    }
+  }
+
+  function lin2srgb(c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055; }
+
+  async function start() {
+    if (typeof DecompressionStream === "undefined") throw new Error("this browser cannot decompress the maps");
+    var base = await unpack(D.basecolor, 8), nrm = await unpack(D.normal, 16);
+    var rough = await unpack(D.roughness, 16), spec = await unpack(D.specular, 16);
+    var t0 = new Float32Array(4 * W * H), t1 = new Float32Array(4 * W * H);
+    for (var i = 0; i < W * H; i++) {
+      t0[4 * i] = base[3 * i] / 255; t0[4 * i + 1] = base[3 * i + 1] / 255; t0[4 * i + 2] = base[3 * i + 2] / 255;
+      t0[4 * i + 3] = spec[i] / 65535;
+      t1[4 * i] = nrm[3 * i] / 65535; t1[4 * i + 1] = nrm[3 * i + 1] / 65535; t1[4 * i + 2] = nrm[3 * i + 2] / 65535;
+      t1[4 * i + 3] = rough[i] / 65535;
+    }
+    // the maps first: they need no WebGL
+    showMap("m_basecolor", function (i) { return [base[3 * i], base[3 * i + 1], base[3 * i + 2], 255]; });
+    showMap("m_normal", function (i) { return [nrm[3 * i] >> 8, nrm[3 * i + 1] >> 8, nrm[3 * i + 2] >> 8, 255]; });
+    showMap("m_roughness", function (i) { var g = rough[i] >> 8; return [g, g, g, 255]; });
+    showMap("m_specular", function (i) { var g = Math.round(255 * lin2srgb(spec[i] / 65535)); return [g, g, g, 255]; });
+    // the tiled view: one canvas pixel per map pixel up to 1200 px, else 1024 px wide
+    var tw = S.repeats * W <= 1200 ? S.repeats * W : 1024, th = Math.round(tw * H / W);
+    views.material = makeView("material", 1, true, W, H);
+    views.tiled = makeView("tiled", S.repeats, false, tw, th);
+    for (var k in views) { upload(views[k], 0, t0); upload(views[k], 1, t1); }
+    document.getElementById("reps").textContent = S.repeats;
+    document.getElementById("reps2").textContent = S.repeats;
+    fromFragment();
+    window.addEventListener("hashchange", function () { fromFragment(); drawAll(); });
+    var slider = document.getElementById("exp");
+    slider.value = Math.log2(exposure);
+    slider.addEventListener("input", function () { exposure = Math.pow(2, parseFloat(slider.value)); drawAll(); });
+    Object.keys(views).forEach(function (k) {
+      var v = views[k];
+      v.canvas.addEventListener("pointermove", function (e) {
+        var r = v.canvas.getBoundingClientRect();
+        var fx = (e.clientX - r.left) / r.width, fy = (e.clientY - r.top) / r.height;
+        light[0] = v.reps * (2 * fx - 1);
+        light[1] = v.reps * (H / W) * (1 - 2 * fy);
+        drawAll();
+      });
+      v.canvas.addEventListener("wheel", function (e) {
+        e.preventDefault();
+        light[2] = Math.max(0.05, light[2] * (e.deltaY > 0 ? 1.1 : 1 / 1.1));
+        drawAll();
+      }, {passive: false});
+    });
+    drawAll();
+  }
+
+  window.svbrdfViewer = {
+    ready: ready, config: S.config, size: [W, H], cameraDistance: d,
+    setLight: function (x, y, z) { light = [+x, +y, +z]; drawAll(); return light.slice(); },
+    getLight: function () { return light.slice(); },
+    setExposure: function (e) { exposure = +e; document.getElementById("exp").value = Math.log2(exposure); drawAll(); },
+    getExposure: function () { return exposure; },
+    readPixels: function (which) {
+      var v = views[which || "material"], gl = v.gl, w = v.canvas.width, h = v.canvas.height;
+      draw(v);
+      var px = new Uint8Array(4 * w * h);
+      gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, px);
+      var rows = new Uint8Array(4 * w * h);  // top row first, as an image file
+      for (var y = 0; y < h; y++) rows.set(px.subarray(4 * w * (h - 1 - y), 4 * w * (h - y)), 4 * w * y);
+      var s = "", chunk = 0x8000;
+      for (var i = 0; i < rows.length; i += chunk) s += String.fromCharCode.apply(null, rows.subarray(i, i + chunk));
+      return btoa(s);
+    }
+  };
+  start().then(function () { resolveReady(true); }, function (e) { fail("viewer: " + e.message); });
+})();
+</script>
+</body></html>
+"""

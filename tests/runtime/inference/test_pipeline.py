@@ -1,0 +1,70 @@
+"""The per-photo pipeline: estimate(..., post=PostProcess), PhotoOptions and process_photo (the one path of both CLIs)."""
+
+import argparse
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.io.images import write_image
+
+pytest.importorskip("onnxruntime")
+from svbrdf.runtime.inference.pipeline import PhotoOptions, estimate, process_photo  # noqa: E402
+from svbrdf.runtime.inference.session import load_session  # noqa: E402
+from svbrdf.runtime.post import PostProcess  # noqa: E402
+
+
+@pytest.fixture(scope="module")
+def session(tiny_model):
+    return load_session(tiny_model, threads=1)
+
+
+def _photo(h=40, w=56, seed=3):
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+    base = 0.3 + 0.1 * np.sin(xx / 3.0)[..., None] * np.array([1.0, 0.8, 0.6], np.float32)
+    flash = 0.6 * np.exp(-((yy - h / 2) ** 2 + (xx - w / 2) ** 2) / (2 * 8.0 ** 2))[..., None]
+    return (base + flash + rng.normal(0, 0.01, (h, w, 3))).clip(0, 1).astype(np.float32)
+
+
+def test_the_default_post_is_what_estimate_did_without_it(session):
+    photo = _photo()
+    a, b = estimate(photo, session), estimate(photo, session, post=PostProcess())
+    for name in a.names:
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+
+
+def test_without_corrections_estimate_returns_the_networks_maps(session):
+    photo = _photo()
+    bare = estimate(photo, session, post=PostProcess.off())
+    assert bare.meta["even_lighting"] is None
+    assert bare.meta["burn_in"] == bare.meta["burn_in_model"]
+    assert "flash_trend" not in bare.meta and "uniform_specular" not in bare.meta
+    raw = session.run(photo)
+    np.testing.assert_allclose(bare.roughness[..., 0], raw[..., 4].clip(0, 1), atol=1e-6)
+    shipped = estimate(photo, session)
+    assert np.ptp(shipped.specular) == 0 and np.ptp(bare.specular) > 0  # one specular level only when asked
+    one_off = estimate(photo, session, post=PostProcess(uniform_specular=False))
+    assert np.ptp(one_off.specular) > 0 and "flash_trend" in one_off.meta
+
+
+def test_photo_options_from_parsed_arguments_keep_only_their_fields():
+    args = argparse.Namespace(maps=("normal",), tile=512, verbose=True, photos=["x.png"], out=None, force=True)
+    options = PhotoOptions.from_mapping(args)
+    assert options.maps == ("normal",) and options.tile == 512 and options.force
+    assert options.post == PostProcess() and options.max_size == 2048
+    assert PhotoOptions.from_mapping({"maps": ["basecolor", "normal"]}).maps == ("diffuse", "normal")
+    with pytest.raises(Exception, match="unknown map"):
+        PhotoOptions(maps=("shininess",))
+
+
+def test_process_photo_with_options(session, tmp_path):
+    path = tmp_path / "wood.png"
+    write_image(path, _photo(), bits=16)
+    maps, relit, detail = process_photo(path, PhotoOptions(), session)
+    assert maps.complete and relit.shape == (40, 3 * 56, 3) and detail.startswith("model")  # h x 3w, sRGB
+    only, none, _ = process_photo(path, PhotoOptions(maps=("normal",)), session)
+    assert only.names == ("normal",) and none is None
+    bare, _, _ = process_photo(path, PhotoOptions(post=PostProcess.off()), session)
+    assert bare.meta["even_lighting"] is None
+    with pytest.raises(ValueError, match="needs the refine function"):
+        process_photo(path, PhotoOptions(refine=True), session)

@@ -1,0 +1,328 @@
+"""Texture-set writer (files, encodings, sidecar, all-or-nothing) and the relit preview panel."""
+
+import json
+
+import numpy as np
+import pytest
+
+from svbrdf.runtime.core.colour import linear_to_srgb, srgb_to_linear
+from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.io.images import image_info, read_image
+from svbrdf.runtime.core.maps import Maps, normalize_normals
+from svbrdf.runtime.core.render import DESCHAINTRE, ZHAO, novel_lights, render
+from svbrdf.runtime.outputs.texture_set import relit_panel, write_texture_set
+
+H, W = 12, 16
+
+
+@pytest.fixture
+def maps():
+    rng = np.random.default_rng(0)
+    n = rng.normal(size=(H, W, 3)).astype(np.float32)
+    n[..., 2] = np.abs(n[..., 2]) + 1.0
+    return Maps(
+        diffuse=rng.uniform(0.05, 0.9, (H, W, 3)).astype(np.float32),
+        specular=rng.uniform(0.02, 0.6, (H, W, 1)).astype(np.float32),
+        roughness=rng.uniform(0.1, 0.9, (H, W, 1)).astype(np.float32),
+        normal=normalize_normals(n),
+        meta={"source": "photo.jpg", "timings": {"infer_s": np.float32(1.5)}},
+    )
+
+
+@pytest.mark.parametrize("fmt,tol", [("png", 2e-5), ("exr", 1e-6)])
+def test_files_and_values(tmp_path, maps, fmt, tol):
+    paths = write_texture_set(maps, tmp_path / "out" / "deep", "mat", fmt=fmt)  # creates parents
+    assert set(paths) == {"basecolor", "normal", "roughness", "specular", "sidecar"}
+    out = tmp_path / "out" / "deep"
+    assert sorted(p.name for p in out.iterdir()) == sorted(
+        ["mat_basecolor.png", f"mat_normal.{fmt}", f"mat_roughness.{fmt}", f"mat_specular.{fmt}", "mat.json"])
+    assert image_info(paths["basecolor"])["dtype"] == "uint8"
+    assert image_info(paths["roughness"])["channels"] == 1
+    # Base colour: sRGB-encoded 8-bit; a normal read decodes it back to the linear albedo.
+    np.testing.assert_allclose(read_image(paths["basecolor"]), maps.diffuse, atol=5e-3)
+    # Data maps: stored as is (raw read).
+    np.testing.assert_allclose(read_image(paths["roughness"], raw=True)[..., 0], maps.roughness[..., 0], atol=tol)
+    np.testing.assert_allclose(read_image(paths["specular"], raw=True)[..., 0], maps.specular[..., 0], atol=tol)
+    np.testing.assert_allclose(read_image(paths["normal"], raw=True), (maps.normal + 1) / 2, atol=tol)
+
+
+def test_dx_normal_flips_green(tmp_path, maps):
+    gl = write_texture_set(maps, tmp_path / "gl", "m")
+    dx = write_texture_set(maps, tmp_path / "dx", "m", normal="dx")
+    a, b = read_image(gl["normal"], raw=True), read_image(dx["normal"], raw=True)
+    np.testing.assert_allclose(b[..., 1], 1.0 - a[..., 1], atol=2e-5)
+    np.testing.assert_array_equal(b[..., [0, 2]], a[..., [0, 2]])
+    assert json.loads(dx["sidecar"].read_text())["normal_convention"]["name"] == "dx"
+
+
+def test_sidecar(tmp_path, maps):
+    maps.render_config = DESCHAINTRE
+    paths = write_texture_set(maps, tmp_path, "m", extra_meta={"model_sha256": "ab" * 32, "source": "x.png"})
+    side = json.loads(paths["sidecar"].read_text())
+    assert side["size"] == {"width": W, "height": H}
+    brdf = side["brdf"]
+    assert brdf["distribution"] == "GGX" and brdf["alpha"] == "roughness ** 2"
+    assert "Smith-Schlick" in brdf["geometry"] and "Schlick" in brdf["fresnel"]
+    assert brdf["render_config"] == DESCHAINTRE.to_dict()
+    assert brdf["diffuse"].startswith("(1 - specular)")  # follows the config (diffuse conservation)
+    assert side["normal_convention"]["name"] == "opengl"
+    files = side["files"]
+    assert files["basecolor"] == {"file": "m_basecolor.png", "map": "diffuse", "colour_space": "sRGB", "bits": 8}
+    assert files["normal"]["encoding"] == "(n + 1) / 2" and files["normal"]["colour_space"] == "data"
+    assert files["specular"]["colour_space"] == "linear" and files["roughness"]["file"] == "m_roughness.png"
+    # maps.meta and extra_meta (which wins on clashes); numpy scalars serialised.
+    assert side["meta"] == {"source": "x.png", "timings": {"infer_s": 1.5}, "model_sha256": "ab" * 32}
+
+
+def test_default_render_config_in_sidecar(tmp_path, maps):
+    side = json.loads(write_texture_set(maps, tmp_path, "m")["sidecar"].read_text())
+    assert side["brdf"]["render_config"] == ZHAO.to_dict()
+    assert side["brdf"]["diffuse"] == "diffuse / pi"
+
+
+def test_refusal_writes_nothing(tmp_path, maps):
+    (tmp_path / "m_specular.png").write_bytes(b"user file")
+    with pytest.raises(ImageError, match=r"m_specular\.png: exists \(pass force=True"):
+        write_texture_set(maps, tmp_path, "m")
+    assert [p.name for p in tmp_path.iterdir()] == ["m_specular.png"]
+    assert (tmp_path / "m_specular.png").read_bytes() == b"user file"
+    # The relit target is checked too.
+    (tmp_path / "m_specular.png").unlink()
+    (tmp_path / "m_relit.png").write_bytes(b"x")
+    write_texture_set(maps, tmp_path, "m")  # no relit requested: fine
+    for p in list(tmp_path.iterdir()):
+        if p.name != "m_relit.png":
+            p.unlink()
+    with pytest.raises(ImageError, match="m_relit.png: exists"):
+        write_texture_set(maps, tmp_path, "m", relit=np.zeros((H, W, 3), np.float32))
+    assert [p.name for p in tmp_path.iterdir()] == ["m_relit.png"]
+
+
+def test_force_overwrites(tmp_path, maps):
+    write_texture_set(maps, tmp_path, "m")
+    maps2 = Maps(maps.diffuse * 0.5, maps.specular, maps.roughness * 0.0, maps.normal)
+    with pytest.raises(ImageError, match="exists \\(and 4 more\\)"):
+        write_texture_set(maps2, tmp_path, "m")
+    paths = write_texture_set(maps2, tmp_path, "m", force=True)
+    assert read_image(paths["roughness"], raw=True).max() == 0.0
+    assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # staging folder removed
+
+
+def test_failure_midway_leaves_nothing(tmp_path, maps):
+    bad = Maps(maps.diffuse, maps.specular, maps.roughness, maps.normal, meta={"x": object()})
+    with pytest.raises(ValueError, match="not JSON-serialisable"):
+        write_texture_set(bad, tmp_path / "o", "m")
+    nan = Maps(maps.diffuse, maps.specular, np.full((H, W, 1), np.nan, np.float32), maps.normal)
+    with pytest.raises(ImageError, match="'roughness' has NaN/Inf"):
+        write_texture_set(nan, tmp_path, "m")
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_failed_write_cleans_staging(tmp_path, maps, monkeypatch, workers):
+    from svbrdf.runtime.io import images as imageio
+    from svbrdf.runtime.outputs import texture_set
+
+    calls = []
+
+    def flaky(path, arr, **kw):  # the roughness file fails, as on a full disk
+        calls.append(path.name)
+        if path.name == "m_roughness.png":
+            raise ImageError(f"{path}: write failed (disk full)")
+        return imageio.write_image(path, arr, **kw)
+
+    monkeypatch.setattr(texture_set, "write_image", flaky)
+    monkeypatch.setattr(texture_set, "WRITE_WORKERS", workers)
+    with pytest.raises(ImageError, match="write failed") as exc:
+        write_texture_set(maps, tmp_path, "m")
+    # One thread stops at the failure; two may have started the next file meanwhile.
+    assert calls == ["m_basecolor.png", "m_normal.png", "m_roughness.png"] if workers == 1 else len(calls) >= 3
+    assert str(exc.value).startswith(str(tmp_path / "m_roughness.png"))  # names the target, not the stage
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_argument_errors(tmp_path, maps):
+    with pytest.raises(ValueError, match="normal"):
+        write_texture_set(maps, tmp_path, "m", normal="directx")
+    with pytest.raises(ValueError, match="fmt"):
+        write_texture_set(maps, tmp_path, "m", fmt="tif")
+    with pytest.raises(ImageError, match="invalid texture-set name"):
+        write_texture_set(maps, tmp_path, "a/b")
+    with pytest.raises(ValueError, match="relit"):
+        write_texture_set(maps, tmp_path, "m", relit=np.zeros((H, W), np.float32))
+    (tmp_path / "file").write_text("x")
+    with pytest.raises(ImageError, match="not a folder"):
+        write_texture_set(maps, tmp_path / "file", "m")
+    assert [p.name for p in tmp_path.iterdir()] == ["file"]
+
+
+def test_relit_panel(maps):
+    panel = relit_panel(maps, exposure=1.0)
+    assert panel.shape == (H, 3 * W, 3) and panel.dtype == np.float32
+    assert panel.min() >= 0.0 and panel.max() <= 1.0
+    flash = render(maps, None, ZHAO)
+    np.testing.assert_allclose(srgb_to_linear(panel[:, :W].astype(np.float64)),
+                               np.clip(flash, 0, 1), atol=1e-4)
+    # Panels 2 and 3: upper-left and lower-right lights.
+    ul, lr = novel_lights(ZHAO)[0], novel_lights(ZHAO)[-1]
+    assert ul[0] < 0 < ul[1] and lr[0] > 0 > lr[1]
+    np.testing.assert_allclose(panel[:, W:2 * W], linear_to_srgb(np.clip(render(maps, ul, ZHAO), 0, 1)), atol=1e-5)
+    np.testing.assert_allclose(panel[:, 2 * W:], linear_to_srgb(np.clip(render(maps, lr, ZHAO), 0, 1)), atol=1e-5)
+
+
+def test_relit_panel_auto_exposure_and_writing(tmp_path, maps):
+    dark = Maps(maps.diffuse * 0.05, maps.specular * 0.05, maps.roughness, maps.normal)
+    panel = relit_panel(dark, lights=[None, (0.3, 0.0, 1.5)])
+    assert panel.shape == (H, 2 * W, 3)
+    flash = render(dark, None, ZHAO)
+    scale = 1.0 / np.percentile(flash, 99)
+    np.testing.assert_allclose(panel[:, :W], linear_to_srgb(np.clip(flash * scale, 0, 1)), atol=1e-5)
+    assert np.mean(panel[:, :W] >= 1.0 - 1e-6) <= 0.02  # about 1 % saturates
+    paths = write_texture_set(dark, tmp_path, "m", relit=panel)
+    assert paths["relit"].name == "m_relit.png"
+    np.testing.assert_allclose(read_image(paths["relit"], raw=True), panel, atol=0.5 / 255 + 1e-6)
+
+
+def test_a_subset_writes_only_its_maps(tmp_path, maps):
+    part = maps.subset(["normal", "basecolor"])
+    paths = part.save(tmp_path, "m", fmt="exr")
+    assert set(paths) == {"basecolor", "normal", "sidecar"}
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json", "m_basecolor.png", "m_normal.exr"]
+    np.testing.assert_allclose(read_image(paths["normal"], raw=True), (maps.normal + 1) / 2, atol=1e-6)
+    side = json.loads(paths["sidecar"].read_text())
+    assert side["maps"] == ["diffuse", "normal"] and set(side["files"]) == {"basecolor", "normal"}
+    full = json.loads(write_texture_set(maps, tmp_path / "all", "m")["sidecar"].read_text())
+    assert full["maps"] == ["diffuse", "specular", "roughness", "normal"]
+
+
+def test_relit_panel_is_rendered_at_its_display_size(maps):
+    # Long side W = 16 -> 8: every view is 6 x 8, rendered from the maps downsized for it.
+    panel = relit_panel(maps, exposure=1.0, size=8)
+    assert panel.shape == (H // 2, 3 * (W // 2), 3) and panel.dtype == np.float32
+    assert panel.min() >= 0.0 and panel.max() <= 1.0
+    assert relit_panel(maps, exposure=1.0, size=None).shape == (H, 3 * W, 3)
+    np.testing.assert_array_equal(relit_panel(maps, exposure=1.0, size=W), relit_panel(maps, exposure=1.0, size=None))
+    # A flat material downsized stays the same material: its small flash view agrees with the full-size one
+    # averaged over 2 x 2 pixels (the render is smooth across the image).
+    flat = Maps(np.full((H, W, 3), 0.4, np.float32), np.full((H, W, 1), 0.1, np.float32),
+                np.full((H, W, 1), 0.5, np.float32), np.tile(np.float32([0, 0, 1]), (H, W, 1)))
+    small, full = relit_panel(flat, exposure=1.0, size=8), relit_panel(flat, exposure=1.0, size=None)
+    np.testing.assert_allclose(small[:, :8], full[:, :W].reshape(H // 2, 2, W // 2, 2, 3).mean(axis=(1, 3)),
+                               atol=0.01)
+    with pytest.raises(ValueError, match="size"):
+        relit_panel(maps, size=0)
+
+
+def test_the_default_panel_is_512_px_per_view():
+    from svbrdf.runtime.outputs.texture_set import PANEL_SIZE
+
+    n = np.zeros((600, 1024, 3), np.float32)
+    n[..., 2] = 1.0
+    big = Maps(np.full((600, 1024, 3), 0.5, np.float32), np.full((600, 1024, 1), 0.04, np.float32),
+               np.full((600, 1024, 1), 0.5, np.float32), n)
+    assert PANEL_SIZE == 512 and relit_panel(big).shape == (300, 3 * 512, 3)
+
+
+@pytest.mark.parametrize("fmt", ["png", "exr"])
+def test_concurrent_writing_gives_the_same_files(tmp_path, maps, monkeypatch, fmt):
+    from svbrdf.runtime.outputs import texture_set
+
+    panel = relit_panel(maps)
+    written = {}
+    for workers in (1, 3):
+        monkeypatch.setattr(texture_set, "WRITE_WORKERS", workers)
+        paths = write_texture_set(maps, tmp_path / str(workers), "m", fmt=fmt, relit=panel)
+        written[workers] = {p.name: _content(p) for p in paths.values()}
+    assert written[1] == written[3] and len(written[1]) == 6
+
+
+def _content(path):
+    """A written file's bytes, without the write time OpenImageIO stamps into every EXR (``DateTime``, to the
+    second: two writes a second apart differ there and nowhere else)."""
+    data = path.read_bytes()
+    if path.suffix == ".exr":
+        key = b"capDate\x00string\x00\x13\x00\x00\x00"  # the attribute's name, type and 19-byte size
+        at = data.index(key) + len(key)
+        data = data[:at] + b"?" * 19 + data[at + 19 :]
+    return data
+
+
+def test_concurrent_writing_reports_the_first_failure_and_leaves_nothing(tmp_path, maps, monkeypatch):
+    from svbrdf.runtime.outputs import texture_set
+
+    real = texture_set.write_image
+
+    def failing(path, *args, **kwargs):
+        if path.name in ("m_normal.png", "m_specular.png"):
+            raise ImageError(f"{path}: disk full")
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(texture_set, "write_image", failing)
+    with pytest.raises(ImageError, match=r"m_normal.png: disk full") as err:
+        write_texture_set(maps, tmp_path / "out", "m")
+    assert str(tmp_path / "out" / "m_normal.png") in str(err.value)
+    assert not (tmp_path / "out").exists()
+
+
+def test_relit_panel_needs_every_map(maps):
+    with pytest.raises(ValueError, match="relit panel needs the diffuse, specular map"):
+        relit_panel(maps.subset(["roughness", "normal"]))
+
+
+def test_commit_writes_any_plan_all_or_nothing(tmp_path):
+    from svbrdf.runtime.outputs.texture_set import TextureFile, commit
+
+    image = TextureFile("a.png", {}, np.full((2, 3, 3), 0.5, np.float32), bits=8, srgb=True)
+    doc = TextureFile("a.txt", {}, text="hello")
+    unwritable = TextureFile("b.png", {}, np.full((2, 3, 1), np.nan, np.float32), bits=16)
+    out = tmp_path / "out"
+    with pytest.raises(ImageError, match="NaN") as exc:  # the last file of the plan fails
+        commit(out, {"a": image, "doc": doc, "b": unwritable})
+    assert str(exc.value).startswith(str(out / "b.png"))
+    assert list(tmp_path.iterdir()) == []  # no file, no staging folder, no output folder
+
+    paths = commit(out, {"a": image, "doc": doc})
+    assert paths == {"a": out / "a.png", "doc": out / "a.txt"} and paths["doc"].read_text() == "hello"
+    assert image_info(paths["a"])["dtype"] == "uint8"
+    np.testing.assert_allclose(read_image(paths["a"]), 0.5, atol=3e-3)  # sRGB-encoded on write
+    with pytest.raises(ImageError, match=r"a\.txt: exists \(pass force=True"):  # refused before anything is written
+        commit(out, {"new": TextureFile("new.txt", {}, text="x"), "doc": doc})
+    assert sorted(p.name for p in out.iterdir()) == ["a.png", "a.txt"]
+
+
+
+def _png_gamma(path):
+    """The gAMA chunk's value (gamma x 100000) of a PNG, or None."""
+    import struct
+
+    data, i = path.read_bytes(), 8
+    while i < len(data):
+        n, kind = struct.unpack(">I4s", data[i:i + 8])
+        if kind == b"gAMA":
+            return struct.unpack(">I", data[i + 8:i + 12])[0]
+        i += 12 + n
+    return None
+
+
+def test_files_carry_their_colour_space(tmp_path, maps):
+    import OpenImageIO as oiio
+
+    panel = relit_panel(maps)
+    paths = write_texture_set(maps, tmp_path, "m", relit=panel)
+
+    def tag(role):
+        inp = oiio.ImageInput.open(str(paths[role]))
+        try:
+            return inp.spec().get_string_attribute("oiio:ColorSpace")
+        finally:
+            inp.close()
+
+    for role in ("normal", "roughness", "specular"):  # 16-bit data maps: linear in the file itself
+        assert tag(role).startswith("lin"), (role, tag(role))
+        assert _png_gamma(paths[role]) == 100000, role  # gAMA 1.0
+    for role in ("basecolor", "relit"):  # colour: sRGB
+        assert tag(role).startswith("srgb"), (role, tag(role))
+        assert _png_gamma(paths[role]) == 45455, role
+    # The tag does not change the stored values.
+    np.testing.assert_allclose(read_image(paths["roughness"], raw=True)[..., 0], maps.roughness[..., 0],
+                               atol=0.5 / 65535 + 1e-6)
