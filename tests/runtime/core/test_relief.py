@@ -1,4 +1,4 @@
-"""runtime.relief: height from normals (analytic fields recovered, slopes agree, across the wrap too), ambient
+"""runtime.core.relief: height from normals (analytic fields recovered, slopes agree, across the wrap too), ambient
 occlusion (flat = 1, pits darker than plateaus, follows the hollows, a V-groove against its closed form), input
 errors, tiny and odd-sized maps."""
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.relief import (
+from svbrdf.runtime.core.relief import (
     AO_RADIUS, ambient_occlusion, denormalise, height_from_normals, normal_slopes, normalise, slope_correlation,
 )
 

@@ -41,7 +41,7 @@ from typing import Dict, Optional, Tuple
 
 import numpy as np
 
-from .errors import SvbrdfError
+from ..errors import SvbrdfError
 
 __all__ = ["MAX_SLOPE", "MIN_NORMAL_LENGTH", "AO_RADIUS", "AO_DIRECTIONS", "AO_MAX_SIZE", "height_from_normals",
            "normalise", "denormalise", "ambient_occlusion", "slope_correlation", "normal_slopes"]
@@ -325,7 +325,7 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
 
     The slopes' curl-free part is matched exactly; their curl (which no height has) is what remains.
     Cost: the input plus about six (H, W) float32 arrays at the peak; four real-FFT passes over the map
-    (about 0.4-0.6 s of one core at 4096 x 4096, measured with numpy 2.4; see :mod:`svbrdf.runtime.relief`).
+    (about 0.4-0.6 s of one core at 4096 x 4096, measured with numpy 2.4; see :mod:`svbrdf.runtime.core.relief`).
 
     Args:
         normal: (H, W, 3) float unit normals, OpenGL frame (+x right, +y up the image, +z out), components in
