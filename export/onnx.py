@@ -93,6 +93,9 @@ def _versions() -> Dict[str, str]:
 def _provenance(meta: Mapping[str, Any], generator: nn.Module) -> Dict[str, Any]:
     """Manifest keys that come from the checkpoint metadata (or defaults for a bare module)."""
     train = dict(meta.get("train_config") or {})
+    post = train.get("post")
+    if isinstance(post, Mapping):  # the runtime reads a fine-tuned network's input at train_config.even_lighting
+        train["even_lighting"] = float(post.get("even_lighting") or 0.0)  # (PreviewSession.input_lighting)
     render = RenderConfig(**train["render"]) if "render" in train else ZHAO
     cfg = getattr(generator, "cfg", None)
     photo = dict(meta.get("photo") or {})

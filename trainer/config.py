@@ -11,15 +11,21 @@ import dataclasses
 import json
 import math
 from dataclasses import dataclass, field, fields
-from typing import Any, Dict, Iterable, Optional, Tuple
+from typing import Any, Dict, Iterable, Mapping, Optional, Tuple
 
-from svbrdf.runtime.post.flash_trend import EVEN_LIGHTING_WIDTH
+from svbrdf.runtime.post.settings import EVEN_LIGHTING_WIDTH, PostProcess
 from svbrdf.runtime.core.maps import MAP_NAMES
 from svbrdf.runtime.core.render import ZHAO, RenderConfig
 from svbrdf.trainer.losses import DIFFUSE_TARGETS
 from svbrdf.trainer.models import DISC_PRESETS, MODEL_PRESETS, DiscriminatorConfig, GeneratorConfig
 
 STAGES = ("pretrain", "finetune", "fit")
+#: The trainer's post-processing where a preset asks for none (the paper): the generator sees the photo as it is
+#: (``even_lighting`` 0) and the final maps are the generator's own.
+NO_POST = PostProcess.off().replace(even_lighting=0.0)
+#: The fields of :class:`~svbrdf.runtime.post.PostProcess`: named ``post.<field>``, or by the field's name alone as in
+#: the checkpoints and ``refine`` records written before ``TrainConfig.post`` existed (converted when read).
+POST_FIELDS: Tuple[str, ...] = tuple(f.name for f in fields(PostProcess))
 FOURIER_MODES = ("complex", "magnitude")
 PERCEPTUAL_BACKENDS = ("auto", "vgg19", "vgg19-random", "pyramid")
 QUALITY_MODES = ("fixed", "auto")
@@ -77,14 +83,16 @@ class TrainConfig:
             (:attr:`svbrdf.trainer.models.Generator.out_offset`) at ``camera_lr``: the level of each map (and the
             normal strength) can then move within a fine-tune even where the tanh output is saturated.
         camera_lr: learning rate (own Adam) of the learned camera and of the output offsets.
-        flash_trend: remove the smooth radial trend around the flash highlight from the final maps
-            (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, as the preview does; False: the maps as the
-            generator predicts them, as in the paper).
-        uniform_specular: make the final specular map one level, its median
-            (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`, as the preview does; False: as predicted).
-        highlight_fill: fill the region of a clipped flash highlight in the final maps with the material's own
-            maps from elsewhere (:func:`svbrdf.runtime.post.highlight_fill.fill_highlight`, before the trend removal;
-            False: as predicted).
+        post: what is done around the generator, as the runtime does it (:class:`svbrdf.runtime.post.PostProcess`,
+            the runtime's own type; :data:`NO_POST` by default, as in the paper). ``post.even_lighting``: the
+            generator sees the photo divided by its own smooth lighting
+            (:attr:`svbrdf.runtime.post.PostProcess.even_lighting`: a low pass of this width, a fraction of the photo
+            width) in training and prediction, while the losses compare its renderings with the photo itself (0: the
+            photo). The map corrections (the photo's colour balance, the highlight fill, the flash-trend removal, one
+            specular level) apply to the final maps of :meth:`svbrdf.trainer.train.Trainer.predict_maps`
+            (:func:`svbrdf.runtime.post.apply`), as the preview applies them to its own. Overrides and records name
+            them ``post.<field>`` or, as before this field existed, by the field's name alone (:func:`resolve`,
+            :meth:`from_dict`).
         flash_position: where the flash (with the camera, co-located) is over the photo, (x, y) in the renderer's
             units (:func:`svbrdf.runtime.core.render.plane_positions`: x right, y up, 1 = half the photo width), at the
             render config's camera distance; None = above the photo's centre (the paper's geometry).
@@ -118,10 +126,6 @@ class TrainConfig:
             whole photo; refreshed (without gradient) every ``context_every`` iterations (5: 1.12x the time of an
             iteration without the context, 1: 1.43x, the same maps on held-out procedural materials,
             docs/benchmarks/refine-detail/photo-context). No effect on ``"wen"``.
-        even_lighting: the generator sees the photo divided by its own smooth lighting
-            (:func:`svbrdf.runtime.post.flash_trend.even_lighting`, a low pass of this width, a fraction of the photo
-            width) in training and prediction, the losses compare its renderings with the photo itself; 0: the
-            generator sees the photo (as in the paper).
     """
 
     preset: str = "paper"
@@ -153,9 +157,7 @@ class TrainConfig:
     learn_vignetting: bool = False
     learn_offsets: bool = False
     camera_lr: float = 5e-3
-    flash_trend: bool = False
-    uniform_specular: bool = False
-    highlight_fill: bool = False
+    post: PostProcess = field(default_factory=lambda: NO_POST)
     flash_position: Optional[Tuple[float, float]] = None
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
@@ -177,13 +179,16 @@ class TrainConfig:
     predict_overlap: int = 128
     photo_context: bool = True
     context_every: int = 5
-    even_lighting: float = 0.0
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
         self.anchor_maps = tuple(self.anchor_maps)
         if self.flash_position is not None:
             self.flash_position = tuple(float(v) for v in self.flash_position)
+        if not isinstance(self.post, PostProcess):
+            raise ValueError(f"post must be a PostProcess, got {type(self.post).__name__}")
+        if self.post.even_lighting is None:  # the runtime's "photo as it is"; 0 here, one value per meaning
+            self.post = self.post.replace(even_lighting=0.0)
         self.validate()
 
     @property
@@ -193,6 +198,11 @@ class TrainConfig:
     @property
     def train_encoder(self) -> bool:
         return bool(self.generator.train_encoder)
+
+    @property
+    def even_lighting(self) -> float:
+        """The width the generator's input is evenly lit at (``post.even_lighting``; 0: the photo as it is)."""
+        return float(self.post.even_lighting or 0.0)
 
     @property
     def needs_anchor(self) -> bool:
@@ -260,6 +270,8 @@ class TrainConfig:
             v = getattr(self, f.name)
             if isinstance(v, (GeneratorConfig, DiscriminatorConfig)):
                 v = v.to_dict()
+            elif isinstance(v, PostProcess):
+                v = dataclasses.asdict(v)
             elif isinstance(v, tuple):
                 v = list(v)
             elif isinstance(v, dict):
@@ -270,9 +282,11 @@ class TrainConfig:
     @classmethod
     def from_dict(cls, d: Dict[str, Any]) -> "TrainConfig":
         """Inverse of :meth:`to_dict`; unknown keys raise ValueError (:data:`RETIRED_SETTINGS` are dropped), missing
-        ones take the defaults."""
+        ones take the defaults. The post-processing settings may also come as ``post.<field>`` or under the field's
+        name alone (the records before ``post`` existed): they apply on top of ``post``, whose missing fields are
+        :data:`NO_POST`'s."""
         known = {f.name for f in fields(cls)}
-        d = {k: v for k, v in d.items() if k not in RETIRED_SETTINGS}
+        d = _with_post({k: v for k, v in d.items() if k not in RETIRED_SETTINGS})
         unknown = sorted(set(d) - known)
         if unknown:
             raise ValueError(f"unknown training settings: {', '.join(unknown)}")
@@ -284,6 +298,48 @@ class TrainConfig:
         if "render" in kw:
             kw["render"] = RenderConfig(**kw["render"]).to_dict()
         return cls(**kw)
+
+
+def setting_name(key: str) -> str:
+    """The name of a training setting as records compare it: a post-processing field's bare name (an old record's
+    or override's) -> ``post.<field>``; any other name unchanged."""
+    return f"post.{key}" if key in POST_FIELDS else key
+
+
+def flat_settings(d: Mapping[str, Any]) -> Dict[str, Any]:
+    """A :meth:`TrainConfig.to_dict` with its ``post`` dict spread out as ``post.<field>`` names: one name per
+    setting, as overrides, ``--set`` and ``refine`` records name them (:func:`setting_name`)."""
+    out = {k: v for k, v in d.items() if k != "post"}
+    out.update({f"post.{k}": v for k, v in (d.get("post") or {}).items()})
+    return out
+
+
+def _with_post(d: Mapping[str, Any]) -> Dict[str, Any]:
+    """``d`` (settings by name) with its post-processing settings gathered into one :class:`PostProcess` under
+    ``post``: the ``post`` entry (a PostProcess or a dict of its fields), then ``post.<field>`` and bare field names
+    on top; missing fields are :data:`NO_POST`'s. Raises ValueError for an unknown ``post`` field."""
+    out: Dict[str, Any] = {}
+    merged = dataclasses.asdict(NO_POST)
+    given = d.get("post")
+    if isinstance(given, PostProcess):
+        given = dataclasses.asdict(given)
+    if given is not None and not isinstance(given, Mapping):
+        raise ValueError(f"post must be a mapping of {', '.join(POST_FIELDS)}, got {given!r}")
+    changes = {f"post.{k}": v for k, v in (given or {}).items()}
+    for key, value in d.items():
+        if key == "post":
+            continue
+        name = setting_name(key)
+        if name.startswith("post."):
+            changes[name] = value
+        else:
+            out[key] = value
+    unknown = sorted(n for n in changes if n[len("post."):] not in POST_FIELDS)
+    if unknown:
+        raise ValueError(f"unknown training settings: {', '.join(unknown)}")
+    merged.update({n[len("post."):]: v for n, v in changes.items()})
+    out["post"] = PostProcess(**merged)
+    return out
 
 
 #: Settings of earlier versions that checkpoints may still carry; ignored when read.
@@ -305,12 +361,12 @@ _FAST_V1 = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, schedule="joi
 #: term, a scale-free L_d, learned output offsets, the dielectric specular prior, and no Fourier term. The flash
 #: term's weight is 1: at 100 (best on the synthetic cases) real photos, whose field of view differs from the
 #: model's, collapsed to near-black or off-colour maps (docs/benchmarks/accuracy/README.md). The final maps lose their
-#: radial trend around the highlight (``flash_trend``), the hard form of that term, and their specular is one level
-#: (``uniform_specular``): its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Now").
+#: radial trend around the highlight (``post.flash_trend``), the hard form of that term, and their specular is one level
+#: (``post.uniform_specular``): its spatial variation measured as noise (docs/benchmarks/accuracy/README.md, "Now").
 _HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=True, learn_vignetting=True,
                        learn_offsets=True, lambda_render=1.0, lambda_flash=1.0, lambda_specular_prior=1.0,
-                       lambda_fourier=0.0, diffuse_target="normalized", flash_trend=True,
-                       uniform_specular=True)
+                       lambda_fourier=0.0, diffuse_target="normalized",
+                       post=NO_POST.replace(flash_trend=True, uniform_specular=True))
 #: 150 fine-tune iterations: from the procedural stage one (models/svbrdf_prior_v1) the re-render error of the 38
 #: realistic synthetic cases is lowest at 150 iterations and rises after (0.086, 0.088, 0.095 at 150, 300, 600),
 #: as do the roughness and normal errors (docs/benchmarks/prior/README.md). The normal map is pulled towards the
@@ -322,15 +378,16 @@ _HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=Tru
 #: 600; with it 0.0850 / 0.0875 / 0.0924), the capture relighting and the burn-in keep improving; on held-out
 #: procedural materials 600 iterations are still worse than 150 (0.180 vs 0.164; with the GAN 0.218):
 #: docs/benchmarks/refine-detail/README.md. A default run (150) is unchanged.
-#: The region of a clipped highlight is filled from the material elsewhere in the final maps (``highlight_fill``):
+#: The region of a clipped highlight is filled from the material elsewhere in the final maps (``post.highlight_fill``):
 #: the synthetic cases' burn-in 0.484 -> 0.359 at 150 iterations (docs/benchmarks/highlight-fill/); with the
 #: highlight's shoulder in the region 0.332 (docs/benchmarks/refine-detail/lobe-and-rings/).
-#: The generator sees the photo evenly lit (``even_lighting``, the preview's width), the losses the photo itself:
+#: The generator sees the photo evenly lit (``post.even_lighting``, the preview's width), the losses the photo itself:
 #: on 16 held-out procedural materials re-render 0.1361 -> 0.1269, burn-in 0.711 -> 0.581. A narrower 0.125 ties on
 #: the re-render error and halves the burn-in score, but its roughness turns to irregular blotches the score does
 #: not see (detail 1.57 of the truth's on the shared sets): docs/benchmarks/refine-detail/flat-input/.
 _FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "iters_finetune": 150, "lambda_anchor": 3.0, "anchor_maps": ("normal",),
-         "gan_steps": 150, "highlight_fill": True, "even_lighting": EVEN_LIGHTING_WIDTH}
+         "gan_steps": 150,
+         "post": _HIGHLIGHT_FREE["post"].replace(highlight_fill=True, even_lighting=EVEN_LIGHTING_WIDTH)}
 
 
 def _presets() -> Dict[str, TrainConfig]:
@@ -414,7 +471,10 @@ def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
     """A copy of preset ``preset`` with ``overrides`` applied.
 
     Overrides are :class:`TrainConfig` field names; ``None`` values are ignored (convenient for CLI flags
-    left unset); ``train_encoder`` sets ``generator.train_encoder``; ``fov_deg`` sets ``render["fov_deg"]``.
+    left unset); ``train_encoder`` sets ``generator.train_encoder``; ``fov_deg`` sets ``render["fov_deg"]``;
+    ``post`` (a :class:`~svbrdf.runtime.post.PostProcess` or a dict of some of its fields) changes the preset's
+    post-processing field by field, and so does ``post.<field>`` or the field's name alone (``**{"post.even_lighting":
+    0}``, ``even_lighting=0``).
 
     Raises:
         ValueError: unknown preset, unknown setting or invalid value.
@@ -431,15 +491,21 @@ def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
             d["render"]["fov_deg"] = float(value)
         elif key in ("generator", "discriminator", "render") and not isinstance(value, dict):
             d[key] = value.to_dict()
+        elif key == "post":
+            given = dataclasses.asdict(value) if isinstance(value, PostProcess) else value
+            if not isinstance(given, Mapping):
+                raise ValueError(f"post must be a PostProcess or a mapping of its fields, got {value!r}")
+            d["post"] = {**d["post"], **given}
         else:
             d[key] = value
     return TrainConfig.from_dict(d)
 
 
 def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
-    """Training settings as command lines give them: ``["lr=1e-4", "flash_trend=false", "perceptual=pyramid"]`` ->
-    ``{"lr": 0.0001, "flash_trend": False, "perceptual": "pyramid"}`` (values read as JSON, else kept as strings;
-    the names are checked by :func:`resolve`, not here).
+    """Training settings as command lines give them (``svbrdf-bench --set``, ``before_after``'s presets):
+    ``["lr=1e-4", "post.even_lighting=0", "perceptual=pyramid"]`` -> ``{"lr": 0.0001, "post.even_lighting": 0,
+    "perceptual": "pyramid"}`` (values read as JSON, else kept as strings; the names are checked by :func:`resolve`,
+    not here: a post-processing setting is ``post.<field>`` or the field's name alone).
 
     Raises:
         ValueError: an item without ``=`` or without a name (``"'x': expected KEY=VALUE"``).
@@ -456,5 +522,5 @@ def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
     return out
 
 
-__all__ = ["TrainConfig", "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
+__all__ = ["TrainConfig", "NO_POST", "POST_FIELDS", "setting_name", "flat_settings", "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
            "QUALITY_MODES", "SCHEDULES"]

@@ -25,7 +25,7 @@ import torch
 from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.inference.manifest import recorded_even_lighting
 from svbrdf.trainer import checkpoint as ckpt_io
-from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig
+from svbrdf.trainer.config import TRAIN_PRESETS, TrainConfig, flat_settings, setting_name
 from svbrdf.trainer.models import DiscriminatorConfig, GeneratorConfig
 from svbrdf.trainer.train import PathLike, Trainer
 
@@ -37,7 +37,7 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any], keep: Iterable
                     ) -> Tuple[TrainConfig, List[str]]:
     """``config`` with the generator/discriminator architecture of checkpoint ``init`` (``train_encoder`` kept).
 
-    A config that shows the generator an evenly lit photo (``even_lighting`` > 0: ``fast``) shows it what the stage
+    A config that shows the generator an evenly lit photo (``post.even_lighting`` > 0: ``fast``) shows it what the stage
     one's ``network_input`` record says when it has one (:func:`svbrdf.runtime.inference.manifest.recorded_even_lighting`;
     the photo as it is for a stage one shipped so), as the preview does; the paper's presets (0) keep the photo.
     Such a config also takes the stage one's ``refine`` record (the fine-tune settings measured for it,
@@ -59,7 +59,7 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any], keep: Iterable
     d.update(generator=gen.to_dict(), discriminator=disc.to_dict())
     recorded = recorded_even_lighting(init)
     if recorded is not None and config.even_lighting > 0 and recorded != config.even_lighting:
-        d["even_lighting"] = recorded
+        d["post"]["even_lighting"] = recorded
         notes.append(f"network input taken from the initial checkpoint: "
                      f"{'the photo as it is' if not recorded else f'evenly lit at {recorded:g}'}")
     if init.get("refine") is not None and config.even_lighting > 0:
@@ -72,20 +72,28 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any], keep: Iterable
 def _recorded_refine(config: TrainConfig, record: Any, d: dict, keep: frozenset) -> List[str]:
     """Put a ``refine`` record's settings into ``d`` (``config`` as a dict) where ``config`` has its preset's
     value and the name is not in ``keep``; returns ``"key=value"`` of those that changed. Raises
-    :class:`ModelError` for an invalid record."""
+    :class:`ModelError` for an invalid record. Post-processing settings are compared one by one, whether the record
+    and ``keep`` name them ``post.<field>``, by the field's name alone or in a ``post`` dict
+    (:func:`~svbrdf.trainer.config.setting_name`)."""
     try:
         if not isinstance(record, Mapping):
             raise ValueError("not a mapping of training settings")
-        own = TrainConfig.from_dict({**config.to_dict(), **record}).to_dict()  # validates names and values
+        own = flat_settings(TrainConfig.from_dict({**config.to_dict(), **record}).to_dict())  # validates
     except (TypeError, ValueError) as e:
         raise ModelError(f"invalid refine record in the initial checkpoint: {record!r} ({e})") from None
-    mine = config.to_dict()
-    preset = TRAIN_PRESETS[config.preset].to_dict() if config.preset in TRAIN_PRESETS else mine
+    mine = flat_settings(config.to_dict())
+    preset = flat_settings(TRAIN_PRESETS[config.preset].to_dict()) if config.preset in TRAIN_PRESETS else mine
+    keep = frozenset(setting_name(k) for k in keep)
+    names = [n for key in record for n in
+             ([f"post.{k}" for k in record["post"]] if key == "post" else [setting_name(key)])]
     taken = []
-    for key in record:
-        if key in own and key not in keep and own[key] != mine[key] and mine[key] == preset[key]:
-            d[key] = own[key]
-            taken.append(f"{key}={own[key]}")
+    for name in names:
+        if name in own and name not in keep and own[name] != mine[name] and mine[name] == preset[name]:
+            if name.startswith("post."):
+                d["post"][name[len("post."):]] = own[name]
+            else:
+                d[name] = own[name]
+            taken.append(f"{name}={own[name]}")
     return taken
 
 

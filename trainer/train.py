@@ -36,7 +36,8 @@ import torch
 from svbrdf.runtime.core.camera import radius2
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.quality.burn_in import photo_burn_in
-from svbrdf.runtime.post.flash_trend import even_lighting, postprocess
+from svbrdf.runtime.post import apply as apply_post
+from svbrdf.runtime.post.flash_trend import even_lighting
 from svbrdf.runtime.inference.manifest import DECODERS
 from svbrdf.runtime.core.maps import MAP_NAMES, SLICES, Maps
 from svbrdf.runtime.inference.tiling import tile_boxes, tile_weights
@@ -184,7 +185,7 @@ class Trainer:
         photo = self._check_photo(photo, photo_info)
         self.photo_info = dict(photo_info) if photo_info else tensor_photo_info(photo)
         self.photo = photo.to(self.device, torch.float32)
-        self.net_input = self.photo  # what the generator sees: the photo, or it evenly lit (config.even_lighting)
+        self.net_input = self.photo  # what the generator sees: the photo, or it evenly lit (config.post.even_lighting)
         if config.even_lighting > 0:
             even = even_lighting(self.photo[0].permute(1, 2, 0).cpu().numpy(), config.even_lighting)
             self.net_input = torch.from_numpy(even).permute(2, 0, 1)[None].to(self.device)
@@ -591,18 +592,17 @@ class Trainer:
                             overlap=self.config.predict_overlap, context=self.config.photo_context)
 
     def predict_maps(self, meta: Optional[dict] = None) -> Maps:
-        """The final texture set of the whole photo: :meth:`predict`, without its radial trend around the flash
-        highlight when ``config.flash_trend`` (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, centred on
-        the photo's highlight; ``meta["flash_trend"]`` records what was removed and ``meta["burn_in_model"]`` the
-        burn-in of the maps before, :func:`svbrdf.runtime.quality.burn_in.photo_burn_in`), with one specular level when
-        ``config.uniform_specular`` (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`). ``meta["burn_in"]`` is
-        the burn-in of the maps returned, always."""
+        """The final texture set of the whole photo: :meth:`predict` with the map corrections of ``config.post``
+        (:func:`svbrdf.runtime.post.apply`, as the preview applies them: the photo's colour balance, the highlight
+        fill, the radial trend around the photo's flash highlight removed, one specular level; ``meta`` then records
+        what each step did and ``meta["burn_in_model"]`` the burn-in of the maps before,
+        :func:`svbrdf.runtime.quality.burn_in.photo_burn_in`). ``meta["burn_in"]`` is the burn-in of the maps
+        returned, always."""
         maps = to_maps(self.predict(), meta)
-        cfg = self.config
+        post = self.config.post
         photo = self.photo[0].detach().to("cpu", torch.float32).permute(1, 2, 0).numpy()
-        if cfg.flash_trend or cfg.uniform_specular or cfg.highlight_fill:
-            return postprocess(maps, photo, flash_trend=cfg.flash_trend, specular_level=cfg.uniform_specular,
-                               highlight_fill=cfg.highlight_fill)
+        if post.colour_from_photo or post.highlight_fill or post.flash_trend or post.uniform_specular:
+            return apply_post(maps, photo, post)
         maps.meta["burn_in"] = photo_burn_in(maps, photo)
         return maps
 

@@ -241,6 +241,24 @@ def test_a_stage_ones_network_input_travels_to_the_manifest_the_preview_and_the_
     assert finetune_config(resolve("fast"), load_checkpoint(raw))[0].even_lighting == resolve("fast").even_lighting
 
 
+@pytest.mark.parametrize("width", [0.0, 0.25])
+def test_a_fine_tuned_models_network_input_reaches_the_runtime(tmp_path, width):
+    """A fine-tune records its input in ``train_config.post.even_lighting`` (TrainConfig.post); the runtime reads a
+    fine-tuned model's at ``train_config.even_lighting``, which the export writes from it."""
+    from svbrdf.runtime.inference import session as session_module
+
+    cfg = resolve("fast", **{"post.even_lighting": width})
+    raw = tmp_path / "ft.pt"
+    save_checkpoint(raw, build_checkpoint(generator=_generator(), discriminator=None, train_config=cfg.to_dict(),
+                                          stage="finetune", step=5, iters=5))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", FutureWarning)
+        export_generator(raw, tmp_path / "ft.onnx", check=False)
+    recorded = json.loads((tmp_path / "ft.json").read_text())["training"]["train_config"]
+    assert recorded["post"]["even_lighting"] == recorded["even_lighting"] == width
+    assert session_module.load_session(tmp_path / "ft.onnx", threads=1).input_lighting(0.5) == (width or None)
+
+
 @pytest.mark.parametrize("height", ["tanh", "linear"])
 def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path, height):
     from svbrdf.trainer.models import GeneratorConfig

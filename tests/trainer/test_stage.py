@@ -103,6 +103,19 @@ def test_a_fine_tune_takes_the_stage_ones_refine_record_where_the_user_left_the_
             finetune_config(fast, {**ckpt, "refine": bad})
 
 
+def test_a_refine_record_names_post_settings_as_it_likes_and_keep_protects_them():
+    ckpt = {"generator_config": resolve("tiny").generator.to_dict(), "discriminator_config": None}
+    fast = resolve("fast", train_encoder=True)
+    for record in ({"flash_trend": False}, {"post.flash_trend": False}, {"post": {"flash_trend": False}}):
+        cfg, notes = finetune_config(fast, {**ckpt, "refine": record})
+        assert cfg.post == fast.post.replace(flash_trend=False), record
+        assert any(n.endswith("initial checkpoint: post.flash_trend=False") for n in notes), record
+        for keep in (("flash_trend",), ("post.flash_trend",)):  # the user gave it (--set, in either name)
+            assert finetune_config(fast, {**ckpt, "refine": record}, keep=keep)[0].post == fast.post
+    with pytest.raises(ModelError, match="invalid refine record"):
+        finetune_config(fast, {**ckpt, "refine": {"post": {"sharpen": True}}})
+
+
 def test_finetune_starts_from_the_pretrained_state(tmp_path):
     photo_a, photo_b = random_photo(seed=1), random_photo(seed=2)
     ckpt = tmp_path / "pre.pt"

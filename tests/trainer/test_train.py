@@ -78,8 +78,8 @@ def test_paper_and_zhao_presets_are_the_published_schedule():
     assert f.learn_vignetting and f.learn_offsets and f.diffuse_target == "normalized" and f.render_config.falloff
     assert f.lambda_fourier == 0  # no longer needed once the flash term is in (docs/benchmarks/accuracy/)
     new = ("render", "saturate", "learn_vignetting", "learn_offsets", "lambda_render", "lambda_flash",
-           "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "flash_trend",
-           "uniform_specular", "lambda_anchor", "anchor_maps", "gan_steps", "highlight_fill", "even_lighting")
+           "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "post",
+           "lambda_anchor", "anchor_maps", "gan_steps")
     assert f.even_lighting == 0.25 and p.even_lighting == z.even_lighting == 0  # refine-detail/flat-input
     assert f.gan_steps == f.iters_finetune and p.gan_steps == z.gan_steps == 0  # refine-detail: the GAN drifts
     assert f.lambda_anchor > 0 and f.anchor_maps == ("normal",)  # docs/benchmarks/accuracy/, "Normals from ..."
@@ -435,11 +435,12 @@ def test_predict_maps_removes_the_flash_trend_only_where_the_preset_asks():
     from svbrdf.runtime.post.flash_trend import uniform_specular
 
     for key in ("flash_trend", "uniform_specular", "highlight_fill"):
-        assert getattr(resolve("fast"), key) and not getattr(resolve("paper"), key)
-        assert not getattr(resolve("fast-v1"), key)
+        assert getattr(resolve("fast").post, key) and not getattr(resolve("paper").post, key)
+        assert not getattr(resolve("fast-v1").post, key)
+    assert not resolve("fast").post.colour_from_photo  # the refine keeps the generator's base colour
     photo = random_photo(40, 56)
     for trend, uniform in ((False, False), (True, False), (False, True), (True, True)):
-        trainer = Trainer(photo, resolve("tiny", flash_trend=trend, uniform_specular=uniform), threads=1)
+        trainer = Trainer(photo, resolve("tiny", post={"flash_trend": trend, "uniform_specular": uniform}), threads=1)
         raw = train_mod.to_maps(trainer.predict())
         maps = trainer.predict_maps({"x": 1})
         assert maps.meta["x"] == 1 and ("flash_trend" in maps.meta) == trend
@@ -458,7 +459,7 @@ def test_predict_maps_fills_a_clipped_highlight_where_the_preset_asks():
     photo = random_photo(64, 128)
     photo[:, :, 28:34, 30:36] = 1.0  # a clipped highlight
     for fill in (False, True):
-        trainer = Trainer(photo, resolve("tiny", highlight_fill=fill), threads=1)
+        trainer = Trainer(photo, resolve("tiny", **{"post.highlight_fill": fill}), threads=1)
         raw = train_mod.to_maps(trainer.predict())
         maps = trainer.predict_maps()
         assert ("highlight_fill" in maps.meta) == fill
