@@ -22,7 +22,6 @@ snapshot. Runs are deterministic on the CPU for a given seed, including across c
 from __future__ import annotations
 
 import hashlib
-import json
 import math
 import os
 import time
@@ -45,6 +44,7 @@ from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import STAGES, TrainConfig
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads
 from svbrdf.trainer.guard import NumericalGuard
+from svbrdf.trainer.loop import TrainingLoop
 from svbrdf.trainer.losses import (CLIP_LEVEL, clipped_fraction, diffuse_loss, flash_basis,
                                    flash_correlation_loss, fourier_loss, gan_discriminator_loss, gan_generator_loss,
                                    guessed_diffuse, render_loss, specular_prior_loss, supervised_maps_loss,
@@ -142,8 +142,10 @@ def _finite_or_none(x: float) -> Optional[float]:
     return float(x) if math.isfinite(x) else None
 
 
-class Trainer:
-    """Train G and D on one photo.
+class Trainer(TrainingLoop):
+    """Train G and D on one photo; :meth:`run` is the loop of :class:`~svbrdf.trainer.loop.TrainingLoop` (until
+    ``iters``, or a plateau with ``quality="auto"``, or the callback or ``stop_requested`` asks to stop, or a time
+    limit; a checkpoint every ``checkpoint_every`` iterations and at the end).
 
     Args:
         photo: (1, 3, H, W) linear RGB photo (values >= 0), H, W >= :meth:`min_tile` (32 px for the 4-layer
@@ -162,7 +164,7 @@ class Trainer:
     Attributes:
         generator, discriminator, optimizers (``{"nr", "ds", "d"}``), history (one dict per iteration),
         step, iters, counters (``nonfinite_skips``, ``rollbacks``), notes (fallbacks), perceptual_backend,
-        stopped_early (plateau), interrupted (callback asked to stop).
+        stopped_early (plateau), interrupted (callback or ``stop_requested``), timed_out (``run(max_seconds=)``).
     """
 
     def __init__(self, photo: torch.Tensor, config: TrainConfig, *, stage: str = "fit",
@@ -268,8 +270,7 @@ class Trainer:
         self.history: List[Dict[str, Any]] = []
         self.counters = {"nonfinite_skips": 0, "rollbacks": 0}
         self.init: Optional[Dict[str, Any]] = None
-        self.stopped_early = False
-        self.interrupted = False
+        self._init_loop()
         self._skips_at_last_save = 0  # nonfinite_skips at the last save (svbrdf.trainer.checkpoint.save_trainer)
         self.guard = NumericalGuard(self._guard_state, self._restore_guard_state, config.guard_rollback_after,
                                     self.counters)
@@ -550,41 +551,25 @@ class Trainer:
         l1 = [h["eval/render_l1"] for h in self.history if h.get("eval/render_l1") is not None]
         return plateau_reached(l1, self.config.plateau_window, self.config.plateau_render_tol)
 
-    # ------------------------------------------------------------------ the loop
-    def run(self) -> List[Dict[str, Any]]:
-        """Iterate until ``iters`` (or a plateau with ``quality="auto"``, or the callback asks to stop); save a
-        checkpoint every ``checkpoint_every`` iterations and at the end. Returns the history."""
-        cfg = self.config
+    # ------------------------------------------------------------------ the loop's hooks (svbrdf.trainer.loop)
+    def _on_start(self) -> Dict[str, Any]:
         self.guard.take_snapshot()
-        self._log({"event": "start" if self.step == 0 else "resume", "stage": self.stage, "step": self.step,
-                   "iters": self.iters, "notes": self.notes})
-        while self.step < self.iters:
-            rec = self.iteration()
-            self.history.append(rec)
-            self._log(rec)
-            if rec["skipped"] == 0 and self.step % cfg.guard_snapshot_every == 0:
-                self.guard.take_snapshot()
-            if self.checkpoint_path is not None and cfg.checkpoint_every and self.step % cfg.checkpoint_every == 0 \
-                    and self.step < self.iters:
-                self.save()
-            if cfg.quality == "auto" and "eval/render_l1" in rec and self.plateaued():
-                self.stopped_early = True
-            if self.callback is not None and self.callback(self, rec):
-                self.interrupted = True
-            if self.stopped_early or self.interrupted:
-                break
-        if self.checkpoint_path is not None:
-            self.save()
-        self._log({"event": "stop", "step": self.step, "stopped_early": self.stopped_early,
-                   "interrupted": self.interrupted, **self.counters})
-        return self.history
+        return {"event": "start" if self.step == 0 else "resume", "stage": self.stage, "step": self.step,
+                "iters": self.iters, "notes": self.notes}
 
-    def _log(self, rec: Mapping[str, Any]) -> None:
-        if self.log_path is None:
-            return
-        self.log_path.parent.mkdir(parents=True, exist_ok=True)
-        with open(self.log_path, "a", encoding="utf-8") as f:
-            f.write(json.dumps(rec, allow_nan=False) + "\n")
+    def _next_record(self) -> Dict[str, Any]:
+        return self.iteration()
+
+    def _on_record(self, record: Dict[str, Any]) -> None:
+        if record["skipped"] == 0 and self.step % self.config.guard_snapshot_every == 0:
+            self.guard.take_snapshot()
+
+    def _stop_early(self, record: Dict[str, Any]) -> bool:
+        return self.config.quality == "auto" and "eval/render_l1" in record and self.plateaued()
+
+    def _on_end(self) -> Dict[str, Any]:
+        return {"event": "stop", "step": self.step, "stopped_early": self.stopped_early,
+                "interrupted": self.interrupted, **({"timed_out": True} if self.timed_out else {}), **self.counters}
 
     def predict(self) -> torch.Tensor:
         """(1, 8, H, W) maps of the whole photo as the generator predicts them (see :func:`predict_full`)."""

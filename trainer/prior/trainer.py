@@ -13,6 +13,7 @@ import torch
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads
+from svbrdf.trainer.loop import TrainingLoop
 from svbrdf.trainer.models import Generator, linearise_height
 from svbrdf.trainer.prior.config import STAGE, PriorConfig
 from svbrdf.trainer.prior.loss import CompiledRelit, map_errors, prior_loss, relit_pair
@@ -24,8 +25,9 @@ PathLike = Union[str, Path]
 Callback = Callable[["PriorTrainer", Dict[str, Any]], bool]
 
 
-class PriorTrainer:
-    """Train the stage-one generator on the procedural stream.
+class PriorTrainer(TrainingLoop):
+    """Train the stage-one generator on the procedural stream (:meth:`run`: the loop of
+    :class:`~svbrdf.trainer.loop.TrainingLoop`).
 
     Args:
         config: settings.
@@ -65,12 +67,7 @@ class PriorTrainer:
         self.history: List[Dict[str, Any]] = []
         self.evals: List[Dict[str, Any]] = []
         self.seconds = 0.0
-        self.interrupted = False
-        #: Set (by a signal handler, another thread) to end :meth:`run` after the current iteration: it writes the
-        #: (possibly short) log record and the checkpoint, sets ``interrupted`` and returns; resume continues.
-        self.stop_requested = False
-        #: True when the last :meth:`run` stopped at its wall-clock limit (checkpoint saved, resumable).
-        self.timed_out = False
+        self._init_loop()  # interrupted, stop_requested, timed_out (svbrdf.trainer.loop.TrainingLoop)
         self.bf16, self.bf16_note = (bf16_support(self.device) if config.bf16 else (False, None))
         self._relit: Callable[..., torch.Tensor] = CompiledRelit() if compile else relit_pair
         self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
@@ -230,71 +227,65 @@ class PriorTrainer:
                 for line in self.apply(settings):
                     self.say(line)
 
+    # ------------------------------------------------------------------ the loop's hooks (svbrdf.trainer.loop)
+    @property
+    def iters(self) -> int:
+        """The iteration the run ends at (``config.iters``)."""
+        return self.config.iters
+
     def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
-        """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback.
+        """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback: the loop of
+        :class:`~svbrdf.trainer.loop.TrainingLoop`.
 
         Args:
-            max_seconds: wall-clock limit of this call. Checked after every iteration that starts a new draw of
-                materials (every ``material_reuse`` iterations): past it, the run writes the (possibly short) log
-                record, saves its checkpoint and stops with ``timed_out`` set; a later ``resume`` continues the
+            max_seconds: wall-clock limit of this call. Checked after every log record where a new draw of
+                materials starts (every ``material_reuse`` iterations): past it, the run writes the (possibly short)
+                log record, saves its checkpoint and stops with ``timed_out`` set; a later ``resume`` continues the
                 same schedule. Log records fall on multiples of ``log_every``, so a resumed run realigns its
                 records after a short one.
 
         A recipe's changes (``recipe``) are applied before the iteration after the one they name.
         """
-        log = None if self.log_path is None else open(self.log_path, "a", encoding="utf-8")
-        start = time.perf_counter()
-        self.timed_out = False
-        window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]] = []
-        window_start = time.perf_counter()
-        try:
-            while True:
-                self._apply_due()
-                c = self.config
-                if self.step >= c.iters:
-                    break
-                if c.log_every == 1:
-                    rec = self.iteration()
-                else:
-                    window.append(self._step())
-                    due = (self.step % c.log_every == 0 or self.step >= c.iters
-                           or (max_seconds is not None and self.step % c.material_reuse == 0
-                               and time.perf_counter() - start >= max_seconds)
-                           or (c.eval_every and self.step % c.eval_every == 0)
-                           or (c.checkpoint_every and self.step % c.checkpoint_every == 0)
-                           or self.stop_requested)
-                    if not due:
-                        continue
-                    rec = self._record(window, time.perf_counter() - window_start)
-                    window, window_start = [], time.perf_counter()
-                self.seconds += rec["seconds"]
-                if c.eval_every and (self.step % c.eval_every == 0 or self.step == c.iters):
-                    ev = {"step": self.step, **self.evaluate()}
-                    self.evals.append(ev)
-                    rec["eval"] = ev
-                self.history.append({k: v for k, v in rec.items() if k != "eval"})
-                if log is not None:
-                    import json
+        return super().run(max_seconds)
 
-                    log.write(json.dumps(rec) + "\n")
-                    log.flush()
-                stop = (bool(self.callback(self, rec)) if self.callback else False) or self.stop_requested
-                at_end = self.step == c.iters
-                late = (max_seconds is not None and time.perf_counter() - start >= max_seconds and not at_end
-                        and self.step % c.material_reuse == 0)
-                if self.checkpoint_path is not None and (
-                        at_end or stop or late or (c.checkpoint_every and self.step % c.checkpoint_every == 0)):
-                    self.save()
-                if stop:
-                    self.interrupted = True
-                    break
-                if late:
-                    self.timed_out = True
-                    break
-        finally:
-            if log is not None:
-                log.close()
-        return self.history
+    def _on_start(self) -> None:
+        self._window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]] = []
+        self._window_start = time.perf_counter()
+
+    def _before_iteration(self) -> None:
+        self._apply_due()
+
+    def _can_stop_in_time(self) -> bool:
+        return self.step % self.config.material_reuse == 0
+
+    def _next_record(self) -> Optional[Dict[str, Any]]:
+        """One iteration's record (``log_every`` 1), or one step into the log window and, where a record is due
+        (every ``log_every`` steps, at the end, at an evaluation, a checkpoint, the time limit or a stop request),
+        the window's mean record (:meth:`_record`)."""
+        c = self.config
+        if c.log_every == 1:
+            return self.iteration()
+        self._window.append(self._step())
+        due = (self.step % c.log_every == 0 or self.step >= c.iters or self._time_up()
+               or (c.eval_every and self.step % c.eval_every == 0)
+               or (c.checkpoint_every and self.step % c.checkpoint_every == 0)
+               or self.stop_requested)
+        if not due:
+            return None
+        record = self._record(self._window, time.perf_counter() - self._window_start)
+        self._window, self._window_start = [], time.perf_counter()
+        return record
+
+    def _on_record(self, record: Dict[str, Any]) -> None:
+        self.seconds += record["seconds"]
+        c = self.config
+        if c.eval_every and (self.step % c.eval_every == 0 or self.step == c.iters):
+            ev = {"step": self.step, **self.evaluate()}
+            self.evals.append(ev)
+            record["eval"] = ev
+
+    def _history_entry(self, record: Dict[str, Any]) -> Dict[str, Any]:
+        return {k: v for k, v in record.items() if k != "eval"}
 
     # ------------------------------------------------------------------ checkpoints
     def checkpoint(self) -> Dict[str, Any]:
