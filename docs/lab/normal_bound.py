@@ -12,9 +12,13 @@ not an RMS, so the script measures it instead: the truth's own slopes blended wi
 spectrum at correlation ``rho``, the best scale per case (printed last; on 2026-11-27: 0.9x needs ``rho`` above
 0.6).
 
-    OMP_NUM_THREADS=1 python docs/benchmarks/refine-detail/scripts/normal_bound.py MODEL.onnx OUT.json
+    OMP_NUM_THREADS=1 python docs/lab/normal_bound.py MODEL.onnx OUT.json
+
+``DATA=DIR`` (default ``../shared/data``) and ``SIZE=N`` (default 256 px) in the environment choose the shared sets
+and the side of every photo (``tests/test_lab.py`` runs it on a tiny input).
 """
 import json
+import os
 import sys
 from pathlib import Path
 
@@ -26,7 +30,8 @@ from svbrdf.trainer.bench.metrics import _corr, _slopes, angular_error_deg
 
 KS = (0.0, 0.5, 1.0, 1.5, 2.0, 3.0, 4.0, 6.0)
 RHOS = (0.15, 0.3, 0.44, 0.6)
-DATA = Path("../shared/data")
+DATA = Path(os.environ.get("DATA", "../shared/data"))
+SIZE = int(os.environ.get("SIZE", "256"))
 
 
 def from_slopes(s: np.ndarray) -> np.ndarray:
@@ -39,7 +44,7 @@ def main(model: str, out: str) -> None:
     session = load_session(model, threads=1)
     rows = []
     rng = np.random.default_rng(0)
-    for case in load_cases(DATA, 256):
+    for case in load_cases(DATA, SIZE):
         if case.kind != "synthetic":
             continue
         pred = estimate(case.photo, session)

@@ -14,13 +14,14 @@ Each correlation is also given per band: the slopes blurred by a Gaussian of sig
 (fine), with the share of the truth's slope variance in the fine band.
 Evaluation only: nothing is tuned or trained on the shared sets here.
 
-    OMP_NUM_THREADS=1 python docs/benchmarks/prior-v2/scripts/relief_gap_probe.py MODEL.onnx OUT.json [N_PROCEDURAL [COARSE]]
+    OMP_NUM_THREADS=1 python docs/lab/relief_gap_probe.py MODEL.onnx OUT.json [N_PROCEDURAL [COARSE]]
 
 With COARSE (a share in [0, 1], default 0) the procedural materials of C and D get the prior's coarse relief
 (:func:`svbrdf.trainer.prior.add_coarse_relief`) at that share, drawn from its own generator (seed 31_337_002), so
 the materials are otherwise the same; ``COARSE_ONLY=1`` in the environment skips A and B, and
 ``COARSE_STONES_P=p`` sets ``PARAMS["coarse_stones_p"]`` (the share of uneven stones among the coarse reliefs;
-0: smooth warps only).
+0: smooth warps only). ``DATA=DIR`` (default ``../shared/data``) and ``SIZE=N`` (default 256 px) in the environment
+choose the shared sets and the side of every photo (``tests/test_lab.py`` runs it on a tiny input).
 """
 import json
 import os
@@ -39,7 +40,8 @@ from svbrdf.trainer.bench.metrics import _corr, _slopes, angular_error_deg, gaus
 from svbrdf.trainer.prior import add_coarse_relief, prior_preset, simulate_photos
 from svbrdf.trainer.procedural import PARAMS, sample_materials
 
-DATA = Path("../shared/data")
+DATA = Path(os.environ.get("DATA", "../shared/data"))
+SIZE = int(os.environ.get("SIZE", "256"))
 HELD_OUT_SEED = 31_337_001
 #: The slopes are split into a coarse band (Gaussian blur of this sigma, pixels at 256 px) and the fine rest.
 BAND_SIGMA = 4.0
@@ -81,13 +83,13 @@ def main(model: str, out: str, n_proc: int = 24, coarse: float = 0.0) -> None:
     cfg = prior_preset("v2")
     rng = torch.Generator().manual_seed(HELD_OUT_SEED)
     a_rows, b_rows = [], []
-    for case in ([] if os.environ.get("COARSE_ONLY") == "1" else load_cases(DATA, 256)):
+    for case in ([] if os.environ.get("COARSE_ONLY") == "1" else load_cases(DATA, SIZE)):
         if case.kind != "synthetic":
             continue
         b_rows.append({"case": case.name, **score(session, case.photo, case.gt)})
         a_rows.append({"case": case.name, **score(session, prior_photo(case.gt, cfg, rng), case.gt)})
         print(f"{case.name[-40:]:40s} bench {b_rows[-1]['rho']:.3f} prior {a_rows[-1]['rho']:.3f}", flush=True)
-    maps, families = sample_materials(n_proc, 256, torch.Generator().manual_seed(HELD_OUT_SEED))
+    maps, families = sample_materials(n_proc, SIZE, torch.Generator().manual_seed(HELD_OUT_SEED))
     if coarse > 0:
         g = torch.Generator().manual_seed(HELD_OUT_SEED + 1)
         maps = add_coarse_relief(maps, torch.rand(n_proc, generator=g) < coarse, g)
