@@ -58,3 +58,18 @@ def test_normal_bound_runs_on_a_tiny_input(tmp_path):
     doc = _run("normal_bound.py", tmp_path)
     assert [r["case"] for r in doc["rows"]] == ["Des19/1_tiny"]
     assert set(doc["rows"][0]["angle"]) == {"0.0", "0.5", "1.0", "1.5", "2.0", "3.0", "4.0", "6.0"}
+
+
+def test_the_readme_table_of_a_results_json(tmp_path):
+    rec = dict(case="a", kind="synthetic", seconds=1.0, rerender_rmse=0.1, grazing_rmse=0.2, diffuse_rmse=0.3,
+               specular_rmse=0.4, roughness_rmse=0.5, normal_angle_deg=9.123, burn_in=0.6)
+    photo = dict(case="b/00", kind="photo", seconds=3.0, capture_rmse=0.15, capture_ssim=0.5, burn_in=0.9)
+    records = [dict(r, method="preview", preset=None, iterations=None) for r in (rec, photo)]
+    records += [dict(r, method="finetune", preset="fast", iterations=150) for r in (rec, photo)]
+    (tmp_path / "results.json").write_text(json.dumps({"records": records}))
+    r = subprocess.run([sys.executable, str(ROOT / "docs" / "results" / "table.py"), str(tmp_path / "results.json")],
+                       capture_output=True, text=True, check=True)
+    lines = r.stdout.splitlines()
+    assert lines[0].startswith("| method | seconds (n 2) | capture relit ↓ (n 1) |") and len(lines) == 4
+    assert lines[2] == "| preview | 2 | 0.15 | 0.5 | 0.1 | 0.2 | 0.3 | 0.4 | 0.5 | 9.12 | 0.6 | 0.9 |"
+    assert lines[3].startswith("| refine (`fast`) 150 | 2 |")
