@@ -2,11 +2,11 @@
 # The one current run of svbrdf-bench for the shipped model (models/svbrdf_prior_v2*, the v2 stage one at 20000
 # iterations), as cited by README.md and docs/model-card.md. From the repository root, with the package installed:
 #
-#   bash docs/results/run.sh            # about 40 minutes on one core of a 2-core AMD EPYC
+#   bash docs/results/run.sh            # 79 minutes on 2026-11-28: one 2-core AMD EPYC shared with other jobs
 #
 # Three runs on the same seven cases, one torch/onnxruntime thread each, one after the other, then one merged
 # report in docs/results/. The refine's points are evaluations along one 300-iteration run of the shipped refine
-# recipe (fast, from the packaged checkpoint); the paper's fine-tune runs 25 iterations (about 8-11 s each here).
+# recipe (fast, from the packaged checkpoint); the paper's fine-tune runs 25 iterations (16-30 s each in that run).
 set -euo pipefail
 BIN="${BIN:-$(dirname "$(command -v svbrdf-bench)")}"
 RUNS="${RUNS:-runs/bench/current}"
@@ -20,5 +20,5 @@ bench --methods baseline,preview --repeats 3 --out "$RUNS/preview"
 bench --methods finetune --presets fast --iters 0,50,150,300 --repeats 1 --out "$RUNS/refine"
 bench --methods finetune --presets paper --iters 0,10,25 --repeats 1 --out "$RUNS/paper"
 "$BIN/svbrdf-bench" --report "$RUNS/preview" --report "$RUNS/refine" --report "$RUNS/paper" --out "$OUT" --quiet
-{ echo '$ nproc'; nproc; echo '$ lscpu'; lscpu | grep -E '^(Architecture|CPU\(s\)|Model name|Thread|Core|Socket|L[123]|Flags)' \
+{ echo '$ nproc'; env -u OMP_NUM_THREADS nproc; echo '$ lscpu'; lscpu | grep -E '^(Architecture|CPU\(s\)|Model name|Thread|Core|Socket|L[123]|Flags)' \
     | sed -E 's/^(Flags: +).*/\1(avx2, avx512f, avx512_bf16, ...: see a full lscpu)/'; } > "$OUT/machine.txt"

@@ -54,7 +54,8 @@ def table(doc: dict) -> str:
             cells.append("–" if mean is None else f"{mean:.2f}" if field == "normal_angle_deg" else _fmt(mean))
         method, preset, iters = key
         name = NAMES.get(method) or (f"refine (`{preset}`) {iters}" if method == "finetune" and preset == "fast"
-                                     else f"{method} `{preset}` {iters}")
+                                     else f"paper's fine-tune (`paper`) {iters}" if method == "finetune"
+                                     and preset == "paper" else f"{method} `{preset}` {iters}")
         rows.append(f"| {name} | " + " | ".join(cells) + " |")
     head = [f"{h} (n {counts.get(w, 0)})" if i in (0, 1, 3, 9, 10) else h for i, (h, _, w) in enumerate(COLUMNS)]
     return "\n".join(["| method | " + " | ".join(head) + " |", "|---" * (len(COLUMNS) + 1) + "|", *rows])
