@@ -177,3 +177,50 @@ def test_shared_bath_tile_capture(shared_data):
                                    normal=np.dstack([np.zeros_like(c.photo[..., :2]), np.ones_like(c.photo[..., :1])])))
         out = bm.capture_errors(flat, c.capture)
         assert 0.05 < out["capture_rmse"] < 0.4 and out["capture_views"] == 8
+
+
+def test_a_capture_with_missing_views_is_read_with_the_views_on_disk(tmp_path):
+    # Published captures often ship a subset of the views their calibration lists (issue 52, item 5).
+    from svbrdf.trainer.bench import datasets
+
+    gt = _bumpy_maps(n=N)
+    folder = _write_capture(tmp_path / "data" / "tile", gt)
+    (folder / "00.png").unlink()
+    (folder / "03.png").unlink()
+    datasets._WARNED.clear()
+    with pytest.warns(datasets.MissingViewsWarning, match=r"lists views 0, 3 but there is no photo of them "
+                                                          r"\(00, 03\); the capture is read with the 3 views"):
+        cases = load_cases(tmp_path / "data", N)
+    assert [c.name for c in cases] == ["tile/01", "tile/02", "tile/04"]
+    for c in cases:
+        assert sorted(c.capture.photos) == [1, 2, 4] and c.capture.calibration.missing == (0, 3)
+        assert c.capture.others() == [i for i in (1, 2, 4) if i != c.capture.index]
+        true = bm.capture_errors(gt, c.capture)
+        assert true["capture_views"] == 2 and true["capture_rmse"] < 0.01
+    import warnings
+
+    with warnings.catch_warnings():  # once per calibration file: reading it again says nothing
+        warnings.simplefilter("error")
+        assert read_capture_calibration(folder).missing == (0, 3)
+    for p in folder.glob("*.png"):  # no view left: an error naming the file
+        p.unlink()
+    with pytest.raises(ImageError, match=r"parameters.json: the calibration lists views 0-4 but none of their"):
+        read_capture_calibration(folder)
+
+
+def test_a_copy_of_the_shared_capture_without_some_views(shared_data, tmp_path):
+    import shutil
+
+    from svbrdf.trainer.bench import datasets
+
+    src = shared_data / "guo-svbrdf-diff-renderer" / "bath_tile"
+    if not src.is_dir():
+        pytest.skip(f"third-party test data not found at {src}")
+    folder = tmp_path / "bath_tile"  # a temporary copy, deleted with tmp_path
+    shutil.copytree(src, folder, ignore=shutil.ignore_patterns("00.png", "05.png", "06.png"))
+    datasets._WARNED.clear()
+    with pytest.warns(datasets.MissingViewsWarning, match=r"lists views 0, 5, 6 but .*read with the 6 views on "
+                                                          r"disk \(1-4, 7, 8\)"):
+        cases = load_cases(tmp_path, 64, "*bath_tile/0[17]")
+    assert [c.name for c in cases] == ["bath_tile/01", "bath_tile/07"]
+    assert all(sorted(c.capture.photos) == [1, 2, 3, 4, 7, 8] and len(c.capture.others()) == 5 for c in cases)

@@ -39,7 +39,7 @@ import OpenImageIO as oiio
 
 from svbrdf.runtime.quality.burn_in import highlight_centre
 from svbrdf.runtime.core.camera import Camera, expose, sample_camera
-from svbrdf.trainer.bench.datasets import Case, CaptureCalibration, capture_view, find_cases, read_gt
+from svbrdf.trainer.bench.datasets import Case, CaptureCalibration, capture_view, capture_view_file, find_cases, read_gt
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.io.images import read_image
 from svbrdf.runtime.core.maps import Maps, encode_normal, normalize_normals
@@ -308,11 +308,13 @@ def _read_photo(path: Path, size: int) -> np.ndarray:
 
 
 def _view_file(folder: Path, index: int, suffix: str) -> Path:
-    """The photo of view ``index`` of a capture folder (``03.png``, or ``3.png``)."""
-    for stem in (f"{index:02d}", str(index)):
-        if (folder / (stem + suffix)).is_file():
-            return folder / (stem + suffix)
-    raise SvbrdfError(f"{folder}: the calibration lists view {index} but there is no {index:02d}{suffix}")
+    """The photo of view ``index`` of a capture folder: ``03.png`` or ``3.png`` (the case's own extension first,
+    else any image extension). The calibration lists only views on disk
+    (:func:`svbrdf.trainer.bench.datasets.read_capture_calibration`), so one is found unless it was just removed."""
+    found = capture_view_file(folder, index, suffix) or capture_view_file(folder, index)
+    if found is None:
+        raise SvbrdfError(f"{folder}: the photo of view {index} ({index:02d}{suffix}) is no longer on disk")
+    return found
 
 
 def load_cases(root: Path, size: int, spec: Optional[str] = None, **kw) -> List[BenchCase]:

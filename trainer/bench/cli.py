@@ -5,7 +5,7 @@ Example::
     svbrdf-bench --quick                                   # pipeline check, 2 small cases, < 2 min
     svbrdf-bench --cases 4 --methods baseline,finetune --presets fast --iters 0,30 --time-budget 600
 
-Outputs in ``--out`` (default ``docs/benchmarks/`` of the repository): ``results.md``, ``pareto.png``,
+Outputs in ``--out`` (default ``runs/bench`` in the current folder): ``results.md``, ``pareto.png``,
 ``results.json`` (or ``--json PATH``) and ``summary.json``. Existing files are kept unless ``--force``.
 Python API: :func:`run_benchmark` (returns the document) and :func:`write_outputs`.
 """
@@ -28,7 +28,7 @@ from svbrdf.runtime.core.render import ZHAO
 
 from . import report
 from .cases import RENDERERS, BenchCase, load_cases, mitsuba_available, prepare_case
-from .common import default_data, machine_info, repo_root
+from .common import default_data, machine_info
 from .methods import METHODS, BenchOptions, Point, torch_available
 from .metrics import evaluate
 
@@ -36,6 +36,8 @@ DEFAULT_PRESETS = ("paper", "zhao", "fast")
 DEFAULT_ITERS = (0, 100, 300, 1000, 3000)
 #: --quick: size, iteration counts, presets, cases, repeats.
 QUICK = {"size": 64, "iters": (0, 2, 4), "presets": ("tiny",), "repeats": 1, "pretrain_iters": 2}
+#: Output folder when --out is not given (relative to the current folder; ``runs/`` is ignored by git).
+DEFAULT_OUT = Path("runs") / "bench"
 OUTPUT_NAMES = {"markdown": "results.md", "plot": "pareto.png", "json": "results.json", "summary": "summary.json"}
 
 
@@ -103,7 +105,7 @@ def run_benchmark(
 
     Returns:
         dict: ``schema, command, date, machine, settings, cases, skipped, errors, records, summary``
-        (see ``docs/benchmarks/README.md``).
+        (see ``docs/bench.md``).
 
     Raises:
         SvbrdfError: missing data folder, no case selected, unknown method/preset, bad option.
@@ -313,7 +315,7 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--data", type=Path, default=None,
                    help="folder of ground-truth sets and/or photos (default: shared/data beside the source "
                         "checkout, i.e. <checkout>/../shared/data; see the README's 'Tests and data')")
-    p.add_argument("--out", type=Path, default=None, help="output folder (default: docs/benchmarks of the repo)")
+    p.add_argument("--out", type=Path, default=None, help="output folder (default: runs/bench in the current folder)")
     p.add_argument("--json", type=Path, default=None, help="records JSON (default: OUT/results.json)")
     p.add_argument("--methods", type=_names, default=None, help=f"comma list of {', '.join(METHODS)} (default: all); "
                    "METHOD:P1+P2 restricts a training method to those presets, METHOD@N caps its iterations, "
@@ -435,7 +437,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             return 0
         quick = args.quick
         data = args.data or default_data()
-        out = args.out or repo_root() / "docs" / "benchmarks"
+        out = args.out or DEFAULT_OUT
         paths = output_paths(out, args.json)
         existing = [str(p) for p in paths.values() if p.exists()]
         if existing and not args.force:

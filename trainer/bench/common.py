@@ -1,14 +1,11 @@
-"""Helpers shared by the benchmark modules (``svbrdf-bench`` and the ``python -m svbrdf.trainer.bench.*`` scripts):
-where the repository and the shared data are, and what machine a result was measured on."""
+"""Helpers of ``svbrdf-bench``: where the repository and the shared data are, and what machine a result was measured on."""
 
 from __future__ import annotations
 
-import datetime as _dt
 import os
 import platform
-import shlex
 from pathlib import Path
-from typing import Any, Callable, Dict, Optional, Sequence, Tuple
+from typing import Any, Dict, Optional
 
 import numpy as np
 
@@ -89,32 +86,4 @@ def machine_info(opts: BenchOptions) -> Dict[str, Any]:
             "torch_threads": torch_threads, "ort_threads": opts.threads or os.cpu_count(), "versions": versions}
 
 
-def results_paths(out: Path, force: bool) -> Tuple[Path, Path]:
-    """``(out/results.md, out/results.json)`` of a benchmark script; refuses existing ones unless ``force``.
-
-    Raises:
-        SvbrdfError: either file exists and not ``force``.
-    """
-    paths = (out / "results.md", out / "results.json")
-    if not force and any(p.exists() for p in paths):
-        raise SvbrdfError(f"{out}: results exist (use --force to overwrite)")
-    return paths
-
-
-def write_results(paths: Tuple[Path, Path], module: str, argv: Sequence[str], doc: Dict[str, Any],
-                  markdown: Callable[[Dict[str, Any]], str]) -> Dict[str, Any]:
-    """Stamp ``doc`` with the command (``python -m <module> <argv>``) and the UTC date, write it to
-    ``paths`` (from :func:`results_paths`) as JSON and as ``markdown(doc)``, print the markdown, and return the
-    stamped document."""
-    from . import report
-
-    doc = {"command": shlex.join(["python", "-m", module, *argv]),
-           "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"), **doc}
-    paths[0].parent.mkdir(parents=True, exist_ok=True)
-    report.write_json(paths[1], doc, force=True)
-    report.write_text(paths[0], markdown(doc), force=True)
-    print(markdown(doc))
-    return doc
-
-
-__all__ = ["repo_root", "default_data", "machine_info", "results_paths", "write_results"]
+__all__ = ["repo_root", "default_data", "machine_info"]

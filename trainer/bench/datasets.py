@@ -43,7 +43,9 @@ Multi-view flash captures (the layout of Guo et al.'s svbrdf-diff-renderer, e.g.
 rectified photos of one flat material, ``00.png``, ``01.png``, ..., each taken from another camera position with
 the flash on the camera, plus a calibration JSON (:func:`read_capture_calibration`). Every view is an ordinary
 real photo for the methods; the benchmark relights the maps estimated from one view at the others
-(:func:`svbrdf.trainer.bench.metrics.capture_errors`).
+(:func:`svbrdf.trainer.bench.metrics.capture_errors`). Several published captures ship a subset of the views their
+calibration lists: a capture is read with the views on disk, and a :class:`MissingViewsWarning` (once per
+calibration file) names the missing ones.
 """
 
 from __future__ import annotations
@@ -51,9 +53,10 @@ from __future__ import annotations
 import json
 import math
 import os
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Dict, List, Optional, Tuple, Union
+from typing import Dict, List, Optional, Set, Tuple, Union
 
 import numpy as np
 import OpenImageIO as oiio
@@ -297,6 +300,46 @@ def normal_curl_ratio(normal: np.ndarray) -> float:
 CAPTURE_CALIBRATIONS = ("parameters.json", "optim.json")
 
 
+class MissingViewsWarning(UserWarning):
+    """A capture's calibration lists views whose photos are not on disk; the capture is read without them."""
+
+
+#: Calibration files already warned about (one warning per file and process, however many views are read).
+_WARNED: Set[Path] = set()
+
+
+def capture_view_file(folder: PathLike, index: int, suffix: Optional[str] = None) -> Optional[Path]:
+    """The photo of view ``index`` of a capture folder (``03.png``, or ``3.png``), or None when it is not on disk.
+
+    Args:
+        folder: the capture folder.
+        index: the view index (the file stem).
+        suffix: the extension to look for (e.g. ``".png"``); default: any image extension OpenImageIO reads.
+    """
+    folder = Path(folder)
+    for stem in (f"{index:02d}", str(index)):
+        if suffix is not None:
+            if (folder / (stem + suffix)).is_file():
+                return folder / (stem + suffix)
+            continue
+        found = sorted(p for p in folder.glob(stem + ".*")
+                       if p.suffix.lower() in IMAGE_EXTENSIONS and p.is_file() and not p.name.startswith("."))
+        if found:
+            return found[0]
+    return None
+
+
+def _ranges(indices: List[int]) -> str:
+    """``[0, 1, 2, 5, 6]`` -> ``"0-2, 5, 6"`` (runs of three or more joined)."""
+    runs: List[List[int]] = []
+    for i in sorted(indices):
+        if runs and runs[-1][-1] == i - 1:
+            runs[-1].append(i)
+        else:
+            runs.append([i])
+    return ", ".join(f"{r[0]}-{r[-1]}" if len(r) >= 3 else ", ".join(map(str, r)) for r in runs)
+
+
 @dataclass(frozen=True)
 class CaptureCalibration:
     """Camera and light positions of a multi-view flash capture (lengths in cm).
@@ -309,13 +352,15 @@ class CaptureCalibration:
     Attributes:
         path: the JSON read.
         width_cm: physical width of the photographed square (``image_size``, or ``im_size`` in ``optim.json``).
-        views: view index -> (camera position (3,), light position (3,)) in cm; the index is the photo's
-            file stem (``03.png`` is view 3).
+        views: view index -> (camera position (3,), light position (3,)) in cm, of the views whose photo is on
+            disk; the index is the photo's file stem (``03.png`` is view 3).
+        missing: the indices the calibration lists whose photo is not on disk (left out of ``views``).
     """
 
     path: Path
     width_cm: float
     views: Dict[int, Tuple[Tuple[float, float, float], Tuple[float, float, float]]]
+    missing: Tuple[int, ...] = ()
 
     def scene_units(self, index: int) -> Tuple[np.ndarray, np.ndarray]:
         """(camera, light) of view ``index`` in the renderer's units (half the photo width), float64 (3,)."""
@@ -329,10 +374,13 @@ def read_capture_calibration(folder: PathLike) -> Optional[CaptureCalibration]:
 
     Reads the first of :data:`CAPTURE_CALIBRATIONS` present: ``image_size`` or ``im_size`` (cm), ``camera_pos``
     (one (3,) position per view, cm), ``light_pos`` (default: the camera positions, a co-located flash) and
-    ``idx`` (the view indices the positions belong to; default 0, 1, ...).
+    ``idx`` (the view indices the positions belong to; default 0, 1, ...). Views whose photo is not on disk
+    (:func:`capture_view_file`) are left out and listed in ``missing``, with one :class:`MissingViewsWarning` per
+    calibration file naming them.
 
     Raises:
-        ImageError: the JSON is unreadable or inconsistent (one line, with the file).
+        ImageError: the JSON is unreadable or inconsistent, or none of the views it lists is on disk (one line,
+            with the file).
     """
     folder = Path(folder)
     path = next((folder / n for n in CAPTURE_CALIBRATIONS if (folder / n).is_file()), None)
@@ -349,15 +397,30 @@ def read_capture_calibration(folder: PathLike) -> Optional[CaptureCalibration]:
     if not (len(cams) == len(lights) == len(idx)) or any(len(p) != 3 for p in cams + lights) or width <= 0:
         raise ImageError(f"{path}: camera_pos, light_pos and idx must list one (x, y, z) per view, and the "
                          f"image size must be > 0")
-    return CaptureCalibration(path, width, {i: (c, l) for i, c, l in zip(idx, cams, lights)})
+    listed = {i: (c, l) for i, c, l in zip(idx, cams, lights)}
+    views = {i: v for i, v in listed.items() if capture_view_file(folder, i) is not None}
+    missing = tuple(sorted(set(listed) - set(views)))
+    if not views:
+        raise ImageError(f"{path}: the calibration lists views {_ranges(list(listed))} but none of their photos "
+                         f"(00.png, 01.png, ...) is in {folder}")
+    if missing and path.resolve() not in _WARNED:
+        _WARNED.add(path.resolve())
+        names = ", ".join(f"{i:02d}" for i in missing)
+        warnings.warn(MissingViewsWarning(
+            f"{path}: the calibration lists view{'s' if len(missing) > 1 else ''} {_ranges(list(missing))} but "
+            f"there is no photo of {'them' if len(missing) > 1 else 'it'} ({names}); the capture is read with the "
+            f"{len(views)} view{'s' if len(views) > 1 else ''} on disk ({_ranges(list(views))})"), stacklevel=2)
+    return CaptureCalibration(path, width, views, missing)
 
 
 def capture_view(path: PathLike) -> Optional[Tuple[CaptureCalibration, int]]:
     """``(calibration, view index)`` when the image at ``path`` is a view of a calibrated capture, else None
     (no calibration beside it, or a file stem that is not one of its view indices)."""
     path = Path(path)
+    if not path.stem.isdigit():
+        return None
     calib = read_capture_calibration(path.parent)
-    if calib is None or not path.stem.isdigit() or int(path.stem) not in calib.views:
+    if calib is None or int(path.stem) not in calib.views:
         return None
     return calib, int(path.stem)
 
@@ -397,7 +460,8 @@ def find_cases(root: PathLike, format: Optional[str] = None) -> List[Case]:
     return sorted(cases, key=lambda c: c.name)
 
 
-__all__ = ["Case", "CaptureCalibration", "CAPTURE_CALIBRATIONS", "read_capture_calibration", "capture_view",
+__all__ = ["Case", "CaptureCalibration", "CAPTURE_CALIBRATIONS", "MissingViewsWarning", "read_capture_calibration",
+           "capture_view", "capture_view_file",
            "FORMATS", "LAYOUTS", "MAPS_ENCODINGS", "DEFAULT_NORMAL_Y", "DEFAULT_MAPS_ENCODING",
            "IMAGE_EXTENSIONS", "detect_format", "find_cases", "read_des18",
            "read_des19", "read_xuejiao", "read_gt", "normal_curl_ratio"]

@@ -37,7 +37,7 @@ Highlight burn-in: the label-free score of :mod:`svbrdf.runtime.quality.burn_in`
 ``ring_*`` ring scores per map, ``burn_in`` the worst map's), imported from there so the runtime reports the same
 number.
 
-What an artist sees (:func:`artist_metrics`; the artist measures of ``docs/benchmarks/artist/``):
+What an artist sees (:func:`artist_metrics`; the columns of the first table of ``svbrdf-bench``'s ``results.md``):
 
 =====================  ================================================================================
 key                    definition
