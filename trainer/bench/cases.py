@@ -317,11 +317,20 @@ def _view_file(folder: Path, index: int, suffix: str) -> Path:
     return found
 
 
-def load_cases(root: Path, size: int, spec: Optional[str] = None, **kw) -> List[BenchCase]:
-    """Find, select (:func:`select_cases`) and prepare (:func:`prepare_case`) every case under ``root``."""
+def load_cases(root: Path, size: int, spec: Optional[str] = None, split: Optional[str] = None, **kw
+               ) -> List[BenchCase]:
+    """Find, keep one part of the split (:mod:`svbrdf.trainer.bench.split`; ``None``: all), select
+    (:func:`select_cases`) and prepare (:func:`prepare_case`) every case under ``root``."""
     found = find_cases(root)
     if not found:
         raise SvbrdfError(f"{root}: no image found")
+    if split is not None:
+        from svbrdf.trainer.bench.split import select_split
+
+        keep = set(select_split([c.name for c in found], split))
+        found = [c for c in found if c.name in keep]
+        if not found:
+            raise SvbrdfError(f"{root}: no case in the {split} part of the split")
     return [prepare_case(c, size, **kw) for c in select_cases(found, spec)]
 
 

@@ -71,6 +71,7 @@ def run_benchmark(
     presets: Sequence[str] = DEFAULT_PRESETS,
     size: int = 256,
     cases: Optional[str] = None,
+    split: Optional[str] = None,
     realistic: bool = True,
     renderer: str = "auto",
     noise: float = 0.0,
@@ -92,6 +93,8 @@ def run_benchmark(
         size: side of every case, pixels.
         cases: selection (see :func:`svbrdf.trainer.bench.cases.select_cases`); with ``quick`` and no
             selection: the first ground-truth set and the first photo.
+        split: ``"tune"`` or ``"check"``: only that part of the shared data (:mod:`svbrdf.trainer.bench.split`),
+            before ``cases`` selects; ``None``: every case.
         realistic, renderer, noise, quantize: how synthetic photos are made
             (:func:`svbrdf.trainer.bench.cases.prepare_case`): realistic (Mitsuba where installed, fall-off, a
             camera per case) or clean (``renderer`` with the benchmark's configuration, ``noise``, ``quantize``).
@@ -157,7 +160,7 @@ def run_benchmark(
             pick = found[:2]
         bench_cases = [prepare_case(c, size, **kw) for c in pick]
     else:
-        bench_cases = load_cases(data, size, cases, **kw)
+        bench_cases = load_cases(data, size, cases, split, **kw)
 
     case_docs = []
     for c in bench_cases:
@@ -235,7 +238,7 @@ def run_benchmark(
         "command": command,
         "date": _dt.datetime.now(_dt.timezone.utc).isoformat(timespec="seconds"),
         "machine": machine_info(opts),
-        "settings": {"data": str(data), "size": size, "cases": cases, "quick": quick,
+        "settings": {"data": str(data), "size": size, "cases": cases, "split": split, "quick": quick,
                      "inputs": "realistic" if realistic else "clean", "renderer": renderer,
                      "noise": noise, "quantize": quantize, "methods": list(methods), "presets": list(presets),
                      "iters": sorted(set(opts.iters)), "time_budget": opts.time_budget, "threads": opts.threads,
@@ -324,6 +327,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help=f"training presets (default: {','.join(DEFAULT_PRESETS)}; --quick: tiny)")
     p.add_argument("--size", type=int, default=None, help="case side in pixels (default 256; --quick: 64)")
     p.add_argument("--cases", default=None, help="first N cases, or comma-separated globs on the case or file name")
+    p.add_argument("--split", choices=("tune", "check"), default=None,
+                   help="only the part of the shared data tuned on, or only the part checked (docs/data-split.md; "
+                        "default: all)")
     p.add_argument("--iters", type=_int_list, default=None,
                    help=f"evaluated iteration counts of one training run (default {','.join(map(str, DEFAULT_ITERS))})")
     p.add_argument("--time-budget", type=float, default=None, help="training seconds per run (default: none)")
@@ -461,6 +467,7 @@ def main(argv: Optional[Sequence[str]] = None) -> int:
             presets=args.presets or (QUICK["presets"] if quick else DEFAULT_PRESETS),
             size=args.size or (QUICK["size"] if quick else 256),
             cases=args.cases,
+            split=args.split,
             realistic=not args.clean,
             renderer=args.renderer,
             noise=args.noise,
