@@ -9,6 +9,7 @@ from typing import Optional
 
 from .. import __version__
 from ..core.maps import MAP_NAMES, select_maps
+from ..core.relief import RELIEF_NAMES
 from ..errors import SvbrdfError
 from ..outputs.choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
 from ..quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
@@ -29,11 +30,22 @@ def _positive(text: str) -> int:
 
 
 def _map_list(text: str) -> tuple:
-    """``--maps``: comma list of map names (or aliases) -> names in packing order."""
+    """``--maps``: comma list of map names (or aliases), relief names included -> ``(maps, relief)``: the maps to
+    compute in packing order (with the normal map when a relief map is asked for) and the relief maps."""
+    parts = [part.strip() for part in text.split(",") if part.strip()]
+    relief = tuple(n for n in RELIEF_NAMES if n in parts)
+    rest = [n for n in parts if n not in RELIEF_NAMES] + (["normal"] if relief else [])
     try:
-        return select_maps(part.strip() for part in text.split(",") if part.strip())
+        return select_maps(rest), relief
     except SvbrdfError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+        raise argparse.ArgumentTypeError(f"{exc}; relief maps: {', '.join(RELIEF_NAMES)}") from None
+
+
+class _MapsAction(argparse.Action):
+    """``--maps LIST`` sets ``maps`` (the network's maps) and ``relief`` (the maps derived from the normals)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        namespace.maps, namespace.relief = values
 
 
 def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
@@ -47,7 +59,7 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
     p.add_argument("--normal", type=normal_convention, choices=SUPPORTED_NORMAL_CONVENTIONS, default="opengl",
                    help="normal map convention: opengl (or gl) = green up; dx = DirectX, green down (default: opengl)")
     p.add_argument("--format", choices=("png", "exr"), default="png",
-                   help="normal/roughness/specular files: 16-bit png or float exr (default: png)")
+                   help="normal/roughness/specular/height/ao files: 16-bit png or float exr (default: png)")
     p.add_argument("--max-size", metavar="N", type=_positive, default=2048,
                    help="downsize photos whose long side exceeds N pixels (default: 2048)")
     p.add_argument("--tile", metavar="N", type=_positive, default=1024,
@@ -56,10 +68,13 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
     p.add_argument("--target", choices=TARGETS, default="generic",
                    help="output preset: file names, normal convention, packing and material document "
                         "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
-    p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES,
+    p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES, action=_MapsAction,
                    help="comma list of the maps to compute and write: diffuse (or basecolor), specular, roughness, "
-                        "normal (default: all). roughness/normal alone run only the normal-roughness decoder, "
-                        "diffuse/specular only the diffuse-specular one; no relit panel; --target generic only")
+                        "normal, height, ao (default: all). height and ao are derived from the normal map, which "
+                        "is written with them (white = high; AO 1 = open). roughness/normal alone run only the "
+                        "normal-roughness decoder, diffuse/specular only the diffuse-specular one; no relit panel "
+                        "without all four of diffuse, specular, roughness, normal; other targets need those four")
+    p.set_defaults(relief=RELIEF_NAMES)
     p.add_argument("--tileable", action="store_true",
                    help="make the maps repeat without a visible seam, at the same size and scale (all four cut "
                         "the same way; the sidecar records the join and seam scores)")
@@ -94,7 +109,8 @@ def check_options(args) -> Optional[str]:
     if (args.iters or args.quality) and not args.refine:
         return "--iters and --quality need --refine"
     if args.maps != MAP_NAMES and args.target != "generic":
-        return f"--maps needs --target generic: the {args.target} preset converts all four maps"
+        return (f"--maps needs --target generic: the {args.target} preset converts all four maps "
+                f"({', '.join(MAP_NAMES)})")
     if getattr(args, "view", False) and (args.maps != MAP_NAMES or args.target != "generic"):
         return "--view needs all four maps and --target generic (it relights the project's own texture set)"
     return None
