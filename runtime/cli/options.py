@@ -67,7 +67,7 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                         f"at least {min_tile()})")
     p.add_argument("--target", choices=TARGETS, default="generic",
                    help="output preset: file names, normal convention, packing and material document "
-                        "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
+                        "(generic, gltf, blender, unreal, unity, usd, mtlx, ambientcg; see docs/targets.md)")
     p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES, action=_MapsAction,
                    help="comma list of the maps to compute and write: diffuse (or basecolor), specular, roughness, "
                         "normal, height, ao (default: all). height and ao are derived from the normal map, which "

@@ -283,6 +283,18 @@ def test_target_gltf_writes_a_material(photo, tiny_model, tmp_path, capsys):
     assert code == 1 and "apply to --target generic only" in err
 
 
+def test_target_ambientcg_writes_the_library_set_with_height_and_ao(photo, tiny_model, tmp_path, capsys):
+    out_dir = tmp_path / "acg"
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--target", "ambientcg", "-q")
+    assert code == 0, err
+    assert sorted(p.name for p in out_dir.iterdir()) == sorted(
+        f"wood{s}" for s in ("_Color.png", "_NormalGL.png", "_NormalDX.png", "_Roughness.png", "_Specular.png",
+                             "_Displacement.png", "_AmbientOcclusion.png", ".mtlx", ".json", "_relit.png"))
+    gltf = tmp_path / "gl"
+    assert _run(capsys, photo, "--model", tiny_model, "-o", gltf, "--target", "gltf", "-q")[0] == 0
+    assert json.loads((gltf / "wood.gltf").read_text())["materials"][0]["occlusionTexture"] == {"index": 2}
+
+
 def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, tiny_model, tmp_path, capsys,
                                                                          monkeypatch):
     pytest.importorskip("torch")
