@@ -80,7 +80,8 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                         "the same way; the sidecar records the join and seam scores)")
     p.add_argument("--view", action="store_true",
                    help="also write <name>_view.html: the maps relit in the browser with the project's renderer, "
-                        "one tile and repeated (--target generic, all four maps)")
+                        "one tile and repeated, with relief (parallax from the height) and ambient (occluded by "
+                        "the AO) controls (--target generic, all four maps)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--refine", action="store_true",
                    help="fine-tune the model's training checkpoint on each photo with torch before predicting")
