@@ -15,7 +15,15 @@ every file, and the material document written next to the textures (layouts and 
   setup); 16-bit;
 * ``usd``: ``<n>_Color``, ``_NormalGL``, ``_Roughness``, ``_Specular`` (ambientCG names); 16-bit;
   ``<n>.usda`` (unit quad, UsdPreviewSurface in the specular workflow);
-* ``mtlx``: the same files; ``<n>.mtlx`` (``standard_surface``).
+* ``mtlx``: the same files; ``<n>.mtlx`` (``standard_surface``);
+* ``ambientcg``: the CC0 libraries' set: ``_Color``, ``_NormalGL`` and ``_NormalDX``, ``_Roughness``, ``_Specular``,
+  ``_Displacement``, ``_AmbientOcclusion``, ``<n>.mtlx``.
+
+Height and AO (when ``maps.relief`` is set, :meth:`~svbrdf.runtime.core.maps.Maps.with_relief`): ``generic``
+``_height``/``_ao``; ``gltf`` the AO in the ORM red channel (``occlusionTexture``); ``blender`` ``_disp``/``_ao``;
+``unreal`` the AO in the ORM, ``_Height``; ``unity`` ``_MaskMap`` (G = AO, A = smoothness) and ``_Height``; ``usd``,
+``mtlx``, ``ambientcg`` ``_Displacement``/``_AmbientOcclusion``, wired into the USD and MaterialX documents
+(:attr:`TargetPreset.relief_files`). The AO never darkens a base colour.
 
 All files are PNG; base colours are 8-bit sRGB, data maps linear ("Non-Color", tagged with a gAMA chunk of 1.0).
 Every preset also writes the ``<n>.json`` sidecar of :func:`~svbrdf.runtime.outputs.texture_set.write_texture_set` (BRDF model,
@@ -437,4 +445,4 @@ def write_target(
     return write_layout(maps, out_dir, name, plan, force=force, extra_meta=extra_meta, relit=relit)
 
 
-__all__ = ["TARGETS", "PRESETS", "TargetPreset", "write_target", "target_files"]
+__all__ = ["TARGETS", "PRESETS", "TargetPreset", "write_target", "target_files", "RELIEF_FILES"]
