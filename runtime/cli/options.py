@@ -9,7 +9,7 @@ from typing import Optional
 
 from .. import __version__
 from ..core.maps import MAP_NAMES, select_maps
-from ..core.relief import RELIEF_NAMES
+from ..core.relief import AO_STRENGTH, RELIEF_NAMES
 from ..errors import SvbrdfError
 from ..outputs.choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
 from ..quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
@@ -26,6 +26,16 @@ def _positive(text: str) -> int:
         raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
     return value
 
 
@@ -75,6 +85,9 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                         "normal-roughness decoder, diffuse/specular only the diffuse-specular one; no relit panel "
                         "without all four of diffuse, specular, roughness, normal; other targets need those four")
     p.set_defaults(relief=RELIEF_NAMES)
+    p.add_argument("--ao-strength", metavar="K", type=_positive_float, default=AO_STRENGTH,
+                   help=f"the AO is that of the height x K (default: {AO_STRENGTH:g}, the measured flatness of the "
+                        "model's normal maps against ground truth; 1 = the depth the normal map implies)")
     p.add_argument("--tileable", action="store_true",
                    help="make the maps repeat without a visible seam, at the same size and scale (all four cut "
                         "the same way; the sidecar records the join and seam scores)")

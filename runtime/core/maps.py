@@ -36,7 +36,7 @@ from typing import Dict, Iterable, Iterator, Mapping, Optional, Tuple, Union
 import numpy as np
 
 from ..errors import MapError, SvbrdfError
-from .relief import RELIEF_NAMES, Relief, relief_maps
+from .relief import AO_STRENGTH, RELIEF_NAMES, Relief, relief_maps
 from .render_config import RenderConfig
 
 #: Map names in packing order.
@@ -271,13 +271,16 @@ class Maps:
             out["normal"] = normalize_normals(out["normal"])
         return self._with(out, relief=self.relief)
 
-    def with_relief(self, *, tileable: bool = False, maps: Iterable[str] = RELIEF_NAMES) -> "Maps":
+    def with_relief(self, *, tileable: bool = False, maps: Iterable[str] = RELIEF_NAMES,
+                    ao_strength: float = AO_STRENGTH) -> "Maps":
         """A copy with :attr:`relief`: the height map and ambient occlusion of the normal map, as written
         (:func:`~svbrdf.runtime.core.relief.relief_maps`; ``maps`` picks ``"height"`` and/or ``"ao"``).
 
         The normals are first made unit length as the writers make them (:func:`normalize_normals`: a zero-length
         normal becomes (0, 0, 1), the documented repair), so the height's slopes are those of the written normal
-        map. ``tileable``: the maps repeat (the height is integrated across the wrap).
+        map. ``tileable``: the maps repeat (the height is integrated across the wrap). ``ao_strength``: the AO is that
+        of the height times it (default :data:`~svbrdf.runtime.core.relief.AO_STRENGTH`, measured; 1 = the normal
+        map's own depth).
 
         Raises:
             SvbrdfError: no normal map, NaN/Inf normals, or unknown names.
@@ -287,7 +290,7 @@ class Maps:
                               f"{', '.join(self.names)}")
         if not np.isfinite(self.normal).all():
             raise SvbrdfError("normal map: NaN or infinite values; the height and AO need finite normals")
-        relief = relief_maps(normalize_normals(self.normal), tileable=tileable, maps=maps)
+        relief = relief_maps(normalize_normals(self.normal), tileable=tileable, maps=maps, ao_strength=ao_strength)
         return self._with(dict(self.items()), relief=relief)
 
     def _with(self, arrays: Mapping[str, np.ndarray], relief: Optional[Relief] = None) -> "Maps":

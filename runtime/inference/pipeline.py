@@ -48,7 +48,7 @@ from typing import Any, Callable, Iterable, Optional, Tuple, Union
 import numpy as np
 
 from ..core.maps import MAP_NAMES, N_CHANNELS, SLICES, Maps, select_maps
-from ..core.relief import RELIEF_NAMES
+from ..core.relief import AO_STRENGTH, RELIEF_NAMES
 from ..errors import ImageError, SvbrdfError
 from ..io.images import ImageWarning, image_info, read_image, resize_long_side
 from ..post import PostProcess
@@ -234,6 +234,7 @@ class PhotoOptions:
             :data:`~svbrdf.runtime.core.relief.RELIEF_NAMES`: ``"height"``, ``"ao"``; ``maps`` must hold ``"normal"``);
             computed after ``tileable``, across the wrap when it is set (:meth:`~svbrdf.runtime.core.maps.Maps.with_relief`).
             Default (None): both when ``maps`` are all four, none for a subset.
+        ao_strength: the AO is that of the height times it (:data:`~svbrdf.runtime.core.relief.AO_STRENGTH`).
         tileable: make the maps repeat without a seam (:func:`svbrdf.runtime.post.tileable.make_tileable`).
         view: also write the viewer page (:func:`svbrdf.runtime.outputs.viewer.write_viewer`).
         force: overwrite existing files.
@@ -255,6 +256,7 @@ class PhotoOptions:
     target: str = "generic"
     maps: Tuple[str, ...] = MAP_NAMES
     relief: Optional[Tuple[str, ...]] = None
+    ao_strength: float = AO_STRENGTH
     tileable: bool = False
     view: bool = False
     force: bool = False
@@ -392,7 +394,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
     if options.relief:
         t = time.perf_counter()
         try:
-            maps = maps.with_relief(tileable=options.tileable, maps=options.relief)
+            maps = maps.with_relief(tileable=options.tileable, maps=options.relief, ao_strength=options.ao_strength)
         except SvbrdfError as exc:
             raise SvbrdfError(f"{photo}: {exc}") from None
         maps.meta.setdefault("timings", {})["relief"] = time.perf_counter() - t

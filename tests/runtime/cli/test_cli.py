@@ -426,3 +426,7 @@ def test_maps_height_or_ao_alone_computes_the_normal_map_and_writes_it(photo, ti
     assert code == 0 and not list((tmp_path / "n").glob("*_height.png"))  # the four maps only, as before
     code, _, err = _run(capsys, photo, "--model", tiny_model, "--maps", "height,depth")
     assert code == 2 and "unknown map name 'depth'" in err and "relief maps: height, ao" in err
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "s", "--ao-strength", "1", "-q")
+    assert code == 0 and json.loads((tmp_path / "s" / "wood.json").read_text())["relief"]["ao"]["strength"] == 1.0
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "--ao-strength", "0")
+    assert code == 2 and "--ao-strength: must be a finite number > 0" in err

@@ -354,7 +354,7 @@ def test_height_and_ao_files_follow_the_normal_map(tmp_path, fmt):
     relief = sidecar["relief"]
     assert relief["maps"] == ["height", "ao"] and relief["tileable"] is False and relief["height_scale"] > 0
     assert sidecar["files"]["height"]["height_scale"] == relief["height_scale"]
-    assert sidecar["files"]["ao"]["colour_space"] == "data" and relief["ao"]["strength"] == 1.0
+    assert sidecar["files"]["ao"]["colour_space"] == "data" and relief["ao"]["strength"] == 8.0
     h01 = read_image(paths["height"], raw=True)[..., 0]
     assert abs(float(np.median(h01)) - 0.5) < 0.1 and h01.max() <= 1.0 and h01.min() >= 0.0
     height = denormalise(h01, relief["height_scale"])
@@ -437,3 +437,26 @@ def test_relief_is_not_written_without_it_and_never_darkens_the_base_colour(tmp_
                                                                                         raw=True))
     only_height = write_texture_set(maps.with_relief(maps=["height"]), tmp_path / "c", "m")
     assert "height" in only_height and "ao" not in only_height
+
+
+def test_ao_strength_is_the_depth_gain_of_the_ao_and_is_recorded(tmp_path):
+    from svbrdf.runtime.core.relief import AO_STRENGTH, ambient_occlusion, height_from_normals, relief_maps
+    from svbrdf.runtime.errors import SvbrdfError
+
+    normal, _ = _bump_normals()
+    height, scale = height_from_normals(normal)
+    r1 = relief_maps(normal, ao_strength=1.0)
+    rd = relief_maps(normal)
+    assert rd.ao_strength == AO_STRENGTH == 8.0 and r1.scale == rd.scale == scale  # the height is the normals'
+    np.testing.assert_array_equal(r1.height, rd.height)
+    np.testing.assert_allclose(r1.ao, ambient_occlusion(height), atol=1e-6)
+    np.testing.assert_allclose(rd.ao, ambient_occlusion(height * 8.0), atol=1e-6)
+    assert rd.ao.mean() < r1.ao.mean() < 1.0
+    info = json.loads(write_texture_set(Maps(normal=normal).with_relief(), tmp_path, "m")["sidecar"].read_text())
+    assert info["relief"]["ao"]["strength"] == 8.0 and "0.12 x" in info["relief"]["ao"]["strength_reason"]
+    info = json.loads(write_texture_set(Maps(normal=normal).with_relief(ao_strength=1), tmp_path / "b", "m")[
+        "sidecar"].read_text())
+    assert info["relief"]["ao"]["strength"] == 1.0
+    for bad in (0, -1, float("nan"), "x"):
+        with pytest.raises(SvbrdfError, match="ao_strength"):
+            relief_maps(normal, ao_strength=bad)
