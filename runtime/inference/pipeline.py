@@ -225,7 +225,8 @@ class PhotoOptions:
         threads: CPU threads (None: every core).
         fov: camera field of view across the photo width, degrees, for the relit panel (None: the model's).
         normal: normal map convention of ``target`` generic: ``"opengl"`` (green up) or ``"dx"``.
-        format: normal/roughness/specular files of ``target`` generic: ``"png"`` (16-bit) or ``"exr"`` (float).
+        format: normal/roughness/specular/height/ao files of ``target`` generic: ``"png"`` (16-bit) or ``"exr"``
+            (float).
         max_size: photos whose long side is longer are downsized to it (pixels).
         tile: larger images run in overlapping ``tile`` x ``tile`` windows (pixels).
         target: output preset (:data:`svbrdf.runtime.outputs.choices.TARGETS`).

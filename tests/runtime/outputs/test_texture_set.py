@@ -397,9 +397,11 @@ def test_tileable_relief_is_integrated_across_the_wrap(tmp_path):
 
 
 def test_relief_bad_input_is_one_line():
+    import svbrdf.runtime
     from svbrdf.runtime.core.relief import Relief, relief_maps
     from svbrdf.runtime.errors import SvbrdfError
 
+    assert svbrdf.runtime.relief_maps is relief_maps and svbrdf.runtime.Relief is Relief  # the public API
     normal, _ = _bump_normals(16, 16)
     with pytest.raises(SvbrdfError, match="needs the normal map|need the normal map"):
         Maps(roughness=np.zeros((16, 16, 1))).with_relief()
