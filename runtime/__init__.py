@@ -6,6 +6,7 @@ Public API::
     session = load_session()              # packaged model, or SVBRDF_MODEL, or a path
     maps = estimate("photo.jpg", session) # -> Maps (numpy arrays; see svbrdf.runtime.core.maps)
     maps.save("out/", "photo")
+    maps.with_relief().save("out/", "photo", force=True)  # + photo_height.png, photo_ao.png (from the normals)
     bare = estimate("photo.jpg", session, post=PostProcess.off())  # the network's maps, no correction
 
 The package is organised by role: ``core`` (maps, renderer, colour), ``io`` (image files), ``inference`` (model,
@@ -29,6 +30,8 @@ except Exception:  # pragma: no cover - running from a source tree without an in
 
 _LAZY = {
     "Maps": ".core.maps",
+    "Relief": ".core.relief",
+    "relief_maps": ".core.relief",
     "RenderConfig": ".core.render",
     "render": ".core.render",
     "read_image": ".io.images",
@@ -55,6 +58,7 @@ def __getattr__(name: str):
 
 if TYPE_CHECKING:  # pragma: no cover
     from .core.maps import Maps
+    from .core.relief import Relief, relief_maps
     from .core.render import RenderConfig, render
     from .errors import ImageError, ModelError, SvbrdfError
     from .inference.pipeline import PhotoOptions, estimate, process_photo

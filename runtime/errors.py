@@ -12,6 +12,11 @@ class ImageError(SvbrdfError):
     """An image file could not be read or written (missing, unreadable, unsupported, empty, NaN/Inf)."""
 
 
+class MapError(SvbrdfError, ValueError):
+    """A texture set given to the API is inconsistent: maps of different sizes, a wrong shape (also a
+    ``ValueError``, as before it had its own type)."""
+
+
 class ModelError(SvbrdfError):
     """A model file is missing, corrupt, or does not match its manifest."""
 

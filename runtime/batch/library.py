@@ -40,6 +40,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, Callable, Dict, Iterable, Iterator, List, Mapping, Optional, Sequence, Tuple
 
 from .. import __version__
+from ..core.relief import AO_STRENGTH
 from ..errors import OVERWRITE_HINT, SvbrdfError, exists_message
 from .engines import LocalEngine, RayEngine, plan_workers
 from .job import PROG, Job, _one_line
@@ -58,10 +59,10 @@ PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".hdr", ".bm
 #: The options (:class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`) that change a texture set (recorded per photo;
 #: a done photo is redone only when they or the photo change).
 OPTION_KEYS = ("refine", "quality", "iters", "target", "maps", "normal", "format", "max_size", "tile", "fov",
-               "tileable", "view")
+               "tileable", "view", "relief", "ao_strength")
 #: The options added to :data:`OPTION_KEYS` after libraries were first written, with the value a record that
 #: lacks them was made with (:func:`same_options`).
-OPTION_DEFAULTS = {"tileable": False, "view": False}
+OPTION_DEFAULTS = {"tileable": False, "view": False, "relief": [], "ao_strength": AO_STRENGTH}
 
 
 def collect_photos(items: Iterable[str]) -> List[Path]:
@@ -157,6 +158,12 @@ def library_options(args: Any, model_sha256: str) -> Dict[str, Any]:
     opts = {k: getattr(args, k, OPTION_DEFAULTS[k]) if k in OPTION_DEFAULTS else getattr(args, k)
             for k in OPTION_KEYS}
     opts["maps"] = list(opts["maps"])
+    if opts["relief"] is None:  # PhotoOptions' default: both relief maps with all four maps
+        from ..core.maps import MAP_NAMES
+        from ..core.relief import RELIEF_NAMES
+
+        opts["relief"] = RELIEF_NAMES if tuple(opts["maps"]) == MAP_NAMES else ()
+    opts["relief"] = list(opts["relief"])
     opts["model_sha256"] = model_sha256
     return opts
 

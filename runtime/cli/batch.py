@@ -34,7 +34,8 @@ Run the same command again to go on after an interruption or a crash: done photo
 are skipped, failed ones retried. LIBRARY/<name>/ holds each texture set (with --view also <name>_view.html),
 LIBRARY/library.json the manifest, LIBRARY/index.html (open it from disk; a "view" link per viewer page) and
 index.png the contact sheet, worst re-render first. Adding or dropping --tileable or --view changes the options:
-the done photos are then redone only with --force.
+the done photos are then redone only with --force. Each set has its height and AO maps by default; a library made
+before they existed (or with --maps) is redone with them only with --force.
 """
 
 

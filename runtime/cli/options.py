@@ -9,6 +9,7 @@ from typing import Optional
 
 from .. import __version__
 from ..core.maps import MAP_NAMES, select_maps
+from ..core.relief import AO_STRENGTH, RELIEF_NAMES
 from ..errors import SvbrdfError
 from ..outputs.choices import SUPPORTED_NORMAL_CONVENTIONS, TARGETS, normal_convention
 from ..quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
@@ -28,12 +29,33 @@ def _positive(text: str) -> int:
     return value
 
 
-def _map_list(text: str) -> tuple:
-    """``--maps``: comma list of map names (or aliases) -> names in packing order."""
+def _positive_float(text: str) -> float:
     try:
-        return select_maps(part.strip() for part in text.split(",") if part.strip())
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"not a number: {text!r}") from None
+    if not (value > 0 and value != float("inf")):
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text}")
+    return value
+
+
+def _map_list(text: str) -> tuple:
+    """``--maps``: comma list of map names (or aliases), relief names included -> ``(maps, relief)``: the maps to
+    compute in packing order (with the normal map when a relief map is asked for) and the relief maps."""
+    parts = [part.strip() for part in text.split(",") if part.strip()]
+    relief = tuple(n for n in RELIEF_NAMES if n in parts)
+    rest = [n for n in parts if n not in RELIEF_NAMES] + (["normal"] if relief else [])
+    try:
+        return select_maps(rest), relief
     except SvbrdfError as exc:
-        raise argparse.ArgumentTypeError(str(exc)) from None
+        raise argparse.ArgumentTypeError(f"{exc}; relief maps: {', '.join(RELIEF_NAMES)}") from None
+
+
+class _MapsAction(argparse.Action):
+    """``--maps LIST`` sets ``maps`` (the network's maps) and ``relief`` (the maps derived from the normals)."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        namespace.maps, namespace.relief = values
 
 
 def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
@@ -47,7 +69,7 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
     p.add_argument("--normal", type=normal_convention, choices=SUPPORTED_NORMAL_CONVENTIONS, default="opengl",
                    help="normal map convention: opengl (or gl) = green up; dx = DirectX, green down (default: opengl)")
     p.add_argument("--format", choices=("png", "exr"), default="png",
-                   help="normal/roughness/specular files: 16-bit png or float exr (default: png)")
+                   help="normal/roughness/specular/height/ao files: 16-bit png or float exr (default: png)")
     p.add_argument("--max-size", metavar="N", type=_positive, default=2048,
                    help="downsize photos whose long side exceeds N pixels (default: 2048)")
     p.add_argument("--tile", metavar="N", type=_positive, default=1024,
@@ -55,17 +77,24 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                         f"at least {min_tile()})")
     p.add_argument("--target", choices=TARGETS, default="generic",
                    help="output preset: file names, normal convention, packing and material document "
-                        "(generic, gltf, blender, unreal, unity, usd, mtlx; see docs/targets.md)")
-    p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES,
+                        "(generic, gltf, blender, unreal, unity, usd, mtlx, ambientcg; see docs/targets.md)")
+    p.add_argument("--maps", metavar="LIST", type=_map_list, default=MAP_NAMES, action=_MapsAction,
                    help="comma list of the maps to compute and write: diffuse (or basecolor), specular, roughness, "
-                        "normal (default: all). roughness/normal alone run only the normal-roughness decoder, "
-                        "diffuse/specular only the diffuse-specular one; no relit panel; --target generic only")
+                        "normal, height, ao (default: all). height and ao are derived from the normal map, which "
+                        "is written with them (white = high; AO 1 = open). roughness/normal alone run only the "
+                        "normal-roughness decoder, diffuse/specular only the diffuse-specular one; no relit panel "
+                        "without all four of diffuse, specular, roughness, normal; other targets need those four")
+    p.set_defaults(relief=RELIEF_NAMES)
+    p.add_argument("--ao-strength", metavar="K", type=_positive_float, default=AO_STRENGTH,
+                   help=f"the AO is that of the height x K (default: {AO_STRENGTH:g}, the measured flatness of the "
+                        "model's normal maps against ground truth; 1 = the depth the normal map implies)")
     p.add_argument("--tileable", action="store_true",
                    help="make the maps repeat without a visible seam, at the same size and scale (all four cut "
                         "the same way; the sidecar records the join and seam scores)")
     p.add_argument("--view", action="store_true",
                    help="also write <name>_view.html: the maps relit in the browser with the project's renderer, "
-                        "one tile and repeated (--target generic, all four maps)")
+                        "one tile and repeated, with relief (parallax from the height) and ambient (occluded by "
+                        "the AO) controls (--target generic, all four maps)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--refine", action="store_true",
                    help="fine-tune the model's training checkpoint on each photo with torch before predicting")
@@ -94,7 +123,8 @@ def check_options(args) -> Optional[str]:
     if (args.iters or args.quality) and not args.refine:
         return "--iters and --quality need --refine"
     if args.maps != MAP_NAMES and args.target != "generic":
-        return f"--maps needs --target generic: the {args.target} preset converts all four maps"
+        return (f"--maps needs --target generic: the {args.target} preset converts all four maps "
+                f"({', '.join(MAP_NAMES)})")
     if getattr(args, "view", False) and (args.maps != MAP_NAMES or args.target != "generic"):
         return "--view needs all four maps and --target generic (it relights the project's own texture set)"
     return None

@@ -36,12 +36,16 @@ examples:
   {PROG} wood.jpg --refine --iters 300 fine-tune the model on this photo first (needs torch)
   {PROG} wood.jpg --maps normal        only the normal map (runs only the normal/roughness decoder)
   {PROG} wood.jpg --tileable --view    maps that repeat without a seam, and wood_view.html to relight them
+  {PROG} wood.jpg --maps height,ao     the normal map and its height and ambient occlusion
+  {PROG} wood.jpg --target ambientcg   Color, NormalGL/NormalDX, Roughness, Displacement, AmbientOcclusion, .mtlx
 
-Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name>_specular (.png 16-bit or
-.exr), <name>.json (sidecar) and <name>_relit.png (renders under the flash and two other lights). With
---maps only those maps' files and the sidecar are written (no relit panel: it needs all four maps).
---view adds <name>_view.html: the maps relit in the browser under a light that follows the pointer (one file,
-no network).
+Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name>_specular, <name>_height
+(white = high, mid-grey = the mean level) and <name>_ao (ambient occlusion, 1 = open) (.png 16-bit or .exr),
+<name>.json (sidecar: the height's scale in map widths, how height and AO were made) and <name>_relit.png
+(renders under the flash and two other lights). Height and AO come from the normal map (periodic with
+--tileable); the base colour is never darkened by the AO. With --maps only those maps' files and the sidecar are
+written (no relit panel: it needs all four maps). --view adds <name>_view.html: the maps relit in the browser
+under a light that follows the pointer, with relief and ambient-occlusion controls (one file, no network).
 """
 
 

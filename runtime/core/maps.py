@@ -35,7 +35,8 @@ from typing import Dict, Iterable, Iterator, Mapping, Optional, Tuple, Union
 
 import numpy as np
 
-from ..errors import SvbrdfError
+from ..errors import MapError, SvbrdfError
+from .relief import AO_STRENGTH, RELIEF_NAMES, Relief, relief_maps
 from .render_config import RenderConfig
 
 #: Map names in packing order.
@@ -163,6 +164,10 @@ class Maps:
         render_config: the :class:`~svbrdf.runtime.core.render.RenderConfig` the maps were estimated for (set by
             :func:`~svbrdf.runtime.inference.pipeline.estimate` and the CLIs; ``None`` = unknown). Writers describe it in
             the sidecar and the ``--target`` conversions use its diffuse weighting (``ZHAO`` when ``None``).
+        relief: the height map and ambient occlusion derived from the normal map
+            (:class:`~svbrdf.runtime.core.relief.Relief`, made on demand by :meth:`with_relief`), written by every
+            writer when present; ``None`` = none. It must be the maps' size; :meth:`clipped` keeps it, the other
+            copies (crop, subset) drop it.
 
     A map that was not computed is ``None`` (at least one is present; :attr:`names` lists them). What needs
     every map (:meth:`pack`, rendering, the relit panel, the ``--target`` conversions) checks with
@@ -175,6 +180,7 @@ class Maps:
     normal: Optional[np.ndarray] = None
     meta: dict = field(default_factory=dict)
     render_config: Optional["RenderConfig"] = None
+    relief: Optional[Relief] = None
 
     def __post_init__(self) -> None:
         shape = None
@@ -185,11 +191,12 @@ class Maps:
             if arr.ndim == 2:
                 arr = arr[..., None]
             if arr.ndim != 3 or arr.shape[-1] != MAP_CHANNELS[name]:
-                raise ValueError(f"map {name!r} must be (H, W, {MAP_CHANNELS[name]}), got {arr.shape}")
+                raise MapError(f"map {name!r} must be (H, W, {MAP_CHANNELS[name]}), got {arr.shape}")
             if shape is None:
                 shape = arr.shape[:2]
             elif arr.shape[:2] != shape:
-                raise ValueError(f"map {name!r} is {arr.shape[:2]}, expected {shape}")
+                raise MapError(f"map {name!r} is {arr.shape[1]}x{arr.shape[0]} px but the texture set's "
+                               f"{self.names[0]} map is {shape[1]}x{shape[0]} px")
             setattr(self, name, arr)
         if shape is None:
             raise ValueError(f"a texture set needs at least one of the maps {', '.join(MAP_NAMES)}")
@@ -197,6 +204,12 @@ class Maps:
             if not isinstance(self.render_config, RenderConfig):
                 raise TypeError(f"render_config must be a RenderConfig or None, "
                                 f"got {type(self.render_config).__name__}")
+        if self.relief is not None:
+            if not isinstance(self.relief, Relief):
+                raise TypeError(f"relief must be a Relief or None, got {type(self.relief).__name__}")
+            if tuple(self.relief.shape) != tuple(shape):
+                raise MapError(f"the relief maps are {self.relief.shape[1]}x{self.relief.shape[0]} px but the "
+                                  f"texture set is {shape[1]}x{shape[0]} px")
 
     @property
     def names(self) -> Tuple[str, ...]:
@@ -252,15 +265,37 @@ class Maps:
         return self._with({n: a[y0:y0 + h, x0:x0 + w] for n, a in self.items()})
 
     def clipped(self) -> "Maps":
-        """Copy with every map clipped to its valid range and unit normals."""
+        """Copy with every map clipped to its valid range and unit normals (the relief kept)."""
         out = {n: np.clip(a, *MAP_RANGES[n]) for n, a in self.items()}
         if "normal" in out:
             out["normal"] = normalize_normals(out["normal"])
-        return self._with(out)
+        return self._with(out, relief=self.relief)
 
-    def _with(self, arrays: Mapping[str, np.ndarray]) -> "Maps":
-        """A set of these arrays with a copy of this set's meta and its render config."""
-        return Maps(**arrays, meta=dict(self.meta), render_config=self.render_config)
+    def with_relief(self, *, tileable: bool = False, maps: Iterable[str] = RELIEF_NAMES,
+                    ao_strength: float = AO_STRENGTH) -> "Maps":
+        """A copy with :attr:`relief`: the height map and ambient occlusion of the normal map, as written
+        (:func:`~svbrdf.runtime.core.relief.relief_maps`; ``maps`` picks ``"height"`` and/or ``"ao"``).
+
+        The normals are first made unit length as the writers make them (:func:`normalize_normals`: a zero-length
+        normal becomes (0, 0, 1), the documented repair), so the height's slopes are those of the written normal
+        map. ``tileable``: the maps repeat (the height is integrated across the wrap). ``ao_strength``: the AO is that
+        of the height times it (default :data:`~svbrdf.runtime.core.relief.AO_STRENGTH`, measured; 1 = the normal
+        map's own depth).
+
+        Raises:
+            SvbrdfError: no normal map, NaN/Inf normals, or unknown names.
+        """
+        if self.normal is None:
+            raise SvbrdfError(f"the height and AO need the normal map; this texture set has only "
+                              f"{', '.join(self.names)}")
+        if not np.isfinite(self.normal).all():
+            raise SvbrdfError("normal map: NaN or infinite values; the height and AO need finite normals")
+        relief = relief_maps(normalize_normals(self.normal), tileable=tileable, maps=maps, ao_strength=ao_strength)
+        return self._with(dict(self.items()), relief=relief)
+
+    def _with(self, arrays: Mapping[str, np.ndarray], relief: Optional[Relief] = None) -> "Maps":
+        """A set of these arrays with a copy of this set's meta and its render config (and ``relief``)."""
+        return Maps(**arrays, meta=dict(self.meta), render_config=self.render_config, relief=relief)
 
     def save(self, out_dir, name: str, **kwargs):
         """Write this texture set (only the maps present); see :func:`svbrdf.runtime.outputs.texture_set.write_texture_set`."""
@@ -271,7 +306,7 @@ class Maps:
 
 __all__ = [
     "MAP_NAMES", "MAP_CHANNELS", "SLICES", "N_CHANNELS", "MAP_RANGES", "MAP_COLOUR_SPACES", "NORMAL_CONVENTION",
-    "MAP_ALIASES", "Maps", "select_maps", "channel_slice", "normal_gl_to_dx", "normal_dx_to_gl", "normalize_normals",
+    "MAP_ALIASES", "RELIEF_NAMES", "Maps", "select_maps", "channel_slice", "normal_gl_to_dx", "normal_dx_to_gl", "normalize_normals",
     "encode_normal",
     "decode_normal",
 ]

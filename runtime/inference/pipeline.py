@@ -48,6 +48,7 @@ from typing import Any, Callable, Iterable, Optional, Tuple, Union
 import numpy as np
 
 from ..core.maps import MAP_NAMES, N_CHANNELS, SLICES, Maps, select_maps
+from ..core.relief import AO_STRENGTH, RELIEF_NAMES
 from ..errors import ImageError, SvbrdfError
 from ..io.images import ImageWarning, image_info, read_image, resize_long_side
 from ..post import PostProcess
@@ -224,11 +225,17 @@ class PhotoOptions:
         threads: CPU threads (None: every core).
         fov: camera field of view across the photo width, degrees, for the relit panel (None: the model's).
         normal: normal map convention of ``target`` generic: ``"opengl"`` (green up) or ``"dx"``.
-        format: normal/roughness/specular files of ``target`` generic: ``"png"`` (16-bit) or ``"exr"`` (float).
+        format: normal/roughness/specular/height/ao files of ``target`` generic: ``"png"`` (16-bit) or ``"exr"``
+            (float).
         max_size: photos whose long side is longer are downsized to it (pixels).
         tile: larger images run in overlapping ``tile`` x ``tile`` windows (pixels).
         target: output preset (:data:`svbrdf.runtime.outputs.choices.TARGETS`).
         maps: the maps to compute and write (names of :data:`~svbrdf.runtime.core.maps.MAP_NAMES`, in that order).
+        relief: the relief maps to derive from the normal map and write (names of
+            :data:`~svbrdf.runtime.core.relief.RELIEF_NAMES`: ``"height"``, ``"ao"``; ``maps`` must hold ``"normal"``);
+            computed after ``tileable``, across the wrap when it is set (:meth:`~svbrdf.runtime.core.maps.Maps.with_relief`).
+            Default (None): both when ``maps`` are all four, none for a subset.
+        ao_strength: the AO is that of the height times it (:data:`~svbrdf.runtime.core.relief.AO_STRENGTH`).
         tileable: make the maps repeat without a seam (:func:`svbrdf.runtime.post.tileable.make_tileable`).
         view: also write the viewer page (:func:`svbrdf.runtime.outputs.viewer.write_viewer`).
         force: overwrite existing files.
@@ -249,6 +256,8 @@ class PhotoOptions:
     tile: int = DEFAULT_TILE
     target: str = "generic"
     maps: Tuple[str, ...] = MAP_NAMES
+    relief: Optional[Tuple[str, ...]] = None
+    ao_strength: float = AO_STRENGTH
     tileable: bool = False
     view: bool = False
     force: bool = False
@@ -260,6 +269,15 @@ class PhotoOptions:
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "maps", select_maps(self.maps))
+        if self.relief is None:
+            relief = RELIEF_NAMES if self.maps == MAP_NAMES else ()
+        else:
+            relief = (self.relief,) if isinstance(self.relief, str) else tuple(self.relief)
+        if any(n not in RELIEF_NAMES for n in relief):
+            raise SvbrdfError(f"unknown relief map in {relief!r}; valid names: {', '.join(RELIEF_NAMES)}")
+        if relief and "normal" not in self.maps:
+            raise SvbrdfError("the height and AO maps need the normal map: add 'normal' to maps")
+        object.__setattr__(self, "relief", tuple(n for n in RELIEF_NAMES if n in relief))
 
     @classmethod
     def from_mapping(cls, values: Any) -> "PhotoOptions":
@@ -374,6 +392,13 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
             raise SvbrdfError(f"{photo}: --tileable: {exc}") from None
         worst = [s["after"] for s in maps.meta["tileable"]["join"].values() if s["after"] is not None]
         detail += f", tileable (join score {max(worst):.2f})" if worst else ", tileable"
+    if options.relief:
+        t = time.perf_counter()
+        try:
+            maps = maps.with_relief(tileable=options.tileable, maps=options.relief, ao_strength=options.ao_strength)
+        except SvbrdfError as exc:
+            raise SvbrdfError(f"{photo}: {exc}") from None
+        maps.meta.setdefault("timings", {})["relief"] = time.perf_counter() - t
     relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
     return maps, relit, detail
 

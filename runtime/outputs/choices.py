@@ -17,7 +17,7 @@ from typing import Mapping, Tuple
 from ..core.maps import SUPPORTED_NORMAL_CONVENTIONS
 
 #: Target names, in the order shown to users.
-TARGETS: Tuple[str, ...] = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx")
+TARGETS: Tuple[str, ...] = ("generic", "gltf", "blender", "unreal", "unity", "usd", "mtlx", "ambientcg")
 
 #: Other spellings of a normal-map convention -> its API name.
 NORMAL_ALIASES: Mapping[str, str] = {"gl": "opengl"}

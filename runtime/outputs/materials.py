@@ -82,6 +82,7 @@ def gltf_document(
     metallic_factor: float,
     specular_color: Optional[str] = None,
     specular_color_factor: float = 1.0,
+    occlusion: bool = False,
 ) -> str:
     """A glTF 2.0 JSON document: one unit quad (buffer embedded as a data URI) with one textured material.
 
@@ -95,6 +96,8 @@ def gltf_document(
         specular_color: file of KHR_materials_specular ``specularColorTexture`` (sRGB), or ``None`` for a core
             glTF material without the extension.
         specular_color_factor: grey ``specularColorFactor`` (may exceed 1).
+        occlusion: the red channel of ``metallic_roughness`` holds ambient occlusion (an ORM texture, 1 = open):
+            the material's ``occlusionTexture`` references it too (glTF reads occlusion from R).
 
     Returns:
         The document as JSON text.
@@ -112,6 +115,8 @@ def gltf_document(
         },
         "normalTexture": {"index": 1},
     }
+    if occlusion:
+        material["occlusionTexture"] = {"index": 2}
     doc = {
         "asset": {"version": "2.0", "generator": _GENERATOR},
         "scene": 0,
@@ -150,7 +155,8 @@ def _usd_asset(path: str) -> str:
 
 
 def usda_document(name: str, aspect: float, *, diffuse_color: str, specular_color: str, roughness: str,
-                  normal: str) -> str:
+                  normal: str, displacement: Optional[str] = None, height_scale: float = 0.0,
+                  occlusion: Optional[str] = None) -> str:
     """A USD stage (``.usda`` text): the unit quad bound to a UsdPreviewSurface in the specular workflow.
 
     Args:
@@ -161,6 +167,11 @@ def usda_document(name: str, aspect: float, *, diffuse_color: str, specular_colo
             broadcast to RGB by UsdUVTexture).
         roughness: file for ``roughness`` (grey, linear, ``"raw"``; alpha = roughness^2).
         normal: file for ``normal`` (OpenGL convention, ``(n + 1) / 2``, ``"raw"``, scale 2 and bias -1).
+        displacement: file for ``displacement`` (the height map, grey, ``"raw"``; white = high, 0.5 = the mean
+            level), or None; read with scale ``height_scale`` and bias ``-height_scale / 2``, so the displacement is
+            the height in scene units of the quad (one unit wide: the map's width).
+        height_scale: the height black to white spans, in units of the map's width.
+        occlusion: file for ``occlusion`` (ambient occlusion, grey, ``"raw"``, 1 = open), or None.
 
     Returns:
         The layer as text, ``defaultPrim`` set to the root prim.
@@ -185,6 +196,20 @@ def usda_document(name: str, aspect: float, *, diffuse_color: str, specular_colo
     normal_sb = """
                 float4 inputs:scale = (2, 2, 2, 1)
                 float4 inputs:bias = (-1, -1, -1, 0)"""
+    hs = float(height_scale)
+    if not hs >= 0.0 or hs == float("inf"):
+        raise ValueError(f"height_scale must be a finite number >= 0, got {height_scale!r}")
+    height_sb = f"""
+                float4 inputs:scale = ({hs!r}, {hs!r}, {hs!r}, 1)
+                float4 inputs:bias = ({-hs / 2!r}, {-hs / 2!r}, {-hs / 2!r}, 0)"""
+    extra_inputs = ""
+    extra_textures = ""
+    if displacement:
+        extra_inputs += f"\n                float inputs:displacement.connect = <{mat}/Displacement.outputs:r>"
+        extra_textures += "\n" + texture("Displacement", displacement, "raw", "float outputs:r", height_sb)
+    if occlusion:
+        extra_inputs += f"\n                float inputs:occlusion.connect = <{mat}/Occlusion.outputs:r>"
+        extra_textures += "\n" + texture("Occlusion", occlusion, "raw", "float outputs:r")
     return f"""#usda 1.0
 (
     defaultPrim = "{root}"
@@ -229,7 +254,7 @@ def Xform "{root}" (
                 color3f inputs:specularColor.connect = <{mat}/SpecularColor.outputs:rgb>
                 float inputs:roughness.connect = <{mat}/Roughness.outputs:r>
                 normal3f inputs:normal.connect = <{mat}/Normal.outputs:rgb>
-                float inputs:metallic = 0
+                float inputs:metallic = 0{extra_inputs}
                 token outputs:surface
             }}
 
@@ -242,14 +267,15 @@ def Xform "{root}" (
 {texture("DiffuseColor", diffuse_color, "sRGB", "float3 outputs:rgb")}
 {texture("SpecularColor", specular_color, "raw", "float3 outputs:rgb")}
 {texture("Roughness", roughness, "raw", "float outputs:r")}
-{texture("Normal", normal, "raw", "float3 outputs:rgb", normal_sb)}
+{texture("Normal", normal, "raw", "float3 outputs:rgb", normal_sb)}{extra_textures}
         }}
     }}
 }}
 """
 
 
-def mtlx_document(name: str, *, base_color: str, specular_f0: str, roughness: str, normal: str) -> str:
+def mtlx_document(name: str, *, base_color: str, specular_f0: str, roughness: str, normal: str,
+                  displacement: Optional[str] = None, height_scale: float = 0.0) -> str:
     """A MaterialX 1.39 document: ``standard_surface`` fed by a node graph that reads the four maps.
 
     ``standard_surface`` rather than ``open_pbr_surface``: it is understood by every MaterialX consumer we know
@@ -264,25 +290,47 @@ def mtlx_document(name: str, *, base_color: str, specular_f0: str, roughness: st
         specular_f0: file of F0 (grey, linear).
         roughness: file of the roughness (grey, linear; alpha = roughness^2 in standard_surface).
         normal: file of the tangent-space normals (OpenGL convention, ``(n + 1) / 2``).
+        displacement: file of the height map (grey, linear; white = high, 0.5 = the mean level), or None: the
+            material then gets a ``displacement`` shader of ``value - 0.5`` with ``scale = height_scale``, the
+            height in scene units for a surface one unit wide (scale it by the surface's width).
+        height_scale: the height black to white spans, in units of the map's width.
 
     Returns:
         The document as XML text.
     """
     ident = usd_identifier(name)
     ng = f"NG_{ident}"
-
     def image(node: str, kind: str, file: str, colorspace: str = "") -> str:
         cs = f" colorspace={quoteattr(colorspace)}" if colorspace else ""
         return (f'    <image name="{node}" type="{kind}">\n'
                 f'      <input name="file" type="filename" value={quoteattr(file)}{cs} />\n'
                 f"    </image>\n")
 
+    hs = float(height_scale)
+    if not hs >= 0.0 or hs == float("inf"):
+        raise ValueError(f"height_scale must be a finite number >= 0, got {height_scale!r}")
+    height_nodes = height_output = displacement_shader = material_input = ""
+    if displacement:
+        height_nodes = (image("height_image", "float", displacement)
+                        + '    <subtract name="height_centred" type="float">\n'
+                          '      <input name="in1" type="float" nodename="height_image" />\n'
+                          '      <input name="in2" type="float" value="0.5" />\n'
+                          '    </subtract>\n')
+        height_output = '    <output name="height_out" type="float" nodename="height_centred" />\n'
+        displacement_shader = (f'  <displacement name="DS_{ident}" type="displacementshader">\n'
+                               f'    <input name="displacement" type="float" nodegraph="{ng}" output="height_out" />\n'
+                               f'    <input name="scale" type="float" value="{hs!r}" />\n'
+                               f'  </displacement>\n')
+        material_input = (f'    <input name="displacementshader" type="displacementshader" '
+                          f'nodename="DS_{ident}" />\n')
+
+
     return f"""<?xml version="1.0"?>
 <!-- Generated by {_GENERATOR} -->
 <materialx version="1.39" colorspace="lin_rec709">
   <nodegraph name="{ng}">
 {image("base_color_image", "color3", base_color, "srgb_texture")}{image("f0_image", "float", specular_f0)}\
-{image("roughness_image", "float", roughness)}{image("normal_image", "vector3", normal)}\
+{image("roughness_image", "float", roughness)}{image("normal_image", "vector3", normal)}{height_nodes}\
     <normalmap name="normal_map" type="vector3">
       <input name="in" type="vector3" nodename="normal_image" />
     </normalmap>
@@ -310,7 +358,7 @@ def mtlx_document(name: str, *, base_color: str, specular_f0: str, roughness: st
     <output name="roughness_out" type="float" nodename="roughness_image" />
     <output name="ior_out" type="float" nodename="ior" />
     <output name="normal_out" type="vector3" nodename="normal_map" />
-  </nodegraph>
+{height_output}  </nodegraph>
   <standard_surface name="SR_{ident}" type="surfaceshader">
     <input name="base" type="float" value="1.0" />
     <input name="base_color" type="color3" nodegraph="{ng}" output="base_color_out" />
@@ -321,9 +369,9 @@ def mtlx_document(name: str, *, base_color: str, specular_f0: str, roughness: st
     <input name="specular_IOR" type="float" nodegraph="{ng}" output="ior_out" />
     <input name="normal" type="vector3" nodegraph="{ng}" output="normal_out" />
   </standard_surface>
-  <surfacematerial name="M_{ident}" type="material">
+{displacement_shader}  <surfacematerial name="M_{ident}" type="material">
     <input name="surfaceshader" type="surfaceshader" nodename="SR_{ident}" />
-  </surfacematerial>
+{material_input}  </surfacematerial>
 </materialx>
 """
 

@@ -9,13 +9,19 @@ file                    content                                      encoding
 <name>_normal.<ext>     unit normals, OpenGL (default) or DirectX    (n + 1) / 2, data
 <name>_roughness.<ext>  perceptual roughness r (GGX alpha = r**2)    linear data, 1 channel
 <name>_specular.<ext>   specular albedo rho_s (grey Schlick F0)      linear, 1 channel
+<name>_height.<ext>     height from the normal map (``maps.relief``)  linear data, 1 channel; white = high,
+                        0.5 = the mean level; the sidecar's           ``h = (v - 0.5) * height_scale`` in
+                        ``relief.height_scale`` gives the span        units of the map's width
+<name>_ao.<ext>         ambient occlusion of that height              linear data, 1 channel, 1 = open
 <name>.json             sidecar: BRDF model, render config, files,   JSON
                         colour spaces, normal convention, metadata
 <name>_relit.png        optional preview (see :func:`relit_panel`)   sRGB-encoded, 8-bit PNG
 ======================  ===========================================  ======================================
 
 ``<ext>`` is ``png`` (16-bit) by default or ``exr`` (32-bit float). Maps are clipped to their valid range
-(:meth:`Maps.clipped`) before writing. A :class:`Maps` holding a subset of the maps writes only their files;
+(:meth:`Maps.clipped`) before writing. The height and AO files are written when the maps carry their relief
+(:meth:`Maps.with_relief`, what ``svbrdf-preview`` does by default); the base colour is never darkened by the
+AO. A :class:`Maps` holding a subset of the maps writes only their files;
 the sidecar's ``"maps"`` lists the maps written.
 
 How it is written: a layout (this module's :func:`generic_layout`, or a ``--target`` preset of
@@ -113,6 +119,23 @@ GENERIC_FILES: Mapping[str, tuple] = {
     "roughness": ("roughness", "{name}_roughness.{ext}"),
     "specular": ("specular", "{name}_specular.{ext}"),
 }
+#: The relief maps' files in the project's own layout: relief map -> file name template.
+RELIEF_FILES: Mapping[str, str] = {"height": "{name}_height.{ext}", "ao": "{name}_ao.{ext}"}
+
+
+def relief_file_info(relief, bits: int, channels: int = 1, **more) -> Dict[str, dict]:
+    """The sidecar ``files`` entries of the relief maps present in ``relief`` (a
+    :class:`~svbrdf.runtime.core.relief.Relief`), by relief map name."""
+    out = {}
+    if relief.height is not None:
+        out["height"] = {"map": "height", "content": "height from the normal map, white = high, 0.5 = mean level",
+                         "colour_space": "data", "bits": bits, "channels": channels,
+                         "encoding": "h = (value - 0.5) * height_scale (map widths)",
+                         "height_scale": relief.scale, **more}
+    if relief.ao is not None:
+        out["ao"] = {"map": "ao", "content": "ambient occlusion of the height, 1 = open", "colour_space": "data",
+                     "bits": bits, "channels": channels, **more}
+    return out
 
 
 def _json_default(obj):
@@ -175,6 +198,10 @@ def generic_layout(maps: Maps, name: str, normal: str = "opengl", fmt: str = "pn
         bits = 8 if role == "basecolor" else data_bits
         files[role] = TextureFile(template.format(name=name, ext=fmt), info[role], arr, bits,
                                   srgb=role == "basecolor")
+    if maps.relief is not None:
+        for role, entry in relief_file_info(maps.relief, data_bits).items():
+            files[role] = TextureFile(RELIEF_FILES[role].format(name=name, ext=fmt), entry,
+                                      getattr(maps.relief, role)[..., None], data_bits)
     return Layout(files, normal)
 
 
@@ -241,6 +268,10 @@ def write_layout(
     for map_name, arr in maps.items():
         if not np.all(np.isfinite(arr)):
             raise ImageError(f"{out_dir / name}: map {map_name!r} has NaN/Inf values")
+    if maps.relief is not None:
+        for map_name in maps.relief.names:
+            if not np.all(np.isfinite(getattr(maps.relief, map_name))):
+                raise ImageError(f"{out_dir / name}: relief map {map_name!r} has NaN/Inf values")
     if relit is not None:
         relit = np.asarray(relit, dtype=np.float32)
         if relit.ndim != 3 or relit.shape[-1] != 3:
@@ -264,6 +295,8 @@ def write_layout(
         "files": {role: {"file": f.file, **f.info} for role, f in files.items()},
         "meta": {**maps.meta, **(extra_meta or {})},
     }
+    if maps.relief is not None:
+        sidecar["relief"] = maps.relief.info()
     if plan.target is not None:
         sidecar["target"] = dict(plan.target)
     try:
@@ -292,19 +325,20 @@ def write_texture_set(
     Args:
         maps: the texture set (all four maps or a subset: only the maps present are written); ``maps.meta``
             is copied into the sidecar and ``maps.render_config`` selects the BRDF it describes (default:
-            ``ZHAO``).
+            ``ZHAO``); ``maps.relief`` (:meth:`Maps.with_relief`) adds the height and AO files and the sidecar's
+            ``relief`` entry (height scale, method, AO parameters).
         out_dir: output folder, created (with parents) if missing.
         name: base name of the files (no path separators).
         normal: normal-map convention on disk, ``"opengl"`` (default, +y up) or ``"dx"`` (+y down).
-        fmt: ``"png"`` (16-bit) or ``"exr"`` (float) for the normal, roughness and specular maps.
+        fmt: ``"png"`` (16-bit) or ``"exr"`` (float) for the normal, roughness, specular, height and AO maps.
         force: overwrite existing files.
         extra_meta: more metadata for the sidecar (e.g. model sha256, timings); overrides ``maps.meta`` keys.
         relit: optional (h, w, 3) float image, already sRGB-encoded in [0, 1] (e.g. :func:`relit_panel`),
             written as ``<name>_relit.png``.
 
     Returns:
-        Paths written, keyed ``basecolor``, ``normal``, ``roughness``, ``specular`` (those present), ``sidecar``
-        (and ``relit``).
+        Paths written, keyed ``basecolor``, ``normal``, ``roughness``, ``specular``, ``height``, ``ao`` (those
+        present), ``sidecar`` (and ``relit``).
 
     Raises:
         ImageError: a target exists (and not ``force``), bad name, ``out_dir`` is not a folder, NaN/Inf in a
@@ -373,4 +407,4 @@ def _downsized(maps: Maps, size: int) -> Maps:
 
 
 __all__ = ["PANEL_SIZE", "WRITE_WORKERS", "write_texture_set", "relit_panel", "SIDECAR_VERSION", "TextureFile", "Layout", "generic_layout",
-           "commit", "write_layout", "GENERIC_FILES", "SIDECAR_FILE", "RELIT_FILE"]
+           "commit", "write_layout", "GENERIC_FILES", "RELIEF_FILES", "relief_file_info", "SIDECAR_FILE", "RELIT_FILE"]

@@ -9,7 +9,17 @@ names) and writes ``<name>_view.html``: no network, no other file. The page show
   ``d = 1 / tan(fov / 2)``);
 * the same maps repeated :data:`TILED_REPEATS` x :data:`TILED_REPEATS` on a larger plane, seen from
   ``TILED_REPEATS`` times higher with the same field of view (what a tileable set looks like on a wall);
-* the four maps beside them.
+* the four maps beside them (and the height and AO maps when the set has them).
+
+Relief (a set with ``<name>_height`` and ``<name>_ao``, :meth:`~svbrdf.runtime.core.maps.Maps.with_relief`): the
+*relief* control lifts each point of the plane to its height (``gain x (h - 0.5) x height_scale`` map widths; 1 =
+the true scale the sidecar records, 0 = flat) and shows it by parallax offset mapping: the maps are read where the
+view ray through the pixel meets that height, ``q = p + z v_xy / v_z``, and the point is shaded at ``q`` (one step;
+exact for a locally flat height, a fair approximation for the shallow relief the network predicts). The *ambient*
+control adds a uniform sky of radiance ``a x intensity / pi`` reflected by the diffuse albedo and occluded by the AO,
+``a x intensity / pi x AO x rho_d``: the AO darkens only that ambient light, as in an engine, never the base
+colour or the point light. With relief 0 and ambient 0 the page is exactly ``render``; the defaults are relief 1
+and ambient 0.
 
 One source of truth: the render settings (field of view, intensity, fall-off, diffuse weighting, geometry and
 Fresnel terms) are the sidecar's ``brdf.render_config``, the normal convention its ``normal_convention``, and the
@@ -31,8 +41,9 @@ shows the four maps.
 
 Script API of the page (``window.svbrdfViewer``, for tests and automation): ``ready`` (a Promise),
 ``setLight(x, y, z)`` (scene units; renders both views at once), ``getLight()``, ``setExposure(e)``,
-``getExposure()``, ``config`` (the render config), ``size`` ([W, H] of the embedded maps) and
-``readPixels(view)`` (``"material"`` or ``"tiled"``: the view's RGBA bytes, top row first, base64).
+``getExposure()``, ``setRelief(gain)``, ``getRelief()``, ``setAmbient(a)``, ``getAmbient()``, ``relief`` (``null``, or
+``{heightScale, height, ao}``: what the set has), ``config`` (the render config), ``size`` ([W, H] of the embedded maps)
+and ``readPixels(view)`` (``"material"`` or ``"tiled"``: the view's RGBA bytes, top row first, base64).
 """
 
 from __future__ import annotations
@@ -58,6 +69,8 @@ VIEWER_SIZE = 1024
 TILED_REPEATS = 3
 #: The generic layout's file roles the page needs.
 ROLES = ("basecolor", "normal", "roughness", "specular")
+#: The relief roles the page shows when the set has them.
+RELIEF_ROLES = ("height", "ao")
 
 __all__ = ["VIEWER_FILE", "VIEWER_SIZE", "TILED_REPEATS", "read_texture_set", "viewer_html", "write_viewer"]
 
@@ -86,7 +99,7 @@ def _stored(sidecar_path: Path, meta: dict) -> Tuple[dict, RenderConfig, str]:
 
     folder = Path(sidecar_path).parent
     stored = {}
-    for role in ROLES:
+    for role in ROLES + tuple(r for r in RELIEF_ROLES if r in meta["files"]):
         stored[role] = read_image(folder / meta["files"][role]["file"], raw=True)
     try:
         config = RenderConfig(**meta["brdf"]["render_config"])
@@ -139,18 +152,20 @@ def _downsized(stored: dict, size: int) -> dict:
 
 
 def viewer_html(stored: dict, config: RenderConfig, name: str, normal: str = "opengl",
-                exposure: Optional[float] = None, note: str = "") -> str:
+                exposure: Optional[float] = None, note: str = "", height_scale: float = 0.0) -> str:
     """The page for the stored values of a texture set (see the module docstring).
 
     Args:
         stored: role (:data:`ROLES`) -> (H, W, C) float array of the values as stored in the files, in [0, 1]:
             the base colour sRGB-encoded (quantised to 8 bits here), the normal ``(n + 1) / 2``, roughness and
-            specular linear (16 bits here).
+            specular linear (16 bits here); optionally ``"height"`` (white = high, 0.5 = the mean level) and ``"ao"``
+            (1 = open), (H, W, 1) linear (16 bits here).
         config: the render settings (the sidecar's).
         name: the set's name (page title).
         normal: the stored normal convention, ``"opengl"`` or ``"dx"``.
         exposure: default exposure (linear scale before clipping); ``None``: 1.
         note: one line shown under the title (e.g. whether the maps tile).
+        height_scale: the height black to white spans, in map widths (the sidecar's ``relief.height_scale``).
     """
     h, w = stored["basecolor"].shape[:2]
     data = {
@@ -160,9 +175,15 @@ def viewer_html(stored: dict, config: RenderConfig, name: str, normal: str = "op
         "roughness": _pack(stored["roughness"][..., :1], 16),
         "specular": _pack(stored["specular"][..., :1], 16),
     }
+    relief = None
+    if any(r in stored for r in RELIEF_ROLES):
+        relief = {"heightScale": float(height_scale), "height": "height" in stored, "ao": "ao" in stored}
+        for role in RELIEF_ROLES:
+            if role in stored:
+                data[role + "_map"] = _pack(stored[role][..., :1], 16)  # "height" is the size
     settings = {
         "config": config.to_dict(), "cameraDistance": config.camera_distance, "normal": normal,
-        "exposure": 1.0 if exposure is None else float(exposure), "repeats": TILED_REPEATS,
+        "exposure": 1.0 if exposure is None else float(exposure), "repeats": TILED_REPEATS, "relief": relief,
     }
     shader = _FRAGMENT.replace("@ALPHA_MIN@", repr(float(ALPHA_MIN))).replace("@COS_EPS@", repr(float(COS_EPS)))
     shader = shader.replace("@NORM_EPS@", repr(float(NORM_EPS)))
@@ -214,8 +235,9 @@ def write_viewer(sidecar_path, out: Optional[Path] = None, *, force: bool = Fals
     tiled = (meta.get("meta") or {}).get("tileable")
     note = (f"tileable maps ({tiled.get('method')})" if isinstance(tiled, dict)
             else "these maps were not made tileable (svbrdf-preview --tileable): the repeats show seams")
+    relief = meta.get("relief") if isinstance(meta.get("relief"), dict) else {}
     page = viewer_html(stored, config, str(meta.get("name") or sidecar_path.stem), convention,
-                       _default_exposure(maps, config), note)
+                       _default_exposure(maps, config), note, float(relief.get("height_scale") or 0.0))
     out = Path(out) if out is not None else sidecar_path.parent / VIEWER_FILE.format(name=sidecar_path.stem)
     with atomic_write(out, force=force, error=ImageError) as tmp:
         tmp.write_text(page, encoding="utf-8")
@@ -233,6 +255,11 @@ precision highp float;
 precision highp int;
 uniform sampler2D uTex0;   // rgb: base colour, sRGB codes / 255; a: specular (linear)
 uniform sampler2D uTex1;   // rgb: stored normal (n + 1) / 2; a: roughness
+uniform sampler2D uTex2;   // r: height (0.5 = mean level), g: ambient occlusion (1 = open); read when uHasRelief
+uniform int uHasRelief;
+uniform float uRelief;     // height gain: 0 flat, 1 the true scale
+uniform float uHeightScale;  // the height black to white spans, map widths (= 2 scene units)
+uniform float uAmbient;    // ambient sky radiance, in units of intensity / pi
 uniform vec2 uSize;        // maps (W, H)
 uniform vec2 uCanvas;      // drawing buffer (W, H)
 uniform float uReps;       // plane half-width in half-photo-widths: 1 = the photo, N = N x N repeats
@@ -263,15 +290,33 @@ void main() {
   // render(): x = 2 (j + 0.5) / W - 1, y = (H / W)(1 - 2 (i + 0.5) / H), i counted from the top
   float x = uReps * (2.0 * fc.x / uCanvas.x - 1.0);
   float y = uReps * (2.0 * fc.y - uCanvas.y) / uCanvas.x;
-  vec4 t0, t1;
+  vec3 p = vec3(x, y, 0.0);
+  vec3 cam = vec3(0.0, 0.0, uReps * uCamD);
+  vec3 v = normalize(cam - p);
+  bool lift = uHasRelief == 1 && uRelief != 0.0;
+  vec4 t0, t1, t2 = vec4(0.5, 1.0, 0.0, 1.0);
   if (uExact == 1) {
     ivec2 ij = ivec2(int(fc.x), int(uSize.y) - 1 - int(fc.y));
+    if (lift) {  // parallax offset: where the view ray meets the height z of this pixel
+      float z = uRelief * uHeightScale * 2.0 * (texelFetch(uTex2, ij, 0).r - 0.5);
+      p = vec3(p.xy + z * v.xy / v.z, z);
+      ivec2 s = ivec2(uSize);
+      ij = ivec2(floor(vec2((p.x + 1.0) * 0.5, (1.0 - p.y * uSize.x / uSize.y) * 0.5) * uSize));
+      ij = ((ij % s) + s) % s;
+    }
     t0 = texelFetch(uTex0, ij, 0);
     t1 = texelFetch(uTex1, ij, 0);
+    if (uHasRelief == 1) t2 = texelFetch(uTex2, ij, 0);
   } else {
     vec2 uv = vec2((x + 1.0) * 0.5, (1.0 - y * uSize.x / uSize.y) * 0.5);  // repeats wrap (REPEAT)
+    if (lift) {
+      float z = uRelief * uHeightScale * 2.0 * (texture(uTex2, uv).r - 0.5);
+      p = vec3(p.xy + z * v.xy / v.z, z);
+      uv = vec2((p.x + 1.0) * 0.5, (1.0 - p.y * uSize.x / uSize.y) * 0.5);
+    }
     t0 = texture(uTex0, uv);
     t1 = texture(uTex1, uv);
+    if (uHasRelief == 1) t2 = texture(uTex2, uv);
   }
   vec3 diffuse = vec3(srgbToLinear(t0.r), srgbToLinear(t0.g), srgbToLinear(t0.b));
   float specular = t0.a;
@@ -283,9 +328,6 @@ void main() {
   float nlen = length(nd);
   vec3 n = nlen < 1e-8 ? vec3(0.0, 0.0, 1.0) : nd / nlen;
 
-  vec3 p = vec3(x, y, 0.0);
-  vec3 cam = vec3(0.0, 0.0, uReps * uCamD);
-  vec3 v = normalize(cam - p);
   vec3 ld = uLight - p;
   float light_dist2 = dot(ld, ld);
   vec3 l = ld / sqrt(light_dist2);
@@ -317,6 +359,7 @@ void main() {
   float diff_weight = light / PI;
   if (uConserve == 1) { diff_weight = diff_weight * (1.0 - specular); }
   vec3 radiance = diff_weight * diffuse + spec_radiance;
+  radiance += (uAmbient * uIntensity / PI * t2.g) * diffuse;  // ambient sky, occluded by the AO (0 by default)
 
   vec3 c = clamp(radiance * uExposure, 0.0, 1.0);
   outColor = vec4(linearToSrgb(c.r), linearToSrgb(c.g), linearToSrgb(c.b), 1.0);
@@ -344,12 +387,18 @@ a { color: #aaa; }
  <div><canvas id="tiled"></canvas><div class="cap">repeated <span id="reps"></span> x <span id="reps2"></span></div></div>
  <div><canvas id="material"></canvas><div class="cap">the material (one tile)</div>
   <div>exposure <input id="exp" type="range" min="-4" max="4" step="0.05" value="0"></div>
+  <div id="reliefctl" style="display:none">relief <input id="relief" type="range" min="0" max="16" step="0.25"
+   value="1"> <span id="reliefval"></span></div>
+  <div id="ambientctl" style="display:none">ambient (AO) <input id="ambient" type="range" min="0" max="1"
+   step="0.05" value="0"> <span id="ambientval"></span></div>
   <div class="cap"><a id="lightpos" href="#" title="this view's link (light and exposure)"></a></div></div>
  <div id="maps">
   <div><canvas id="m_basecolor"></canvas><div class="cap">base colour (sRGB)</div></div>
   <div><canvas id="m_normal"></canvas><div class="cap">normal</div></div>
   <div><canvas id="m_roughness"></canvas><div class="cap">roughness</div></div>
   <div><canvas id="m_specular"></canvas><div class="cap">specular (shown sRGB)</div></div>
+  <div id="c_height" style="display:none"><canvas id="m_height"></canvas><div class="cap">height (white = high)</div></div>
+  <div id="c_ao" style="display:none"><canvas id="m_ao"></canvas><div class="cap">ambient occlusion</div></div>
  </div>
 </div>
 <script id="vs" type="x-shader/x-vertex">@VERTEX@</script>
@@ -362,6 +411,8 @@ a { color: #aaa; }
   var W = D.width, H = D.height, d = S.cameraDistance;
   var light = [0, 0, d];
   var exposure = S.exposure;
+  var R = S.relief;  // null, or {heightScale, height, ao}
+  var relief = R && R.height ? 1 : 0, ambient = 0;
   var views = {};
   var resolveReady, rejectReady;
   var ready = new Promise(function (res, rej) { resolveReady = res; rejectReady = rej; });
@@ -421,7 +472,11 @@ a { color: #aaa; }
     var gl = view.gl, p = view.prog, c = S.config;
     function u(name) { return gl.getUniformLocation(p, name); }
     gl.viewport(0, 0, view.canvas.width, view.canvas.height);
-    gl.uniform1i(u("uTex0"), 0); gl.uniform1i(u("uTex1"), 1);
+    gl.uniform1i(u("uTex0"), 0); gl.uniform1i(u("uTex1"), 1); gl.uniform1i(u("uTex2"), 2);
+    gl.uniform1i(u("uHasRelief"), R ? 1 : 0);
+    gl.uniform1f(u("uRelief"), R && R.height ? relief : 0);
+    gl.uniform1f(u("uHeightScale"), R ? R.heightScale : 0);
+    gl.uniform1f(u("uAmbient"), ambient);
     gl.uniform2f(u("uSize"), W, H);
     gl.uniform2f(u("uCanvas"), view.canvas.width, view.canvas.height);
     gl.uniform1f(u("uReps"), view.reps);
@@ -440,6 +495,8 @@ a { color: #aaa; }
 
   function drawAll() {
     for (var k in views) draw(views[k]);
+    document.getElementById("reliefval").textContent = relief.toFixed(2) + " x";
+    document.getElementById("ambientval").textContent = ambient.toFixed(2);
     var l = light.map(function (v) { return v.toFixed(3); }), a = document.getElementById("lightpos");
     a.textContent = "light (" + l.join(", ") + "), exposure " + exposure.toFixed(3);
     a.href = "#light=" + l.join(",") + "&exposure=" + exposure.toFixed(3);
@@ -480,11 +537,29 @@ a { color: #aaa; }
     showMap("m_normal", function (i) { return [nrm[3 * i] >> 8, nrm[3 * i + 1] >> 8, nrm[3 * i + 2] >> 8, 255]; });
     showMap("m_roughness", function (i) { var g = rough[i] >> 8; return [g, g, g, 255]; });
     showMap("m_specular", function (i) { var g = Math.round(255 * lin2srgb(spec[i] / 65535)); return [g, g, g, 255]; });
+    var t2 = null;
+    if (R) {
+      var hgt = R.height ? await unpack(D.height_map, 16) : null, occ = R.ao ? await unpack(D.ao_map, 16) : null;
+      t2 = new Float32Array(4 * W * H);
+      for (var i = 0; i < W * H; i++) {
+        t2[4 * i] = hgt ? hgt[i] / 65535 : 0.5; t2[4 * i + 1] = occ ? occ[i] / 65535 : 1; t2[4 * i + 3] = 1;
+      }
+      if (hgt) {
+        document.getElementById("c_height").style.display = "";
+        document.getElementById("reliefctl").style.display = "";
+        showMap("m_height", function (i) { var g = hgt[i] >> 8; return [g, g, g, 255]; });
+      }
+      if (occ) {
+        document.getElementById("c_ao").style.display = "";
+        document.getElementById("ambientctl").style.display = "";
+        showMap("m_ao", function (i) { var g = occ[i] >> 8; return [g, g, g, 255]; });
+      }
+    }
     // the tiled view: one canvas pixel per map pixel up to 1200 px, else 1024 px wide
     var tw = S.repeats * W <= 1200 ? S.repeats * W : 1024, th = Math.round(tw * H / W);
     views.material = makeView("material", 1, true, W, H);
     views.tiled = makeView("tiled", S.repeats, false, tw, th);
-    for (var k in views) { upload(views[k], 0, t0); upload(views[k], 1, t1); }
+    for (var k in views) { upload(views[k], 0, t0); upload(views[k], 1, t1); if (t2) upload(views[k], 2, t2); }
     document.getElementById("reps").textContent = S.repeats;
     document.getElementById("reps2").textContent = S.repeats;
     fromFragment();
@@ -492,6 +567,10 @@ a { color: #aaa; }
     var slider = document.getElementById("exp");
     slider.value = Math.log2(exposure);
     slider.addEventListener("input", function () { exposure = Math.pow(2, parseFloat(slider.value)); drawAll(); });
+    var rs = document.getElementById("relief"), am = document.getElementById("ambient");
+    rs.value = relief; am.value = ambient;
+    rs.addEventListener("input", function () { relief = parseFloat(rs.value); drawAll(); });
+    am.addEventListener("input", function () { ambient = parseFloat(am.value); drawAll(); });
     Object.keys(views).forEach(function (k) {
       var v = views[k];
       v.canvas.addEventListener("pointermove", function (e) {
@@ -516,6 +595,11 @@ a { color: #aaa; }
     getLight: function () { return light.slice(); },
     setExposure: function (e) { exposure = +e; document.getElementById("exp").value = Math.log2(exposure); drawAll(); },
     getExposure: function () { return exposure; },
+    relief: R,
+    setRelief: function (g) { relief = +g; document.getElementById("relief").value = relief; drawAll(); },
+    getRelief: function () { return relief; },
+    setAmbient: function (a) { ambient = +a; document.getElementById("ambient").value = ambient; drawAll(); },
+    getAmbient: function () { return ambient; },
     readPixels: function (which) {
       var v = views[which || "material"], gl = v.gl, w = v.canvas.width, h = v.canvas.height;
       draw(v);

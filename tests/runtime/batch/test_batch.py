@@ -202,15 +202,16 @@ def test_tileable_and_view_reach_every_set_and_the_index(tiny_model, tmp_path, c
     assert code == 1 and "0 done, 1 failed, 2 already done" in err
 
 
-def _strip_new_options(lib: Path) -> None:
-    """Make ``lib`` look written before --tileable and --view: no such keys in the manifest or the sidecars."""
+def _strip_new_options(lib: Path, keys=("tileable", "view")) -> None:
+    """Make ``lib`` look written before the options ``keys`` (default --tileable and --view): no such keys in the
+    manifest or the sidecars."""
     doc = json.loads((lib / MANIFEST_FILE).read_text())
     for name, record in doc["photos"].items():
-        for key in OPTION_DEFAULTS:
+        for key in keys:
             del record["options"][key]
         sidecar = lib / name / f"{name}.json"
         meta = json.loads(sidecar.read_text())
-        for key in OPTION_DEFAULTS:
+        for key in keys:
             del meta["meta"]["batch"]["options"][key]
         sidecar.write_text(json.dumps(meta))
     (lib / MANIFEST_FILE).write_text(json.dumps(doc))
@@ -327,3 +328,25 @@ def test_refine_batch_fine_tunes_every_photo_and_resumes(tiny_model, tmp_path, c
     code, out, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1",
                           "--refine", "--iters", "2", "--threads", "1")
     assert code == 0 and "0 done, 0 failed, 2 already done" in err
+
+
+def test_every_set_gets_height_and_ao_and_a_library_from_before_them_is_redone_with_force(tiny_model, tmp_path,
+                                                                                          capsys):
+    photos = _photos(tmp_path / "in", 2)
+    lib = tmp_path / "lib"
+    argv = [tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1"]
+    code, _, err = _run(capsys, *argv, "--maps", "diffuse,specular,roughness,normal")  # as before the relief maps
+    assert code == 0, err
+    assert not list(lib.rglob("*_height.png")) and _manifest(lib)[photos[0].stem]["options"]["relief"] == []
+    _strip_new_options(lib, ("relief",))  # a library written before the relief maps existed
+    code, _, err = _run(capsys, *argv)  # the default now adds height and AO: those sets lack them
+    assert code == 1 and err.count("with other options; use --force to redo it") == 2
+    code, _, err = _run(capsys, *argv, "--force")
+    assert code == 0 and "2 done" in err
+    for p in photos:
+        assert (lib / p.stem / f"{p.stem}_height.png").is_file() and (lib / p.stem / f"{p.stem}_ao.png").is_file()
+        assert _manifest(lib)[p.stem]["options"]["relief"] == ["height", "ao"]
+        sidecar = json.loads((lib / p.stem / f"{p.stem}.json").read_text())
+        assert sidecar["relief"]["maps"] == ["height", "ao"] and sidecar["relief"]["height_scale"] >= 0
+    code, _, err = _run(capsys, *argv)  # and now they are done
+    assert code == 0 and "2 already done" in err

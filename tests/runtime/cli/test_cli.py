@@ -283,6 +283,18 @@ def test_target_gltf_writes_a_material(photo, tiny_model, tmp_path, capsys):
     assert code == 1 and "apply to --target generic only" in err
 
 
+def test_target_ambientcg_writes_the_library_set_with_height_and_ao(photo, tiny_model, tmp_path, capsys):
+    out_dir = tmp_path / "acg"
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--target", "ambientcg", "-q")
+    assert code == 0, err
+    assert sorted(p.name for p in out_dir.iterdir()) == sorted(
+        f"wood{s}" for s in ("_Color.png", "_NormalGL.png", "_NormalDX.png", "_Roughness.png", "_Specular.png",
+                             "_Displacement.png", "_AmbientOcclusion.png", ".mtlx", ".json", "_relit.png"))
+    gltf = tmp_path / "gl"
+    assert _run(capsys, photo, "--model", tiny_model, "-o", gltf, "--target", "gltf", "-q")[0] == 0
+    assert json.loads((gltf / "wood.gltf").read_text())["materials"][0]["occlusionTexture"] == {"index": 2}
+
+
 def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, tiny_model, tmp_path, capsys,
                                                                          monkeypatch):
     pytest.importorskip("torch")
@@ -371,3 +383,50 @@ def test_refine_with_maps_writes_only_those(photo, tiny_model, tmp_path, capsys)
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["wood.json", "wood_roughness.png"]
     meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
     assert meta["maps"] == ["roughness"] and meta["refine"]["iterations"] == 1
+
+
+# ------------------------------------------------------------------------------------------ height and AO
+def test_height_and_ao_are_written_by_default(photo, tiny_model, tmp_path, capsys):
+    from svbrdf.runtime.core.relief import denormalise, slope_correlation
+    from svbrdf.runtime.io.images import image_info
+
+    out_dir = tmp_path / "o"
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", out_dir, "--threads", "1")
+    assert code == 0, err
+    for suffix in ("_height.png", "_ao.png"):
+        info = image_info(out_dir / f"wood{suffix}")
+        assert info["channels"] == 1 and info["dtype"] == "uint16" and (info["width"], info["height"]) == (64, 48)
+    sidecar = json.loads((out_dir / "wood.json").read_text())
+    relief = sidecar["relief"]
+    assert relief["maps"] == ["height", "ao"] and relief["tileable"] is False
+    assert sidecar["meta"]["timings"]["relief"] >= 0
+    height = denormalise(read_image(out_dir / "wood_height.png", raw=True)[..., 0], relief["height_scale"])
+    normal = read_image(out_dir / "wood_normal.png", raw=True) * 2 - 1
+    corr = slope_correlation(height, normal)
+    assert corr["x"] > 0.5 and corr["y"] > 0.5, corr  # a random tiny model: its normals have curl; real ones: >= 0.9
+    ao = read_image(out_dir / "wood_ao.png", raw=True)
+    assert 0.6 <= float(ao.mean()) <= 1.0
+
+
+def test_maps_height_or_ao_alone_computes_the_normal_map_and_writes_it(photo, tiny_model, tmp_path, capsys):
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "h", "--maps", "height", "-q")
+    assert code == 0 and err == ""
+    assert sorted(p.name for p in (tmp_path / "h").iterdir()) == ["wood.json", "wood_height.png", "wood_normal.png"]
+    sidecar = json.loads((tmp_path / "h" / "wood.json").read_text())
+    assert sidecar["meta"]["model"]["graph"] == "normal_roughness" and sidecar["relief"]["maps"] == ["height"]
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "a", "--maps", "ao,roughness",
+                        "--format", "exr", "--tileable", "-q")
+    assert code == 0, err
+    assert sorted(p.name for p in (tmp_path / "a").iterdir()) == ["wood.json", "wood_ao.exr", "wood_normal.exr",
+                                                                  "wood_roughness.exr"]
+    relief = json.loads((tmp_path / "a" / "wood.json").read_text())["relief"]
+    assert relief["tileable"] is True and relief["maps"] == ["ao"]
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "n", "--maps",
+                        "diffuse,specular,roughness,normal", "-q")
+    assert code == 0 and not list((tmp_path / "n").glob("*_height.png"))  # the four maps only, as before
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "--maps", "height,depth")
+    assert code == 2 and "unknown map name 'depth'" in err and "relief maps: height, ao" in err
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "s", "--ao-strength", "1", "-q")
+    assert code == 0 and json.loads((tmp_path / "s" / "wood.json").read_text())["relief"]["ao"]["strength"] == 1.0
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "--ao-strength", "0")
+    assert code == 2 and "--ao-strength: must be a finite number > 0" in err

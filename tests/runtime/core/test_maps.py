@@ -91,7 +91,7 @@ def test_normalize_normals_edge_cases():
         (dict(diffuse=np.zeros((4, 4, 1))), r"'diffuse' must be \(H, W, 3\)"),
         (dict(specular=np.zeros((4, 4, 3))), r"'specular' must be \(H, W, 1\)"),
         (dict(normal=np.zeros((4, 4))), r"'normal' must be \(H, W, 3\)"),
-        (dict(roughness=np.zeros((4, 5, 1))), r"'roughness' is \(4, 5\), expected \(4, 4\)"),
+        (dict(roughness=np.zeros((4, 5, 1))), r"'roughness' is 5x4 px but the texture set's diffuse map is 4x4 px"),
         (dict(diffuse=np.zeros((2, 4, 4, 3))), r"'diffuse' must be"),
     ],
 )

@@ -38,14 +38,15 @@ validator.validateBytes(new Uint8Array(fs.readFileSync(file)), {
 
 @pytest.fixture(scope="module")
 def written(tmp_path_factory):
-    """The gltf, usd and mtlx targets of one small texture set (a name with a space, to test URI quoting)."""
+    """The gltf, usd, mtlx and ambientcg targets of one small texture set with its height and AO (a name with a
+    space, to test URI quoting)."""
     rng = np.random.default_rng(0)
     n = rng.normal(size=(H, W, 3)).astype(np.float32)
     n[..., 2] = np.abs(n[..., 2]) + 1.0
     maps = Maps(rng.uniform(0.05, 0.5, (H, W, 3)), rng.uniform(0.02, 0.5, (H, W, 1)),
-                rng.uniform(0.1, 0.9, (H, W, 1)), normalize_normals(n))
+                rng.uniform(0.1, 0.9, (H, W, 1)), normalize_normals(n)).with_relief()
     root = tmp_path_factory.mktemp("targets")
-    return {t: write_target(maps, root / t, "oak floor", t) for t in ("gltf", "usd", "mtlx")}
+    return {t: write_target(maps, root / t, "oak floor", t) for t in ("gltf", "usd", "mtlx", "ambientcg")}
 
 
 def _buffer_floats(doc, accessor):
@@ -134,6 +135,10 @@ def test_pygltflib_reads_it(written):
     assert acc.count == 4 and acc.min[:2] == [-0.5, -0.375]
     fallback = pygltflib.GLTF2().load(str(paths["gltf_fallback"]))
     assert not fallback.materials[0].extensions and fallback.materials[0].pbrMetallicRoughness.metallicFactor == 1.0
+    for doc in (gltf, fallback):  # the ORM texture's red channel is the occlusion
+        occlusion = doc.materials[0].occlusionTexture
+        assert occlusion is not None and occlusion.index == doc.materials[0].pbrMetallicRoughness.\
+            metallicRoughnessTexture.index == 2
 
 
 # -------------------------------------------------------------------------------------------- MaterialX
@@ -148,9 +153,10 @@ def _mtlx_document(mx, path):
     return doc
 
 
-def test_materialx_validates_and_resolves(written):
+@pytest.mark.parametrize("target", ["mtlx", "ambientcg"])
+def test_materialx_validates_and_resolves(written, target):
     mx = pytest.importorskip("MaterialX")
-    path = written["mtlx"]["mtlx"]
+    path = written[target]["mtlx"]
     doc = _mtlx_document(mx, path)
     ok, message = doc.validate()
     assert ok, message
@@ -161,12 +167,19 @@ def test_materialx_validates_and_resolves(written):
     assert shader.getInputValue("base") == 1.0 and shader.getInputValue("metalness") == 0.0
     images = {n.getName(): n for n in doc.getNodeGraph("NG_oak_floor").getNodes("image")}
     expect = {"base_color_image": ("basecolor", "srgb_texture"), "f0_image": ("specular", ""),
-              "roughness_image": ("roughness", ""), "normal_image": ("normal", "")}
+              "roughness_image": ("roughness", ""), "normal_image": ("normal", ""), "height_image": ("height", "")}
     assert set(images) == set(expect)
     for node, (role, colour_space) in expect.items():
         inp = images[node].getInput("file")
-        assert (path.parent / inp.getResolvedValueString()).resolve() == written["mtlx"][role].resolve()
+        assert (path.parent / inp.getResolvedValueString()).resolve() == written[target][role].resolve()
         assert inp.getActiveColorSpace() == (colour_space or "lin_rec709"), node
+    # the height drives the material's displacement shader: (value - 0.5) * height_scale
+    displacement = material[0].getInput("displacementshader").getConnectedNode()
+    assert displacement.getCategory() == "displacement"
+    scale = json.loads(written[target]["sidecar"].read_text())["relief"]["height_scale"]
+    assert displacement.getInputValue("scale") == pytest.approx(scale) and scale > 0
+    centred = doc.getNodeGraph("NG_oak_floor").getNode("height_centred")
+    assert centred.getCategory() == "subtract" and centred.getInputValue("in2") == 0.5
 
 
 def test_materialx_validate_catches_a_broken_graph(written):
@@ -218,7 +231,8 @@ def test_usd_stage_binds_and_points_at_the_files(written):
     assert surface.GetIdAttr().Get() == "UsdPreviewSurface"
     assert surface.GetInput("useSpecularWorkflow").Get() == 1
     expect = {"diffuseColor": ("basecolor", "sRGB", "rgb"), "specularColor": ("specular", "raw", "rgb"),
-              "roughness": ("roughness", "raw", "r"), "normal": ("normal", "raw", "rgb")}
+              "roughness": ("roughness", "raw", "r"), "normal": ("normal", "raw", "rgb"),
+              "displacement": ("height", "raw", "r"), "occlusion": ("ao", "raw", "r")}
     for name, (role, colour_space, output) in expect.items():
         source, out_name, _ = surface.GetInput(name).GetConnectedSource()
         texture = UsdShade.Shader(source.GetPrim())
@@ -229,6 +243,10 @@ def test_usd_stage_binds_and_points_at_the_files(written):
     normal_tex = UsdShade.Shader(surface.GetInput("normal").GetConnectedSource()[0].GetPrim())
     assert tuple(normal_tex.GetInput("scale").Get()) == (2, 2, 2, 1)
     assert tuple(normal_tex.GetInput("bias").Get()) == (-1, -1, -1, 0)
+    scale = json.loads(paths["sidecar"].read_text())["relief"]["height_scale"]
+    height_tex = UsdShade.Shader(surface.GetInput("displacement").GetConnectedSource()[0].GetPrim())
+    np.testing.assert_allclose(height_tex.GetInput("scale").Get(), (scale, scale, scale, 1), rtol=1e-6)
+    np.testing.assert_allclose(height_tex.GetInput("bias").Get(), (-scale / 2, -scale / 2, -scale / 2, 0), rtol=1e-6)
     st = UsdGeom.PrimvarsAPI(quad).GetPrimvar("st").Get()
     points = UsdGeom.Mesh(quad).GetPointsAttr().Get()
     top_left = min(range(4), key=lambda i: points[i][0] - points[i][1])

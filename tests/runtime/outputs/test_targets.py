@@ -141,10 +141,13 @@ def test_generic_is_write_texture_set(tmp_path, maps):
     assert set(target_files("m", "generic", relit=True).values()) == {p.name for p in a.values()}
 
 
+@pytest.mark.parametrize("relief", [False, True])
 @pytest.mark.parametrize("target", [t for t in TARGETS if t != "generic"])
-def test_every_target_writes_its_files_and_sidecar(tmp_path, maps, target):
+def test_every_target_writes_its_files_and_sidecar(tmp_path, maps, target, relief):
+    if relief:
+        maps = maps.with_relief()
     paths = write_target(maps, tmp_path, "mat", target, extra_meta={"model": "x"})
-    names = target_files("mat", target)
+    names = target_files("mat", target, relief=("height", "ao") if relief else ())
     assert {r: p.name for r, p in paths.items()} == names
     assert sorted(p.name for p in tmp_path.iterdir()) == sorted(names.values())  # nothing else, no staging left
     side = json.loads(paths["sidecar"].read_text())
@@ -289,10 +292,13 @@ def test_failed_write_midway_leaves_nothing(tmp_path, maps, monkeypatch, existin
         assert list(tmp_path.iterdir()) == []  # the output folder it created is gone too
 
 
-def test_files_are_listed_in_the_order_of_target_files(tmp_path, maps):
+@pytest.mark.parametrize("relief", [(), ("height",), ("height", "ao")])
+def test_files_are_listed_in_the_order_of_target_files(tmp_path, maps, relief):
+    if relief:
+        maps = maps.with_relief(maps=relief)
     for target in TARGETS:
         paths = write_target(maps, tmp_path / target, "m", target, relit=np.zeros((H, W * 3, 3), np.float32))
-        names = target_files("m", target, relit=True)
+        names = target_files("m", target, relit=True, relief=relief)
         assert list(paths) == list(names) and [p.name for p in paths.values()] == list(names.values())
         files = json.loads(paths["sidecar"].read_text())["files"]
         assert list(files) == [r for r in names if r != "sidecar"]
@@ -371,3 +377,76 @@ def test_targets_other_than_generic_need_every_map(tmp_path, maps):
     assert not (tmp_path / "gl").exists()
     paths = write_target(part, tmp_path / "generic", "m", "generic")  # the project's own layout takes a subset
     assert set(paths) == {"basecolor", "normal", "sidecar"}
+
+
+# ------------------------------------------------------------------------------------------ height and AO
+def _relief_maps(maps):
+    """``maps`` with a deep pit in the normal map (so the AO is well below 1 there) and its relief."""
+    yy, xx = np.mgrid[0:H, 0:W].astype(np.float64)
+    hp = -4.0 * np.exp(-((xx - 8) ** 2 + (yy - 6) ** 2) / 6.0)
+    n = np.stack([-np.gradient(hp, axis=1), np.gradient(hp, axis=0), np.ones_like(hp)], -1).astype(np.float32)
+    return Maps(maps.diffuse, maps.specular, maps.roughness, normalize_normals(n), meta=maps.meta).with_relief()
+
+
+def test_ao_goes_into_the_orm_red_channel_and_the_gltf_occlusion_texture(tmp_path, maps):
+    m = _relief_maps(maps)
+    ao = m.relief.ao[..., None]
+    assert ao.min() < 0.9
+    p = write_target(m, tmp_path / "gltf", "m", "gltf")
+    orm = _read_raw(p["orm"])
+    np.testing.assert_allclose(orm[..., :1], ao, atol=Q8)
+    np.testing.assert_allclose(orm[..., 1:2], m.roughness, atol=Q8)  # G and B as without the AO
+    for role in ("gltf", "gltf_fallback"):
+        material = json.loads(p[role].read_text())["materials"][0]
+        assert material["occlusionTexture"] == {"index": 2} == material["pbrMetallicRoughness"][
+            "metallicRoughnessTexture"]
+    assert "occlusionTexture" in json.loads(p["sidecar"].read_text())["target"]["import_notes"][-1]
+    plain = write_target(maps, tmp_path / "plain", "m", "gltf")
+    assert "occlusionTexture" not in json.loads(plain["gltf"].read_text())["materials"][0]
+    np.testing.assert_array_equal(_read_raw(plain["orm"])[..., 1:], _read_raw(
+        write_target(maps.with_relief(), tmp_path / "same", "m", "gltf")["orm"])[..., 1:])
+    u = write_target(m, tmp_path / "unreal", "m", "unreal")
+    orm = _read_raw(u["orm"])
+    np.testing.assert_allclose(orm[..., :1], ao, atol=Q16)
+    np.testing.assert_allclose(orm[..., 1:2], m.roughness, atol=Q16)
+    np.testing.assert_allclose(_read_raw(u["height"])[..., 0], m.relief.height, atol=Q16)
+
+
+def test_unity_mask_map_has_ao_in_green_and_smoothness_in_alpha(tmp_path, maps):
+    m = _relief_maps(maps)
+    p = write_target(m, tmp_path, "m", "unity")
+    mask = _read_raw(p["mask"])
+    assert mask.shape == (H, W, 4) and image_info(p["mask"])["dtype"] == "uint16"
+    np.testing.assert_allclose(mask[..., 1], m.relief.ao, atol=Q16)
+    np.testing.assert_allclose(mask[..., 3:], 1.0 - m.roughness, atol=Q16)
+    np.testing.assert_array_equal(mask[..., [0, 2]], 0.0)
+    np.testing.assert_allclose(_read_raw(p["height"])[..., 0], m.relief.height, atol=Q16)
+
+
+@pytest.mark.parametrize("target,height,ao", [("blender", "m_disp.png", "m_ao.png"),
+                                              ("usd", "m_Displacement.png", "m_AmbientOcclusion.png"),
+                                              ("mtlx", "m_Displacement.png", "m_AmbientOcclusion.png"),
+                                              ("ambientcg", "m_Displacement.png", "m_AmbientOcclusion.png")])
+def test_height_and_ao_files_of_the_library_targets(tmp_path, maps, target, height, ao):
+    m = _relief_maps(maps)
+    p = write_target(m, tmp_path, "m", target)
+    assert (p["height"].name, p["ao"].name) == (height, ao)
+    np.testing.assert_allclose(_read_raw(p["height"])[..., 0], m.relief.height, atol=Q16)
+    np.testing.assert_allclose(_read_raw(p["ao"])[..., 0], m.relief.ao, atol=Q16)
+    side = json.loads(p["sidecar"].read_text())
+    assert side["relief"]["height_scale"] == m.relief.scale == side["files"]["height"]["height_scale"]
+    # the base colour is the same as without the relief: the AO never darkens it
+    plain = write_target(maps.__class__(m.diffuse, m.specular, m.roughness, m.normal), tmp_path / "p", "m", target)
+    np.testing.assert_array_equal(_read_raw(p["basecolor"]), _read_raw(plain["basecolor"]))
+
+
+def test_ambientcg_ships_both_normal_conventions(tmp_path, maps):
+    p = write_target(maps.with_relief(), tmp_path, "Ground 080", "ambientcg")
+    assert sorted(x.name for x in p.values()) == sorted(
+        f"Ground 080{s}" for s in ("_Color.png", "_NormalGL.png", "_NormalDX.png", "_Roughness.png",
+                                   "_Specular.png", "_Displacement.png", "_AmbientOcclusion.png", ".mtlx", ".json"))
+    gl, dx = _read_raw(p["normal"]), _read_raw(p["normal_dx"])
+    np.testing.assert_allclose(dx[..., 1], 1.0 - gl[..., 1], atol=3 * Q16)
+    np.testing.assert_array_equal(dx[..., [0, 2]], gl[..., [0, 2]])
+    files = json.loads(p["sidecar"].read_text())["files"]
+    assert "opengl" in files["normal"]["content"] and "dx" in files["normal_dx"]["content"]

@@ -326,3 +326,139 @@ def test_files_carry_their_colour_space(tmp_path, maps):
     # The tag does not change the stored values.
     np.testing.assert_allclose(read_image(paths["roughness"], raw=True)[..., 0], maps.roughness[..., 0],
                                atol=0.5 / 65535 + 1e-6)
+
+
+# ------------------------------------------------------------------------------------------ height and AO
+def _bump_normals(h=48, w=64):
+    """The normals of a smooth pit (a Gaussian dent) and a ridge, (H, W, 3) OpenGL, and their height in map widths."""
+    yy, xx = np.mgrid[0:h, 0:w].astype(np.float64)
+    height_px = -6.0 * np.exp(-((xx - 20) ** 2 + (yy - 24) ** 2) / 40.0) + 3.0 * np.exp(-((xx - 48) ** 2) / 20.0)
+    dx = np.gradient(height_px, axis=1)
+    dy_up = -np.gradient(height_px, axis=0)  # +y is up the image
+    n = np.stack([-dx, -dy_up, np.ones_like(dx)], axis=-1)
+    return normalize_normals(n.astype(np.float32)), height_px / w
+
+
+@pytest.mark.parametrize("fmt", ["png", "exr"])
+def test_height_and_ao_files_follow_the_normal_map(tmp_path, fmt):
+    from svbrdf.runtime.core.relief import denormalise, slope_correlation
+
+    normal, _ = _bump_normals()
+    maps = Maps(normal=normal, roughness=np.full((48, 64, 1), 0.5, np.float32)).with_relief()
+    paths = write_texture_set(maps, tmp_path, "m", fmt=fmt)
+    assert set(paths) == {"normal", "roughness", "height", "ao", "sidecar"}
+    assert paths["height"].name == f"m_height.{fmt}" and paths["ao"].name == f"m_ao.{fmt}"
+    info = image_info(paths["height"])
+    assert info["channels"] == 1 and info["dtype"] == ("uint16" if fmt == "png" else "float")
+    sidecar = json.loads(paths["sidecar"].read_text())
+    relief = sidecar["relief"]
+    assert relief["maps"] == ["height", "ao"] and relief["tileable"] is False and relief["height_scale"] > 0
+    assert sidecar["files"]["height"]["height_scale"] == relief["height_scale"]
+    assert sidecar["files"]["ao"]["colour_space"] == "data" and relief["ao"]["strength"] == 8.0
+    h01 = read_image(paths["height"], raw=True)[..., 0]
+    assert abs(float(np.median(h01)) - 0.5) < 0.1 and h01.max() <= 1.0 and h01.min() >= 0.0
+    height = denormalise(h01, relief["height_scale"])
+    written_normal = read_image(paths["normal"], raw=True) * 2 - 1
+    corr = slope_correlation(height, written_normal)
+    assert corr["x"] > 0.99 and corr["y"] > 0.99, corr  # white = high, green = up the image
+    ao = read_image(paths["ao"], raw=True)[..., 0]
+    assert ao.min() >= 0 and ao.max() <= 1.0
+    assert ao[24, 20] < ao[5, 5] and ao[5, 5] > 0.99  # the pit is darker than the flat corner
+    assert h01[24, 20] < 0.5 < h01[24, 48]  # the pit is low, the ridge high
+
+
+def test_a_flat_normal_map_gives_a_flat_height_and_no_occlusion(tmp_path):
+    flat = np.zeros((16, 20, 3), np.float32)
+    flat[..., 2] = 1.0
+    maps = Maps(normal=flat).with_relief()
+    assert maps.relief.scale == 0.0
+    paths = write_texture_set(maps, tmp_path, "flat")
+    h01 = read_image(paths["height"], raw=True)
+    ao = read_image(paths["ao"], raw=True)
+    np.testing.assert_allclose(h01, 32768 / 65535, atol=1e-7)  # mid-grey in 16 bits
+    assert np.all(ao == 1.0)
+
+
+def test_tileable_relief_is_integrated_across_the_wrap(tmp_path):
+    from svbrdf.runtime.core.relief import denormalise, slope_correlation
+
+    yy, xx = np.mgrid[0:32, 0:32].astype(np.float64)
+    hp = 2.0 * np.sin(2 * np.pi * xx / 32) * np.cos(2 * np.pi * 2 * yy / 32)  # periodic height, pixels
+    gx = (np.roll(hp, -1, 1) - np.roll(hp, 1, 1)) / 2
+    gy = -(np.roll(hp, -1, 0) - np.roll(hp, 1, 0)) / 2
+    normal = normalize_normals(np.stack([-gx, -gy, np.ones_like(gx)], -1).astype(np.float32))
+    maps = Maps(normal=normal).with_relief(tileable=True)
+    paths = write_texture_set(maps, tmp_path, "t")
+    relief = json.loads(paths["sidecar"].read_text())["relief"]
+    assert relief["tileable"] is True and "periodic" in relief["height"]["method"]
+    height = denormalise(read_image(paths["height"], raw=True)[..., 0], relief["height_scale"])
+    corr = slope_correlation(height, normal, tileable=True)
+    assert min(corr.values()) > 0.95, corr
+
+
+def test_relief_bad_input_is_one_line():
+    import svbrdf.runtime
+    from svbrdf.runtime.core.relief import Relief, relief_maps
+    from svbrdf.runtime.errors import SvbrdfError
+
+    assert svbrdf.runtime.relief_maps is relief_maps and svbrdf.runtime.Relief is Relief  # the public API
+    normal, _ = _bump_normals(16, 16)
+    with pytest.raises(SvbrdfError, match="needs the normal map|need the normal map"):
+        Maps(roughness=np.zeros((16, 16, 1))).with_relief()
+    bad = normal.copy()
+    bad[3, 4] = np.nan
+    with pytest.raises(SvbrdfError, match="NaN") as exc:
+        Maps(normal=bad).with_relief()
+    assert "\n" not in str(exc.value)
+    with pytest.raises(SvbrdfError, match=r"NaN or infinite \(first at row 3, column 4\)"):
+        relief_maps(bad)
+    zero = normal.copy()
+    zero[2, 2] = 0.0
+    with pytest.raises(SvbrdfError, match=r"1 zero-length normal\(s\) \(first at row 2, column 2\); pass zero='flat'"):
+        relief_maps(zero)
+    assert relief_maps(zero, zero="flat").height.shape == (16, 16)  # the documented repair
+    # the texture set's own normals are made unit length first (as the writer does): a zero normal is flat there
+    assert Maps(normal=zero).with_relief().relief.height.shape == (16, 16)
+    # a normal map of another size than the other maps, or relief maps of another size
+    with pytest.raises(SvbrdfError, match="'normal' is 16x16 px but the texture set's roughness map is 20x16 px"):
+        Maps(roughness=np.zeros((16, 20, 1)), normal=normal)
+    with pytest.raises(SvbrdfError, match="the relief maps are 16x16 px but the texture set is 20x16 px"):
+        Maps(roughness=np.zeros((16, 20, 1)), relief=relief_maps(normal))
+    with pytest.raises(SvbrdfError, match="valid names: height, ao"):
+        relief_maps(normal, maps=("depth",))
+    nan_relief = Relief(np.full((16, 16), np.nan, np.float32), 1.0, None)
+    with pytest.raises(ImageError, match="relief map 'height' has NaN/Inf"):
+        write_texture_set(Maps(normal=normal, relief=nan_relief), "/nonexistent-never-made", "m")
+
+
+def test_relief_is_not_written_without_it_and_never_darkens_the_base_colour(tmp_path, maps):
+    plain = write_texture_set(maps, tmp_path / "a", "m")
+    assert "height" not in plain and "relief" not in json.loads(plain["sidecar"].read_text())
+    with_relief = write_texture_set(maps.with_relief(), tmp_path / "b", "m")
+    np.testing.assert_array_equal(read_image(plain["basecolor"], raw=True), read_image(with_relief["basecolor"],
+                                                                                        raw=True))
+    only_height = write_texture_set(maps.with_relief(maps=["height"]), tmp_path / "c", "m")
+    assert "height" in only_height and "ao" not in only_height
+
+
+def test_ao_strength_is_the_depth_gain_of_the_ao_and_is_recorded(tmp_path):
+    from svbrdf.runtime.core.relief import AO_STRENGTH, ambient_occlusion, height_from_normals, relief_maps
+    from svbrdf.runtime.errors import SvbrdfError
+
+    normal, _ = _bump_normals()
+    height, scale = height_from_normals(normal)
+    r1 = relief_maps(normal, ao_strength=1.0)
+    rd = relief_maps(normal)
+    assert rd.ao_strength == AO_STRENGTH == 8.0 and r1.scale == rd.scale == scale  # the height is the normals'
+    np.testing.assert_array_equal(r1.height, rd.height)
+    np.testing.assert_allclose(r1.ao, ambient_occlusion(height), atol=1e-6)
+    np.testing.assert_allclose(rd.ao, ambient_occlusion(height * 8.0), atol=1e-6)
+    assert rd.ao.mean() < r1.ao.mean() < 1.0
+    info = json.loads(write_texture_set(Maps(normal=normal).with_relief(), tmp_path, "m")["sidecar"].read_text())
+    assert info["relief"]["ao"]["strength"] == 8.0 and "0.12 x" in info["relief"]["ao"]["strength_reason"]
+    info = json.loads(write_texture_set(Maps(normal=normal).with_relief(ao_strength=1), tmp_path / "b", "m")[
+        "sidecar"].read_text())
+    assert info["relief"]["ao"]["strength"] == 1.0
+    for bad in (0, -1, float("nan"), "x"):
+        with pytest.raises(SvbrdfError, match="ao_strength"):
+            relief_maps(normal, ao_strength=bad)
