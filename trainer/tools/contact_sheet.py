@@ -2,7 +2,7 @@
 
 ::
 
-    python -m svbrdf.trainer.tools.contact_sheet --out docs/benchmarks/prior/materials.png [--seed 0] \\
+    python -m svbrdf.trainer.tools.contact_sheet --out materials.png [--seed 0] \\
         [--per-family 4] [--size 128]
 
 One row per family, ``--per-family`` samples side by side; each sample is five tiles: diffuse (sRGB-encoded),
