@@ -377,3 +377,29 @@ def test_small_files_are_not_downsized_or_warned(tmp_path, img):
         warnings.simplefilter("error")
         out = read_image(path, max_size=max(img.shape[:2]))
     assert out.shape == img.shape
+
+
+@pytest.mark.parametrize("dtype,oiio_type", [(np.uint8, "uint8"), (np.uint16, "uint16")])
+@pytest.mark.parametrize("raw", [False, True])
+def test_integer_files_decode_through_the_code_table_bit_for_bit(tmp_path, dtype, oiio_type, raw):
+    """read_image looks each code of an 8/16-bit file up in a table (issue 54); the reference is the per-pixel
+    path it replaced: OpenImageIO's float conversion, clip, srgb_to_linear (unless raw). Equal, not close."""
+    import OpenImageIO as oiio
+
+    from svbrdf.runtime.core.colour import srgb_to_linear
+    from svbrdf.runtime.io.images import read_image
+
+    rng = np.random.default_rng(7)
+    top = np.iinfo(dtype).max
+    codes = rng.integers(0, top + 1, (37, 53, 3)).astype(dtype)
+    codes[0, :3, 0] = (0, 1, top)
+    path = tmp_path / "codes.png"
+    buf = oiio.ImageBuf(oiio.ImageSpec(53, 37, 3, oiio_type))
+    buf.set_pixels(oiio.ROI(), codes)
+    assert buf.write(str(path))
+    inp = oiio.ImageInput.open(str(path))
+    as_float = np.clip(np.asarray(inp.read_image(0, 0, 0, 3, oiio.FLOAT), np.float32), 0.0, 1.0)
+    inp.close()
+    expected = as_float if raw else srgb_to_linear(as_float)
+    got = read_image(path, raw=raw)
+    assert got.dtype == np.float32 and np.array_equal(got, expected)
