@@ -53,6 +53,7 @@ from ..io.images import ImageWarning, image_info, read_image, resize_long_side
 from ..post import PostProcess
 from ..post import apply as apply_post
 from ..post.flash_trend import even_lighting
+from .guided import Upsampling, guided_upsample, luminance, network_photo
 from .manifest import MIN_SIZE
 from .session import PreviewSession, load_session
 from .tiling import DEFAULT_OVERLAP, tile_boxes, tiled_apply
@@ -115,6 +116,7 @@ def estimate(
     overlap: int = DEFAULT_OVERLAP,
     maps: Union[None, str, Iterable[str]] = None,
     post: PostProcess = PostProcess(),
+    upsampling: Upsampling = Upsampling(),
 ) -> Maps:
     """SVBRDF maps of one flash photo: all four, or only ``maps`` (running only the decoder they need).
 
@@ -132,13 +134,18 @@ def estimate(
             without parts runs the full graph and warns once (``UserWarning``).
         post: the corrections around the network (:class:`~svbrdf.runtime.post.PostProcess`; default: all, as
             shipped).
+        upsampling: a photo longer than :data:`~svbrdf.runtime.inference.guided.DIRECT_MAX_SIZE` (after
+            ``max_size``) runs the network and ``post`` at :attr:`Upsampling.network_size` and gets its maps at its
+            own size from :func:`~svbrdf.runtime.inference.guided.guided_upsample` (the photo's detail);
+            ``Upsampling(network_size=None)``: the network at the photo's size (in tiles) at any size.
 
     Returns:
         :class:`Maps` at the processed size with the requested maps (the others ``None``): diffuse (H, W, 3)
         linear [0, 1], specular and roughness (H, W, 1) [0, 1], normal (H, W, 3) unit OpenGL. ``meta`` holds
         ``source``, ``model`` (path, sha256, verified, ``graph``: ``"full"`` or the part that ran), ``maps``
         (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
-        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
+        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``; on the
+        guided path also ``upsample``), ``network_size`` ([h, w] the network ran at; guided path only) and
         ``burn_in``: the label-free highlight burn-in of the maps returned
         (:func:`svbrdf.runtime.quality.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, the worst map's
         disc or ring score, 0.1-0.3 for a stationary material, higher when the flash stayed in the maps), ``burn_in_model`` the same of
@@ -179,6 +186,8 @@ def estimate(
     if min(h, w) < MIN_SIZE:
         raise ImageError(f"{name}: {in_w}x{in_h} downsized to {w}x{h} is below {MIN_SIZE} px; raise max_size")
     timings["resize"] = time.perf_counter() - t
+    if upsampling.applies((h, w)):
+        return _estimate_guided(name, image, (in_h, in_w), timings, session, names, tile, overlap, post, upsampling)
 
     t = time.perf_counter()
     width = session.input_lighting(post.even_lighting)
@@ -214,6 +223,28 @@ def estimate(
     return out
 
 
+def _estimate_guided(name, image, input_size, timings, session, names, tile, overlap, post, upsampling) -> Maps:
+    """:func:`estimate` of a photo larger than the network's size: the maps of the photo downsized to
+    ``upsampling.network_size``, brought back to its size by :func:`guided_upsample`."""
+    t = time.perf_counter()
+    small = network_photo(image, upsampling.network_size)
+    guide_low, guide = luminance(small), luminance(image)
+    size = image.shape[:2]
+    del image  # only the luminance is needed from here: the full-size photo is freed before the maps are made
+    timings["resize"] += time.perf_counter() - t
+    with warnings.catch_warnings():  # the photo itself was checked (and named) above
+        warnings.simplefilter("ignore", ImageWarning)
+        low = estimate(small, session, max_size=upsampling.network_size, tile=tile, overlap=overlap, maps=names,
+                       post=post, upsampling=Upsampling(network_size=None))
+    t = time.perf_counter()
+    out = guided_upsample(low, guide_low, guide, upsampling)
+    timings.update({k: v for k, v in low.meta["timings"].items() if k not in ("read", "resize")})
+    timings["upsample"] = time.perf_counter() - t
+    out.meta.update(source=name, input_size=list(input_size), size=list(size), resized=tuple(size) != tuple(input_size),
+                    network_size=list(small.shape[:2]), timings=timings)
+    return out
+
+
 @dataclass(frozen=True)
 class PhotoOptions:
     """How one photo becomes a texture set: the options both CLIs share (``svbrdf-preview``, ``svbrdf-batch``; built
@@ -238,6 +269,8 @@ class PhotoOptions:
             explains the photo; None: ``iters``.
         quiet: no refine progress bar.
         post: the corrections around the network (:class:`~svbrdf.runtime.post.PostProcess`).
+        upsampling: how a photo larger than 2048 px gets its maps (:class:`~svbrdf.runtime.inference.guided.Upsampling`:
+            the network at 1024 px and the photo's detail).
     """
 
     model: Optional[str] = None
@@ -257,6 +290,7 @@ class PhotoOptions:
     quality: Optional[str] = None
     quiet: bool = False
     post: PostProcess = field(default_factory=PostProcess)
+    upsampling: Upsampling = field(default_factory=Upsampling)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "maps", select_maps(self.maps))
@@ -361,7 +395,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
                          maps=list(options.maps))
     else:
         maps = estimate(photo, session, max_size=options.max_size, tile=options.tile, maps=options.maps,
-                        post=options.post)
+                        post=options.post, upsampling=options.upsampling)
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config
@@ -374,8 +408,19 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
             raise SvbrdfError(f"{photo}: --tileable: {exc}") from None
         worst = [s["after"] for s in maps.meta["tileable"]["join"].values() if s["after"] is not None]
         detail += f", tileable (join score {max(worst):.2f})" if worst else ", tileable"
-    relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
+    # The panel renders all four maps at its display size; maps that were upsampled (guided path) are first
+    # block-averaged to it (their OpenImageIO resize would take a float copy of each full-size map).
+    relit = relit_panel(_panel_maps(maps) if "network_size" in maps.meta else maps, config) if maps.complete else None
     return maps, relit, detail
+
+
+def _panel_maps(maps: Maps) -> Maps:
+    """``maps`` block-averaged to at most the relit panel's size (normals renormalised)."""
+    from ..core.filters import block_mean
+    from ..outputs.texture_set import PANEL_SIZE
+
+    k = -(-max(maps.shape) // PANEL_SIZE)
+    return maps if k <= 1 else maps._with({n: block_mean(a, k, partial=True) for n, a in maps.items()}).clipped()
 
 
 def write_maps(maps: Maps, relit: Optional[np.ndarray], out_dir: Path, name: str, options: PhotoOptions,
