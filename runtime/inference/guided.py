@@ -46,23 +46,26 @@ class Upsampling:
         eps: regulariser of the gain, a fraction of the squared mean luminance (flat areas of the photo get no
             detail: its noise is not the material's).
         strip_bytes: bytes of float32 temporaries one strip of rows may take.
+        direct_max_size: photos up to this long side run the network at their own size whatever
+            ``network_size`` says (:data:`DIRECT_MAX_SIZE`: the preview's maps of such photos are unchanged).
     """
 
     network_size: Optional[int] = 1024
     radius: int = 2
-    eps: float = 1e-3
+    eps: float = 1e-2
     strip_bytes: int = 64 << 20
+    direct_max_size: int = DIRECT_MAX_SIZE
 
     def __post_init__(self) -> None:
         if self.network_size is not None and self.network_size < 8:
             raise ValueError(f"network_size must be None or >= 8 px, got {self.network_size}")
-        if self.radius < 1 or not self.eps > 0 or self.strip_bytes < 1:
-            raise ValueError(f"need radius >= 1, eps > 0 and strip_bytes >= 1; got {self.radius}, {self.eps}, "
-                             f"{self.strip_bytes}")
+        if self.radius < 1 or not self.eps > 0 or self.strip_bytes < 1 or self.direct_max_size < 8:
+            raise ValueError(f"need radius >= 1, eps > 0, strip_bytes >= 1 and direct_max_size >= 8; got {self.radius}, "
+                             f"{self.eps}, {self.strip_bytes}, {self.direct_max_size}")
 
     def applies(self, size: Tuple[int, int]) -> bool:
         """Whether a photo of ``size`` (H, W) takes the guided path."""
-        return self.network_size is not None and max(size) > max(DIRECT_MAX_SIZE, self.network_size)
+        return self.network_size is not None and max(size) > max(self.direct_max_size, self.network_size)
 
 
 def _box(x: np.ndarray, r: int) -> np.ndarray:
@@ -135,8 +138,8 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
     mean = float(guide_low.mean())
     eps = settings.eps * max(mean * mean, 1e-12)
     g_low = np.asarray(guide_low, np.float32)[..., None]
-    # P_full = up(P) + up(a) (I_full - up(I)) = up(P - a I) + up(a) I_full (up is linear): per map, its offsets
-    # and gains (h, w, 2C) upsampled strip by strip into contiguous rows. Constant maps stay constant (gain 0).
+    # Per map: its channels, their gains and the guide (h, w, 2C + 1) upsampled strip by strip into contiguous
+    # rows, then P_full = up(P) + up(a) (I_full - up(I)). Constant maps stay constant (gain 0).
     plans, result = [], {}
     for n in maps.names:
         a = np.asarray(getattr(maps, n), np.float32)
@@ -144,17 +147,18 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
             result[n] = np.full(big + (a.shape[-1],), a.flat[0], np.float32)
             continue
         gain = local_gain(guide_low, a, settings.radius, eps)
-        plans.append((n, a.shape[-1], np.concatenate([a - gain * g_low, gain], axis=-1)))
+        plans.append((n, a.shape[-1], np.concatenate([a, gain, g_low], axis=-1)))
         result[n] = np.empty(big + (a.shape[-1],), np.float32)
     widest = max([c for _, c, _ in plans], default=1)
-    rows = max(1, settings.strip_bytes // (big[1] * 2 * widest * 4 * 3))
+    rows = max(1, settings.strip_bytes // (big[1] * (2 * widest + 1) * 4 * 2))
     for y0 in range(0, big[0] if plans else 0, rows):
         y1 = min(big[0], y0 + rows)
         g = guide[y0:y1, :, None]
         for n, c, low in plans:
             up = bilinear_rows(low, slice(y0, y1), big)
             strip = result[n][y0:y1]
-            np.multiply(up[..., c:], g, out=strip)
+            np.subtract(g, up[..., 2 * c:], out=up[..., 2 * c:])  # the photo's detail finer than the network's pixels
+            np.multiply(up[..., c:2 * c], up[..., 2 * c:], out=strip)
             strip += up[..., :c]
             lo, hi = MAP_RANGES[n]
             np.clip(strip, lo, hi, out=strip)

@@ -63,7 +63,7 @@ DEFAULT_MAX_SIZE = 2048
 DEFAULT_TILE = 1024
 
 __all__ = ["estimate", "process_photo", "write_maps", "PhotoOptions", "warn_if_greyscale", "DEFAULT_MAX_SIZE",
-           "DEFAULT_TILE", "DEFAULT_OVERLAP"]
+           "DEFAULT_TILE", "DEFAULT_OVERLAP", "check_memory", "available_memory", "BYTES_PER_PIXEL", "Upsampling"]
 
 
 #: Largest channel spread (linear) of a photo taken as greyscale by :func:`warn_if_greyscale`.
@@ -79,6 +79,41 @@ def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
         warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the "
                                    f"diffuse and specular maps"), stacklevel=2)
     return grey
+
+
+#: Peak bytes of a preview per pixel of the processed photo (after ``max_size``), for :func:`check_memory`:
+#: measured 160 B/px at 4096 x 4096 (2.68 GB peak RSS, docs/lab/speed/README.md), less the interpreter and model.
+BYTES_PER_PIXEL = 140
+
+
+def available_memory() -> Optional[int]:
+    """Bytes of memory the system can give without swapping (``MemAvailable`` of /proc/meminfo), None where
+    unknown."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def check_memory(photo, max_size: int) -> None:
+    """Refuse, with one line, a photo whose preview at ``max_size`` would need more memory than is available
+    (:data:`BYTES_PER_PIXEL` per processed pixel), before any pixel is decoded.
+
+    Raises:
+        ImageError: the message names the photo, its size, the memory needed and available, and what to lower.
+    """
+    info = image_info(photo)
+    h, w = info["height"], info["width"]
+    scale = min(1.0, max_size / max(h, w, 1))
+    needed = BYTES_PER_PIXEL * (h * scale) * (w * scale)
+    free = available_memory()
+    if free is not None and needed > free:
+        raise ImageError(f"{photo}: a {w}x{h} photo at --max-size {max_size} needs about {needed / 2**30:.1f} GiB "
+                         f"and {free / 2**30:.1f} GiB are available; lower --max-size")
 
 
 def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tuple:
@@ -99,6 +134,7 @@ def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tupl
                           stacklevel=3)
             return name, small, image.shape[:2]
         return name, image, image.shape[:2]
+    check_memory(photo, max_size)
     image = read_image(photo, max_size=max_size)
     if max(image.shape[:2]) < max_size:  # not downsized
         return str(photo), image, image.shape[:2]

@@ -294,6 +294,30 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
     return a
 
 
+#: Bytes of float32 one strip of :func:`_quantise` converts at a time.
+QUANTISE_STRIP_BYTES = 16 << 20
+
+
+def _quantise(a: np.ndarray, bits: int, srgb_encode: bool) -> np.ndarray:
+    """(H, W, C) float32 -> uint8/uint16 codes as OpenImageIO writes a float buffer into an integer file: clip to
+    [0, 1] (sRGB-encode the first three channels and clip again with ``srgb_encode``), then round half to even of
+    ``value * max`` in float32 (OpenImageIO's conversion, tests/runtime/io/test_imageio.py). Strip by strip, so the
+    float temporaries stay near :data:`QUANTISE_STRIP_BYTES`; the codes are a quarter (8-bit) or half of the floats."""
+    dtype, top = (np.uint8, 255.0) if bits == 8 else (np.uint16, 65535.0)
+    h, w, c = a.shape
+    out = np.empty((h, w, c), dtype)
+    rows = max(1, QUANTISE_STRIP_BYTES // (w * c * 4))
+    for y0 in range(0, h, rows):
+        s = np.clip(a[y0:y0 + rows], 0.0, 1.0)
+        if srgb_encode:
+            s[..., :3] = linear_to_srgb(s[..., :3])  # alpha stays linear
+            np.clip(s, 0.0, 1.0, out=s)
+        np.multiply(s, np.float32(top), out=s)
+        np.rint(s, out=s)
+        out[y0:y0 + rows] = s
+    return out
+
+
 def write_image(
     path: PathLike,
     arr: np.ndarray,
@@ -344,11 +368,8 @@ def write_image(
         raise ImageError(f"{path}: folder {path.parent} does not exist")
 
     a = _as_hwc(path, arr)
-    if not is_float:  # the one full-size copy: the caller's array is never modified
-        a = np.clip(a, 0.0, 1.0)
-        if srgb_encode:
-            a[..., :3] = linear_to_srgb(a[..., :3])  # alpha stays linear
-            np.clip(a, 0.0, 1.0, out=a)
+    if not is_float:  # quantised here, in strips: the caller's array is never modified, no full-size float copy
+        a = _quantise(a, bits, srgb_encode)
     h, w, c = a.shape
 
     spec = oiio.ImageSpec(w, h, c, pixel_type)
