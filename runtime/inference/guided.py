@@ -45,8 +45,9 @@ class Upsampling:
         radius: half-width of the window of the local gain, pixels at the network's size.
         eps: regulariser of the gain, a fraction of the squared mean luminance (flat areas of the photo get no
             detail: its noise is not the material's). Against the maps of the network at 2048 px (a 4032 x 3024
-            photo, docs/lab/speed/README.md), 1e-2 / 1e-3 / 1e-4 cut the error of the maps' gradients (their
-            detail) against the bilinear upsampling by 8-9 / 14-15 / 19-24 %; the smallest is kept.
+            photo, docs/lab/speed/README.md), 1e-2 / 1e-3 / 1e-4 cut the error of the base colour's and roughness's
+            gradients (their detail) against the bilinear upsampling's by 8-9 / 14 / 19-24 % (normals 2 / 4 / 8 %);
+            the smallest is kept.
         strip_bytes: bytes of float32 temporaries one strip of rows may take.
         direct_max_size: photos up to this long side run the network at their own size whatever
             ``network_size`` says (:data:`DIRECT_MAX_SIZE`: the preview's maps of such photos are unchanged).
