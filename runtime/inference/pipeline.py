@@ -82,7 +82,8 @@ def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
 
 
 #: Peak bytes of a preview per pixel of the processed photo (after ``max_size``), for :func:`check_memory`:
-#: measured 160 B/px at 4096 x 4096 (2.68 GB peak RSS, docs/lab/speed/README.md), less the interpreter and model.
+#: measured 116 B/px at 4096 x 4096 (1.95 GB peak RSS) and 106 B/px at 8192 x 8192 (7.1 GB), with the interpreter
+#: and the model (docs/lab/speed/README.md); 140 leaves room for other photos' shapes.
 BYTES_PER_PIXEL = 140
 
 
