@@ -48,7 +48,9 @@ class Upsampling:
             photo, docs/lab/speed/README.md), 1e-2 / 1e-3 / 1e-4 cut the error of the base colour's and roughness's
             gradients (their detail) against the bilinear upsampling's by 8-9 / 14 / 19-24 % (normals 2 / 4 / 8 %);
             the smallest is kept.
-        strip_bytes: bytes of float32 temporaries one strip of rows may take.
+        strip_bytes: bytes of float32 temporaries one strip of rows may take. Small enough for the C allocator to
+            reuse freed strips instead of mapping fresh pages: at 4096 px, 8 MB took 3.7-5.3 s against 5.4-6.8 s
+            for 64 MB strips (a third of the page faults; docs/lab/speed/README.md).
         direct_max_size: photos up to this long side run the network at their own size whatever
             ``network_size`` says (:data:`DIRECT_MAX_SIZE`: the preview's maps of such photos are unchanged).
     """
@@ -56,7 +58,7 @@ class Upsampling:
     network_size: Optional[int] = 1024
     radius: int = 2
     eps: float = 1e-4
-    strip_bytes: int = 64 << 20
+    strip_bytes: int = 8 << 20
     direct_max_size: int = DIRECT_MAX_SIZE
 
     def __post_init__(self) -> None:

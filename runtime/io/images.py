@@ -295,7 +295,7 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
 
 
 #: Bytes of float32 one strip of :func:`_quantise` converts at a time.
-QUANTISE_STRIP_BYTES = 16 << 20
+QUANTISE_STRIP_BYTES = 8 << 20
 
 
 def _quantise(a: np.ndarray, bits: int, srgb_encode: bool) -> np.ndarray:
