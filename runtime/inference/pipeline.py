@@ -224,7 +224,9 @@ def estimate(
         raise ImageError(f"{name}: {in_w}x{in_h} downsized to {w}x{h} is below {MIN_SIZE} px; raise max_size")
     timings["resize"] = time.perf_counter() - t
     if upsampling.applies((h, w)):
-        return _estimate_guided(name, image, (in_h, in_w), timings, session, names, tile, overlap, post, upsampling)
+        held = [image]  # handed over, so that the guided path can free the full-size photo (768 MB at 8192 px)
+        del image
+        return _estimate_guided(name, held, (in_h, in_w), timings, session, names, tile, overlap, post, upsampling)
 
     t = time.perf_counter()
     width = session.input_lighting(post.even_lighting)
@@ -260,9 +262,11 @@ def estimate(
     return out
 
 
-def _estimate_guided(name, image, input_size, timings, session, names, tile, overlap, post, upsampling) -> Maps:
+def _estimate_guided(name, held, input_size, timings, session, names, tile, overlap, post, upsampling) -> Maps:
     """:func:`estimate` of a photo larger than the network's size: the maps of the photo downsized to
-    ``upsampling.network_size``, brought back to its size by :func:`guided_upsample`."""
+    ``upsampling.network_size``, brought back to its size by :func:`guided_upsample`. ``held``: a list holding the
+    (H, W, 3) photo, emptied here."""
+    image = held.pop()
     t = time.perf_counter()
     small = network_photo(image, upsampling.network_size)
     guide_low, guide = luminance(small), luminance(image)
