@@ -301,7 +301,8 @@ QUANTISE_STRIP_BYTES = 8 << 20
 def _quantise(a: np.ndarray, bits: int, srgb_encode: bool) -> np.ndarray:
     """(H, W, C) float32 -> uint8/uint16 codes as OpenImageIO writes a float buffer into an integer file: clip to
     [0, 1] (sRGB-encode the first three channels and clip again with ``srgb_encode``), then round half to even of
-    ``value * max`` in float32 (OpenImageIO's conversion, tests/runtime/io/test_imageio.py). Strip by strip, so the
+    ``value * max`` in float32 (what OpenImageIO's writer does with a float buffer: the same codes, half-way values
+    included, tests/runtime/io/test_imageio.py). Strip by strip, so the
     float temporaries stay near :data:`QUANTISE_STRIP_BYTES`; the codes are a quarter (8-bit) or half of the floats."""
     dtype, top = (np.uint8, 255.0) if bits == 8 else (np.uint16, 65535.0)
     h, w, c = a.shape
