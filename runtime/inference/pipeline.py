@@ -54,6 +54,7 @@ from ..io.images import ImageWarning, image_info, read_image, resize_long_side
 from ..post import PostProcess
 from ..post import apply as apply_post
 from ..post.flash_trend import even_lighting
+from .guided import Upsampling, guided_upsample, luminance, network_photo
 from .manifest import MIN_SIZE
 from .session import PreviewSession, load_session
 from .tiling import DEFAULT_OVERLAP, tile_boxes, tiled_apply
@@ -63,7 +64,7 @@ DEFAULT_MAX_SIZE = 2048
 DEFAULT_TILE = 1024
 
 __all__ = ["estimate", "process_photo", "write_maps", "PhotoOptions", "warn_if_greyscale", "DEFAULT_MAX_SIZE",
-           "DEFAULT_TILE", "DEFAULT_OVERLAP"]
+           "DEFAULT_TILE", "DEFAULT_OVERLAP", "check_memory", "available_memory", "BYTES_PER_PIXEL", "Upsampling"]
 
 
 #: Largest channel spread (linear) of a photo taken as greyscale by :func:`warn_if_greyscale`.
@@ -79,6 +80,42 @@ def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
         warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the "
                                    f"diffuse and specular maps"), stacklevel=2)
     return grey
+
+
+#: Peak bytes of a preview per pixel of the processed photo (after ``max_size``), for :func:`check_memory`:
+#: measured 116 B/px at 4096 x 4096 (1.95 GB peak RSS) and 106 B/px at 8192 x 8192 (7.1 GB), with the interpreter
+#: and the model (docs/lab/speed/README.md); 140 leaves room for other photos' shapes.
+BYTES_PER_PIXEL = 140
+
+
+def available_memory() -> Optional[int]:
+    """Bytes of memory the system can give without swapping (``MemAvailable`` of /proc/meminfo), None where
+    unknown."""
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    return int(line.split()[1]) * 1024
+    except (OSError, ValueError, IndexError):
+        return None
+    return None
+
+
+def check_memory(photo, max_size: int) -> None:
+    """Refuse, with one line, a photo whose preview at ``max_size`` would need more memory than is available
+    (:data:`BYTES_PER_PIXEL` per processed pixel), before any pixel is decoded.
+
+    Raises:
+        ImageError: the message names the photo, its size, the memory needed and available, and what to lower.
+    """
+    info = image_info(photo)
+    h, w = info["height"], info["width"]
+    scale = min(1.0, max_size / max(h, w, 1))
+    needed = BYTES_PER_PIXEL * (h * scale) * (w * scale)
+    free = available_memory()
+    if free is not None and needed > free:
+        raise ImageError(f"{photo}: a {w}x{h} photo at --max-size {max_size} needs about {needed / 2**30:.1f} GiB "
+                         f"and {free / 2**30:.1f} GiB are available; lower --max-size")
 
 
 def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tuple:
@@ -99,6 +136,7 @@ def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tupl
                           stacklevel=3)
             return name, small, image.shape[:2]
         return name, image, image.shape[:2]
+    check_memory(photo, max_size)
     image = read_image(photo, max_size=max_size)
     if max(image.shape[:2]) < max_size:  # not downsized
         return str(photo), image, image.shape[:2]
@@ -116,6 +154,7 @@ def estimate(
     overlap: int = DEFAULT_OVERLAP,
     maps: Union[None, str, Iterable[str]] = None,
     post: PostProcess = PostProcess(),
+    upsampling: Upsampling = Upsampling(),
 ) -> Maps:
     """SVBRDF maps of one flash photo: all four, or only ``maps`` (running only the decoder they need).
 
@@ -133,13 +172,18 @@ def estimate(
             without parts runs the full graph and warns once (``UserWarning``).
         post: the corrections around the network (:class:`~svbrdf.runtime.post.PostProcess`; default: all, as
             shipped).
+        upsampling: a photo longer than :data:`~svbrdf.runtime.inference.guided.DIRECT_MAX_SIZE` (after
+            ``max_size``) runs the network and ``post`` at :attr:`Upsampling.network_size` and gets its maps at its
+            own size from :func:`~svbrdf.runtime.inference.guided.guided_upsample` (the photo's detail);
+            ``Upsampling(network_size=None)``: the network at the photo's size (in tiles) at any size.
 
     Returns:
         :class:`Maps` at the processed size with the requested maps (the others ``None``): diffuse (H, W, 3)
         linear [0, 1], specular and roughness (H, W, 1) [0, 1], normal (H, W, 3) unit OpenGL. ``meta`` holds
         ``source``, ``model`` (path, sha256, verified, ``graph``: ``"full"`` or the part that ran), ``maps``
         (the names computed), ``input_size`` and ``size`` ([H, W]), ``resized``, ``tiles``, ``tile``,
-        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``) and
+        ``overlap``, ``threads``, ``timings`` (seconds for ``read``, ``resize``, ``infer``, ``post``; on the
+        guided path also ``upsample``), ``network_size`` ([h, w] the network ran at; guided path only) and
         ``burn_in``: the label-free highlight burn-in of the maps returned
         (:func:`svbrdf.runtime.quality.burn_in.photo_burn_in`; ``burn_in["burn_in"]`` is the headline, the worst map's
         disc or ring score, 0.1-0.3 for a stationary material, higher when the flash stayed in the maps), ``burn_in_model`` the same of
@@ -180,6 +224,10 @@ def estimate(
     if min(h, w) < MIN_SIZE:
         raise ImageError(f"{name}: {in_w}x{in_h} downsized to {w}x{h} is below {MIN_SIZE} px; raise max_size")
     timings["resize"] = time.perf_counter() - t
+    if upsampling.applies((h, w)):
+        held = [image]  # handed over, so that the guided path can free the full-size photo (768 MB at 8192 px)
+        del image
+        return _estimate_guided(name, held, (in_h, in_w), timings, session, names, tile, overlap, post, upsampling)
 
     t = time.perf_counter()
     width = session.input_lighting(post.even_lighting)
@@ -215,6 +263,30 @@ def estimate(
     return out
 
 
+def _estimate_guided(name, held, input_size, timings, session, names, tile, overlap, post, upsampling) -> Maps:
+    """:func:`estimate` of a photo larger than the network's size: the maps of the photo downsized to
+    ``upsampling.network_size``, brought back to its size by :func:`guided_upsample`. ``held``: a list holding the
+    (H, W, 3) photo, emptied here."""
+    image = held.pop()
+    t = time.perf_counter()
+    small = network_photo(image, upsampling.network_size)
+    guide_low, guide = luminance(small), luminance(image)
+    size = image.shape[:2]
+    del image  # only the luminance is needed from here: the full-size photo is freed before the maps are made
+    timings["resize"] += time.perf_counter() - t
+    with warnings.catch_warnings():  # the photo itself was checked (and named) above
+        warnings.simplefilter("ignore", ImageWarning)
+        low = estimate(small, session, max_size=upsampling.network_size, tile=tile, overlap=overlap, maps=names,
+                       post=post, upsampling=Upsampling(network_size=None))
+    t = time.perf_counter()
+    out = guided_upsample(low, guide_low, guide, upsampling)
+    timings.update({k: v for k, v in low.meta["timings"].items() if k not in ("read", "resize")})
+    timings["upsample"] = time.perf_counter() - t
+    out.meta.update(source=name, input_size=list(input_size), size=list(size), resized=tuple(size) != tuple(input_size),
+                    network_size=list(small.shape[:2]), timings=timings)
+    return out
+
+
 @dataclass(frozen=True)
 class PhotoOptions:
     """How one photo becomes a texture set: the options both CLIs share (``svbrdf-preview``, ``svbrdf-batch``; built
@@ -245,6 +317,8 @@ class PhotoOptions:
             explains the photo; None: ``iters``.
         quiet: no refine progress bar.
         post: the corrections around the network (:class:`~svbrdf.runtime.post.PostProcess`).
+        upsampling: how a photo larger than 2048 px gets its maps (:class:`~svbrdf.runtime.inference.guided.Upsampling`:
+            the network at 1024 px and the photo's detail).
     """
 
     model: Optional[str] = None
@@ -266,6 +340,7 @@ class PhotoOptions:
     quality: Optional[str] = None
     quiet: bool = False
     post: PostProcess = field(default_factory=PostProcess)
+    upsampling: Upsampling = field(default_factory=Upsampling)
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "maps", select_maps(self.maps))
@@ -379,7 +454,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
                          maps=list(options.maps))
     else:
         maps = estimate(photo, session, max_size=options.max_size, tile=options.tile, maps=options.maps,
-                        post=options.post)
+                        post=options.post, upsampling=options.upsampling)
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config
@@ -399,8 +474,19 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         except SvbrdfError as exc:
             raise SvbrdfError(f"{photo}: {exc}") from None
         maps.meta.setdefault("timings", {})["relief"] = time.perf_counter() - t
-    relit = relit_panel(maps, config) if maps.complete else None  # the panel renders all four maps
+    # The panel renders all four maps at its display size; maps that were upsampled (guided path) are first
+    # block-averaged to it (their OpenImageIO resize would take a float copy of each full-size map).
+    relit = relit_panel(_panel_maps(maps) if "network_size" in maps.meta else maps, config) if maps.complete else None
     return maps, relit, detail
+
+
+def _panel_maps(maps: Maps) -> Maps:
+    """``maps`` block-averaged to at most the relit panel's size (normals renormalised)."""
+    from ..core.filters import block_mean
+    from ..outputs.texture_set import PANEL_SIZE
+
+    k = -(-max(maps.shape) // PANEL_SIZE)
+    return maps if k <= 1 else maps._with({n: block_mean(a, k, partial=True) for n, a in maps.items()}).clipped()
 
 
 def write_maps(maps: Maps, relit: Optional[np.ndarray], out_dir: Path, name: str, options: PhotoOptions,

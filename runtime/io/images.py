@@ -24,6 +24,7 @@ OpenImageIO never raises on a bad file; every call here is checked and turned in
 
 from __future__ import annotations
 
+import functools
 import os
 import warnings
 from pathlib import Path
@@ -150,6 +151,26 @@ def _reduced_size(h: int, w: int, max_size: int) -> tuple:
     return max(1, round(h * scale)), max(1, round(w * scale))
 
 
+_TABLE_TYPES = (oiio.UINT8, oiio.UINT16)
+
+
+@functools.lru_cache(maxsize=4)
+def _code_table(basetype, raw: bool) -> np.ndarray:
+    """float32 value of every code of an unsigned 8/16-bit file as :func:`read_image` decodes it: OpenImageIO's
+    own conversion to float (``code / max``), then :func:`~svbrdf.runtime.core.colour.srgb_to_linear` unless
+    ``raw``. Each pixel is converted on its own, so looking its code up gives the same bits
+    (tests/runtime/io/test_imageio.py)."""
+    n = 256 if basetype == oiio.UINT8 else 65536
+    codes = np.arange(n, dtype=np.uint8 if n == 256 else np.uint16).reshape(1, n, 1)
+    buf = oiio.ImageBuf(oiio.ImageSpec(n, 1, 1, basetype))
+    buf.set_pixels(oiio.ROI(), codes)
+    values = np.clip(np.asarray(buf.get_pixels(oiio.FLOAT), dtype=np.float32).reshape(n), 0.0, 1.0)
+    table = values if raw else srgb_to_linear(values)
+    table = np.ascontiguousarray(table, dtype=np.float32)
+    table.setflags(write=False)
+    return table
+
+
 class _Decoder:
     """Turns stored pixels (any rows of the file, as float32) into the (rows, W, 3) float32 of :func:`read_image`,
     keeping what must be said once per file (dropped channels, clamped negatives)."""
@@ -157,6 +178,10 @@ class _Decoder:
     def __init__(self, path: Path, spec: "oiio.ImageSpec", raw: bool) -> None:
         self.path, self.raw = path, raw
         self.is_float = spec.format.basetype in _FLOAT_TYPES
+        # 8/16-bit unsigned files are read as stored and decoded through a table of every code (_code_table): the
+        # same float32 values as converting each pixel, 10x faster and without the float copies.
+        self.native = next((t for t in _TABLE_TYPES if spec.format.basetype == t), None)
+        self.read_type = self.native if self.native is not None else oiio.FLOAT
         nch = spec.nchannels
         self.keep = 1 if nch <= 2 else 3
         self.dropped = None
@@ -169,6 +194,8 @@ class _Decoder:
         arr = arr[..., :self.keep]
         if self.keep == 1:
             arr = np.repeat(arr, 3, axis=-1)
+        if self.native is not None:
+            return _code_table(self.native, self.raw)[arr]
         if self.is_float:
             bad = int(np.count_nonzero(~np.isfinite(arr)))
             if bad:
@@ -225,20 +252,20 @@ def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = N
         decode = _Decoder(path, spec, raw)
         k = int(max(h, w) // max_size) if max_size and max(h, w) > max_size else 1
         if k < 2:  # the whole file at once
-            arr = inp.read_image(0, 0, 0, nch, oiio.FLOAT)
+            arr = inp.read_image(0, 0, 0, nch, decode.read_type)
             if arr is None:
                 raise ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
-            arr = decode(np.asarray(arr, dtype=np.float32).reshape(h, w, nch))
+            arr = decode(np.asarray(arr).reshape(h, w, nch))
         else:  # strips of k * m rows, each reduced to m rows of k x k block means
             m = max(1, STRIP_BYTES // (k * w * nch * 4))
             strips = []
             for y0 in range(0, h, k * m):
                 y1 = min(h, y0 + k * m)
-                rows = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, oiio.FLOAT)
+                rows = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, decode.read_type)
                 if rows is None:
                     raise ImageError(f"{path}: unreadable, corrupt or truncated image "
                                      f"({_one_line(inp.geterror())})")
-                strips.append(block_mean(decode(np.asarray(rows, dtype=np.float32).reshape(y1 - y0, w, nch)), k,
+                strips.append(block_mean(decode(np.asarray(rows).reshape(y1 - y0, w, nch)), k,
                                              partial=True))
             arr = np.concatenate(strips, axis=0)
     finally:
@@ -265,6 +292,31 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
     if not np.all(np.isfinite(a)):
         raise ImageError(f"{path}: refusing to write NaN/Inf values")
     return a
+
+
+#: Bytes of float32 one strip of :func:`_quantise` converts at a time.
+QUANTISE_STRIP_BYTES = 8 << 20
+
+
+def _quantise(a: np.ndarray, bits: int, srgb_encode: bool) -> np.ndarray:
+    """(H, W, C) float32 -> uint8/uint16 codes as OpenImageIO writes a float buffer into an integer file: clip to
+    [0, 1] (sRGB-encode the first three channels and clip again with ``srgb_encode``), then round half to even of
+    ``value * max`` in float32 (what OpenImageIO's writer does with a float buffer: the same codes, half-way values
+    included, tests/runtime/io/test_imageio.py). Strip by strip, so the
+    float temporaries stay near :data:`QUANTISE_STRIP_BYTES`; the codes are a quarter (8-bit) or half of the floats."""
+    dtype, top = (np.uint8, 255.0) if bits == 8 else (np.uint16, 65535.0)
+    h, w, c = a.shape
+    out = np.empty((h, w, c), dtype)
+    rows = max(1, QUANTISE_STRIP_BYTES // (w * c * 4))
+    for y0 in range(0, h, rows):
+        s = np.clip(a[y0:y0 + rows], 0.0, 1.0)
+        if srgb_encode:
+            s[..., :3] = linear_to_srgb(s[..., :3])  # alpha stays linear
+            np.clip(s, 0.0, 1.0, out=s)
+        np.multiply(s, np.float32(top), out=s)
+        np.rint(s, out=s)
+        out[y0:y0 + rows] = s
+    return out
 
 
 def write_image(
@@ -317,11 +369,8 @@ def write_image(
         raise ImageError(f"{path}: folder {path.parent} does not exist")
 
     a = _as_hwc(path, arr)
-    if not is_float:  # the one full-size copy: the caller's array is never modified
-        a = np.clip(a, 0.0, 1.0)
-        if srgb_encode:
-            a[..., :3] = linear_to_srgb(a[..., :3])  # alpha stays linear
-            np.clip(a, 0.0, 1.0, out=a)
+    if not is_float:  # quantised here, in strips: the caller's array is never modified, no full-size float copy
+        a = _quantise(a, bits, srgb_encode)
     h, w, c = a.shape
 
     spec = oiio.ImageSpec(w, h, c, pixel_type)

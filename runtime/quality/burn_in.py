@@ -136,6 +136,22 @@ def burn_in(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, eps
     return float((g[disc].mean() - g[ring].mean()) / (g.std() + eps))
 
 
+def _annuli(shape: Tuple[int, int], centre: Tuple[float, float], bins: int,
+            radius: float) -> Tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The geometry of :func:`radial_share` on an (H, W) grid: the flat indices of the pixels within ``radius`` W of
+    ``centre`` (C order, int64), their annulus numbers (int64) and the pixel count of each annulus."""
+    h, w = shape
+    r = np.hypot(np.arange(h)[:, None] + 0.5 - centre[0], np.arange(w)[None, :] + 0.5 - centre[1]) / w
+    inside = r <= radius
+    k = (r[inside] * bins).astype(np.int64)
+    return np.flatnonzero(inside), k, np.bincount(k)
+
+
+def _share(s: np.ndarray, n: np.ndarray, total: float) -> float:
+    used = n > 0
+    return float(np.sum(s[used] ** 2 / n[used]) / total)
+
+
 def radial_share(field: np.ndarray, centre: Tuple[float, float], bins: int = RING_BINS,
                  radius: float = RING_RADIUS) -> float:
     """Share of the variance of ``field`` (H, W) within ``radius`` W of ``centre`` that its radial profile explains.
@@ -145,25 +161,47 @@ def radial_share(field: np.ndarray, centre: Tuple[float, float], bins: int = RIN
     is constant there).
     """
     g = np.asarray(field, dtype=np.float64)
-    h, w = g.shape
-    r = np.hypot(np.arange(h)[:, None] + 0.5 - centre[0], np.arange(w)[None, :] + 0.5 - centre[1]) / w
-    inside = r <= radius
-    v = g[inside]
+    idx, k, n = _annuli(g.shape, (float(centre[0]), float(centre[1])), int(bins), float(radius))
+    v = g.reshape(-1)[idx]
     if v.size < 2:
         return 0.0
     v = v - v.mean()
     total = float(np.dot(v, v))
     if total <= 0.0:
         return 0.0
-    k = (r[inside] * bins).astype(np.int64)
-    n, s = np.bincount(k), np.bincount(k, weights=v)
-    used = n > 0
-    return float(np.sum(s[used] ** 2 / n[used]) / total)
+    return _share(np.bincount(k, weights=v), n, total)
+
+
+class _RingGrid:
+    """The annuli of every centre the ring score searches (:func:`ring_score`) on one (h, w) grid, laid end to end:
+    ``idx`` the pixels of centre 0, then of centre 1, ... (flat indices), ``labels`` = centre * ``bins_max`` +
+    annulus, ``bounds`` each centre's slice, ``counts`` (centres, bins_max) pixels per annulus."""
+
+    def __init__(self, shape: Tuple[int, int], centres: Tuple[Tuple[float, float], ...]) -> None:
+        parts = [_annuli(shape, c, RING_BINS, RING_RADIUS) for c in centres]
+        self.bins = max(len(n) for _, _, n in parts)
+        self.idx = np.concatenate([i for i, _, _ in parts])
+        self.labels = np.concatenate([j * self.bins + k for j, (_, k, _) in enumerate(parts)])
+        ends = np.cumsum([len(i) for i, _, _ in parts])
+        self.bounds = list(zip([0, *ends[:-1].tolist()], ends.tolist()))
+        self.counts = np.zeros((len(parts), self.bins), np.int64)
+        for j, (_, _, n) in enumerate(parts):
+            self.counts[j, :len(n)] = n
+
+
+@lru_cache(maxsize=2)
+def _ring_grid(shape: Tuple[int, int], centres: Tuple[Tuple[float, float], ...]) -> _RingGrid:
+    """Cached: the four maps of a texture set, before and after the post-processing, share one grid and centre."""
+    return _RingGrid(shape, centres)
 
 
 def ring_score(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, eps: float = BURN_EPS) -> float:
     """Ring score ``q`` of one scalar field (H, W) around ``centre`` (default the image centre): see the module
-    docstring. The field is block-averaged to at most :data:`RING_MAX_SIDE` px first."""
+    docstring. The field is block-averaged to at most :data:`RING_MAX_SIDE` px first.
+
+    The :func:`radial_share` of every centre of the search, with the same sums in the same order (the same
+    result to the last bit), from one gather and one ``bincount`` over all the centres' annuli (cached per grid
+    and centre)."""
     g = np.asarray(field, dtype=np.float64)
     if g.ndim != 2:
         raise ValueError(f"ring_score expects an (H, W) field, got {g.shape}")
@@ -175,11 +213,24 @@ def ring_score(field: np.ndarray, centre: Optional[Tuple[float, float]] = None, 
     if k > 1:
         g, cy, cx = block_mean(g[..., None], k)[..., 0], cy / k, cx / k
         w = g.shape[1]
-    sd = float(g.std())
+    sd = float(g.std())  # (of the float32 block means when k > 1)
     weight = sd * sd / (sd * sd + eps * eps)
+    g = np.asarray(g, dtype=np.float64)
     steps = np.arange(-round(RING_SEARCH * RING_BINS), round(RING_SEARCH * RING_BINS) + 1) * (w / RING_BINS)
-    best = max(radial_share(g, (cy + dy, cx + dx)) for dy in steps for dx in steps)
-    return float(best * weight)
+    centres = tuple((float(cy + dy), float(cx + dx)) for dy in steps for dx in steps)
+    grid = _ring_grid(g.shape, centres)
+    v_all = g.reshape(-1)[grid.idx]
+    totals = []
+    for a, b in grid.bounds:  # each centre's values less their own mean (pairwise sums, as radial_share)
+        if b - a < 2:
+            totals.append(0.0)
+            continue
+        v = v_all[a:b] - v_all[a:b].mean()  # a fresh array, as in radial_share (the dot's rounding follows it)
+        v_all[a:b] = v
+        totals.append(float(np.dot(v, v)))
+    s = np.bincount(grid.labels, weights=v_all, minlength=len(centres) * grid.bins).reshape(len(centres), grid.bins)
+    shares = [_share(s[j], grid.counts[j], t) if t > 0.0 else 0.0 for j, t in enumerate(totals)]
+    return float(max(shares) * weight)
 
 
 def burn_in_scores(maps: Maps, centre: Optional[Tuple[float, float]] = None) -> Dict[str, float]:

@@ -377,3 +377,56 @@ def test_small_files_are_not_downsized_or_warned(tmp_path, img):
         warnings.simplefilter("error")
         out = read_image(path, max_size=max(img.shape[:2]))
     assert out.shape == img.shape
+
+
+@pytest.mark.parametrize("dtype,oiio_type", [(np.uint8, "uint8"), (np.uint16, "uint16")])
+@pytest.mark.parametrize("raw", [False, True])
+def test_integer_files_decode_through_the_code_table_bit_for_bit(tmp_path, dtype, oiio_type, raw):
+    """read_image looks each code of an 8/16-bit file up in a table (issue 54); the reference is the per-pixel
+    path it replaced: OpenImageIO's float conversion, clip, srgb_to_linear (unless raw). Equal, not close."""
+    import OpenImageIO as oiio
+
+    from svbrdf.runtime.core.colour import srgb_to_linear
+    from svbrdf.runtime.io.images import read_image
+
+    rng = np.random.default_rng(7)
+    top = np.iinfo(dtype).max
+    codes = rng.integers(0, top + 1, (37, 53, 3)).astype(dtype)
+    codes[0, :3, 0] = (0, 1, top)
+    path = tmp_path / "codes.png"
+    buf = oiio.ImageBuf(oiio.ImageSpec(53, 37, 3, oiio_type))
+    buf.set_pixels(oiio.ROI(), codes)
+    assert buf.write(str(path))
+    inp = oiio.ImageInput.open(str(path))
+    as_float = np.clip(np.asarray(inp.read_image(0, 0, 0, 3, oiio.FLOAT), np.float32), 0.0, 1.0)
+    inp.close()
+    expected = as_float if raw else srgb_to_linear(as_float)
+    got = read_image(path, raw=raw)
+    assert got.dtype == np.float32 and np.array_equal(got, expected)
+
+
+@pytest.mark.parametrize("bits,srgb", [(8, False), (8, True), (16, False)])
+def test_integer_writes_quantise_as_openimageio_does(tmp_path, bits, srgb, monkeypatch):
+    """write_image quantises in numpy, strip by strip (issue 54); the reference is what it did before: hand
+    OpenImageIO's PNG writer the whole clipped (sRGB-encoded) float array and let it convert. The same codes,
+    including values exactly half-way between two codes (where ImageBuf.get_pixels, another conversion, can
+    round up where the writer rounds to even)."""
+    top = 255 if bits == 8 else 65535
+    kind = oiio.UINT8 if bits == 8 else oiio.UINT16
+    rng = np.random.default_rng(11)
+    a = rng.random((97, 101, 3), dtype=np.float32) * 1.2 - 0.1
+    a[0, :, 0] = (np.arange(101, dtype=np.float32) + 0.5) / top  # exactly half-way between two codes
+    monkeypatch.setattr(imageio, "QUANTISE_STRIP_BYTES", 101 * 3 * 4 * 7)  # strips of 7 rows
+    write_image(tmp_path / "q.png", a, bits=bits, srgb_encode=srgb)
+    ref = np.clip(a, 0.0, 1.0)
+    if srgb:
+        ref = np.clip(linear_to_srgb(ref), 0.0, 1.0)
+    out = oiio.ImageOutput.create(str(tmp_path / "ref.png"))
+    assert out.open(str(tmp_path / "ref.png"), oiio.ImageSpec(101, 97, 3, kind)) and out.write_image(ref)
+    out.close()
+    read = []
+    for name in ("q.png", "ref.png"):
+        inp = oiio.ImageInput.open(str(tmp_path / name))
+        read.append(inp.read_image(0, 0, 0, 3, kind))
+        inp.close()
+    assert np.array_equal(read[0], read[1])

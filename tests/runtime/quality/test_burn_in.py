@@ -113,3 +113,24 @@ def test_burn_in_counts_rings_and_the_worst_map():
     # The constant specular and flat normal maps (score 0) do not dilute it: the worst map counts.
     assert s["burn_in"] > 1.0
     assert bi.burn_in_scores(m)["burn_in"] < 0.2
+
+
+def test_ring_score_is_the_best_radial_share_of_its_search_to_the_last_bit():
+    """The ring score sums every centre of its search at once (one gather, one bincount); the reference is
+    radial_share centre by centre, as the score was computed before (issue 54): equal, not close."""
+    rng = np.random.default_rng(3)
+    for shape, centre in [((128, 128), None), ((96, 128), (30.2, 70.9)), ((40, 50), (13.0, 20.5)),
+                          ((256, 200), (100.0, 90.0))]:
+        field = rng.random(shape).astype(np.float32) + np.hypot(*np.mgrid[:shape[0], :shape[1]]) / 100
+        g, (cy, cx) = field, centre or (shape[0] / 2.0, shape[1] / 2.0)
+        k = max(1, -(-max(shape) // bi.RING_MAX_SIDE))
+        if k > 1:
+            from svbrdf.runtime.core.filters import block_mean
+
+            g, cy, cx = block_mean(field[..., None], k)[..., 0], cy / k, cx / k
+        sd = float(g.std())
+        w = g.shape[1]
+        steps = np.arange(-round(bi.RING_SEARCH * bi.RING_BINS), round(bi.RING_SEARCH * bi.RING_BINS) + 1) * (w / bi.RING_BINS)
+        best = max(bi.radial_share(g, (cy + dy, cx + dx)) for dy in steps for dx in steps)
+        weight = sd * sd / (sd * sd + bi.BURN_EPS * bi.BURN_EPS)
+        assert bi.ring_score(field, centre) == float(best * weight)
