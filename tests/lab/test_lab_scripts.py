@@ -73,3 +73,35 @@ def test_the_readme_table_of_a_results_json(tmp_path):
     assert lines[0].startswith("| method | seconds (n 2) | capture relit ↓ (n 1) |") and len(lines) == 4
     assert lines[2] == "| preview | 2 | 0.15 | 0.5 | 0.1 | 0.2 | 0.3 | 0.4 | 0.5 | 9.12 | 0.6 | 0.9 |"
     assert lines[3].startswith("| refine (`fast`) 150 | 2 |")
+
+
+def _photo(path: Path, side: int = 96) -> Path:
+    """A small flash-like photo: a textured surface brighter at the centre (linear RGB written as 8-bit sRGB)."""
+    rng = np.random.default_rng(1)
+    yy, xx = np.mgrid[0:side, 0:side] / side
+    light = 0.3 + 0.6 * np.exp(-((xx - 0.5) ** 2 + (yy - 0.5) ** 2) / 0.05)
+    img = np.clip(light[..., None] * (0.5 + 0.2 * rng.random((side, side, 3))), 0, 1).astype(np.float32)
+    write_image(path, img, bits=8)
+    return path
+
+
+def _script(args, tmp_path: Path) -> None:
+    env = {**os.environ, "OMP_NUM_THREADS": "1"}
+    r = subprocess.run([sys.executable, *map(str, args)], cwd=tmp_path, env=env, capture_output=True, text=True,
+                       timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+
+
+def test_the_speed_stage_timer_runs_on_a_tiny_photo(tmp_path):
+    out = tmp_path / "stages.json"
+    _script([LAB / "speed" / "stages.py", _photo(tmp_path / "p.png"), "--threads", "1", "--repeats", "1",
+             "--json", out], tmp_path)
+    doc = json.loads(out.read_text())
+    assert "load" in doc and doc["result"]
+
+
+def test_the_guided_path_agreement_script_runs_on_a_tiny_photo(tmp_path):
+    out = tmp_path / "agreement.json"
+    _script([LAB / "speed" / "agreement.py", _photo(tmp_path / "p.png"), "--max-size", "4096", "--json", out],
+            tmp_path)
+    assert json.loads(out.read_text())
