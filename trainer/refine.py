@@ -14,7 +14,6 @@ import numpy as np
 
 from svbrdf.runtime.core.maps import Maps
 from svbrdf.runtime.quality.preview_check import check_preview
-from svbrdf.runtime.quality.refine_check import check_refine
 from svbrdf.runtime.core.render import RenderConfig
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer import train
@@ -46,9 +45,7 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
 
     With ``quality="auto"`` and a ``preview``, the fine-tune is skipped when the preview already explains the photo
     (:func:`svbrdf.runtime.quality.preview_check.check_preview`); otherwise it stops when the label-free re-render error
-    stops improving (at most the preset's length). With a ``preview`` (either quality), the refined maps are then
-    compared with the preview's (:func:`svbrdf.runtime.quality.refine_check.check_refine`) and the preview is kept
-    when the refine did not improve it by those label-free measures.
+    stops improving (at most the preset's length).
 
     Args:
         photo: (H, W, 3) linear RGB float32 photo.
@@ -60,9 +57,8 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
         threads: CPU threads (default: all cores).
         name: the photo's name in the run's records.
         callback: ``callback(trainer, record)`` after every iteration (:data:`svbrdf.trainer.train.Callback`).
-        preview: the instant preview of ``photo`` (:func:`svbrdf.runtime.inference.pipeline.estimate`), for the skip
-            rule and the after-refine check.
-        render_config: renderer settings of both rules' re-renders (needed with ``preview``).
+        preview: the instant preview of ``photo`` (:func:`svbrdf.runtime.inference.pipeline.estimate`), for the skip rule.
+        render_config: renderer settings of the skip rule's re-render (needed with ``preview``).
 
     Returns:
         :class:`~svbrdf.runtime.core.maps.Maps` with ``meta["refine"]``: ``{"checkpoint", "iterations",
@@ -74,9 +70,9 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
     if quality not in QUALITIES:
         raise ValueError(f"unknown quality {quality!r}; expected one of {', '.join(QUALITIES)}")
     check = None
-    if preview is not None and render_config is None:
-        raise ValueError("the preview's rules need the render_config of the preview")
     if quality == "auto" and preview is not None:
+        if render_config is None:
+            raise ValueError("the skip rule needs the render_config of the preview")
         check = check_preview(preview, photo, render_config)
         if check["skipped"]:
             preview.meta["refine"] = check
@@ -95,13 +91,6 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
     if check is not None:
         maps.meta["refine"].update(preview_input_rmse=check["preview_input_rmse"],
                                    preview_burn_in=check["preview_burn_in"])
-    if preview is not None:
-        after = check_refine(preview, maps, photo, render_config)
-        record = {**maps.meta["refine"], "kept_preview": after.pop("kept_preview"), "after_check": after}
-        if record["kept_preview"] is not None:
-            preview.meta["refine"] = record
-            return preview
-        maps.meta["refine"] = record
     return maps
 
 

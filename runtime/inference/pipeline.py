@@ -305,16 +305,16 @@ class PhotoOptions:
 
 def _refine(refine, image, session, config, options: "PhotoOptions", name: str):
     """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear), or with ``--quality auto`` keep
-    the preview when it already explains the photo, and keep the preview when the refine did not improve it
-    (:mod:`svbrdf.runtime.quality.refine_check`); returns the Maps (``meta["refine"]`` says which)."""
+    the preview when it already explains the photo; returns the Maps (``meta["refine"]`` says which)."""
     from ..progress import Progress, loss_postfix
     from .manifest import find_checkpoint
 
-    # The skip rule (--quality auto) and the after-refine check compare the instant preview with the photo.
-    with warnings.catch_warnings():  # the photo itself was checked (and named) by the caller
-        warnings.simplefilter("ignore", ImageWarning)
-        preview = estimate(image, session, max_size=options.max_size, tile=options.tile, maps=MAP_NAMES,
-                           post=options.post)
+    preview = None
+    if options.quality == "auto":  # the skip rule compares the instant preview with the photo
+        with warnings.catch_warnings():  # the photo itself was checked (and named) by the caller
+            warnings.simplefilter("ignore", ImageWarning)
+            preview = estimate(image, session, max_size=options.max_size, tile=options.tile, maps=MAP_NAMES,
+                               post=options.post)
 
     bar = None
 
@@ -371,8 +371,6 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         if record.get("skipped"):
             detail = f"refine skipped: the preview explains the photo (RMSE {record['preview_input_rmse']:.3f}, " \
                      f"burn-in {record['preview_burn_in']:.2f})"
-        elif record.get("kept_preview"):
-            detail = f"refined {record['iterations']} it, kept the preview: {record['kept_preview']}"
         else:
             detail = f"refined {record['iterations']} it"
         # The fine-tune trains (and its losses render) every map; only the requested ones are written.

@@ -21,6 +21,24 @@ import time
 import numpy as np
 
 
+def check_refine(preview, refined, photo, config, burn_margin=0.0, input_gain=0.0):
+    """The rule measured (commit 30de15c's ``svbrdf.runtime.quality.refine_check.check_refine``): keep the preview
+    when the refined maps' ``photo_burn_in`` exceeds the preview's by more than ``burn_margin`` or their sRGB input-flash
+    re-render error is not lower than the preview's by at least ``input_gain``. Maps (H, W), photo (H, W, 3) linear."""
+    from svbrdf.runtime.core.render import rerender_rmse
+    from svbrdf.runtime.quality.burn_in import photo_burn_in
+
+    pb, rb = (float(photo_burn_in(m, photo)["burn_in"]) for m in (preview, refined))
+    pe, re = (rerender_rmse(m, photo, [None], config) for m in (preview, refined))
+    reason = None
+    if rb > pb + burn_margin:
+        reason = f"the refine raised the burn-in ({pb:.2f} -> {rb:.2f})"
+    elif re > pe - input_gain:
+        reason = f"the refine did not lower the input re-render error enough ({pe:.3f} -> {re:.3f})"
+    return {"kept_preview": reason, "preview_burn_in": pb, "refined_burn_in": rb, "preview_input_rmse": pe,
+            "refined_input_rmse": re, "burn_in_margin": burn_margin, "input_gain": input_gain}
+
+
 def main(argv=None) -> int:
     p = argparse.ArgumentParser()
     p.add_argument("--split", choices=("tune", "check"), required=True)
@@ -37,7 +55,6 @@ def main(argv=None) -> int:
     from svbrdf.runtime.core.render import ZHAO, novel_lights, rerender_rmse
     from svbrdf.runtime.inference.pipeline import estimate
     from svbrdf.runtime.inference.session import load_session
-    from svbrdf.runtime.quality.refine_check import check_refine
     from svbrdf.trainer.bench.cases import load_cases
     from svbrdf.trainer.bench.common import default_data
     from svbrdf.trainer.bench.metrics import evaluate
