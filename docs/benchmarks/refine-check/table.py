@@ -1,6 +1,6 @@
 """Tables of the refine's keep-the-preview check from ``measure.py``'s records (tune and check side by side).
 
-    python table.py tune.json check.json [--margin M] [--gain G] [--sweep]
+    python table.py tune.json[,tune2.json] check.json[,check2.json] [--margin M] [--gain G] [--sweep]
 
 ``--margin`` / ``--gain``: the rule's thresholds (default: 0 and 0, the values measured); ``--sweep``: the
 tune part's figures for a grid of thresholds (how they were chosen; the check part is never swept).
@@ -28,13 +28,15 @@ def group(rec) -> str:
     return "capture" if rec["capture"] else ("synthetic" if rec["kind"] == "synthetic" else "photo")
 
 
-def kept(rec, margin: float, gain: float) -> bool:
+def kept(rec, margin: float, gain: float, drift: float = float("inf")) -> bool:
+    """The rule: keep the preview when the burn-in rose by more than ``margin``, the input error fell by less than
+    ``gain``, or (a third test, off by default) the renders under the novel lights drifted by more than ``drift``."""
     c = rec["check"]
     return c["refined_burn_in"] > c["preview_burn_in"] + margin or \
-        c["refined_input_rmse"] > c["preview_input_rmse"] - gain
+        c["refined_input_rmse"] > c["preview_input_rmse"] - gain or c["novel_drift"] > drift
 
 
-def columns(recs, margin, gain):
+def columns(recs, margin, gain, drift=float("inf")):
     out = {}
     for head, grp, metric, _ in COLUMNS:
         rs = [r for r in recs if group(r) == grp and metric in r["preview"]]
@@ -42,7 +44,7 @@ def columns(recs, margin, gain):
             continue
         out[head] = {"preview": np.mean([r["preview"][metric] for r in rs]),
                      "refine": np.mean([r["refine"][metric] for r in rs]),
-                     "refine+check": np.mean([(r["preview"] if kept(r, margin, gain) else r["refine"])[metric]
+                     "refine+check": np.mean([(r["preview"] if kept(r, margin, gain, drift) else r["refine"])[metric]
                                               for r in rs]), "n": len(rs)}
     return out
 
@@ -56,9 +58,11 @@ def main(argv=None) -> int:
     p.add_argument("check")
     p.add_argument("--margin", type=float, default=KEEP_BURN_IN_MARGIN)
     p.add_argument("--gain", type=float, default=KEEP_INPUT_GAIN)
+    p.add_argument("--drift", type=float, default=float("inf"), help="third test: novel-light drift above this")
     p.add_argument("--sweep", action="store_true")
     a = p.parse_args(argv)
-    parts = {name: json.load(open(path))["records"] for name, path in (("tune", a.tune), ("check", a.check))}
+    parts = {name: [r for path in paths.split(",") for r in json.load(open(path))["records"]]
+             for name, paths in (("tune", a.tune), ("check", a.check))}
     for recs in parts.values():  # the rule above is measure.py's: same decision at the measured thresholds
         for r in recs:
             assert kept(r, KEEP_BURN_IN_MARGIN, KEEP_INPUT_GAIN) == (r["check"]["kept_preview"] is not None), r["case"]
@@ -67,14 +71,14 @@ def main(argv=None) -> int:
         print("|---" * (3 + len(COLUMNS)) + "|")
         for m in (-1.0, 0.0, 0.02, 0.05, 0.1, 0.2, 10.0):
             for g in (-10.0, 0.0, 0.005, 0.01, 0.02):
-                cols = columns(parts["tune"], m, g)
-                n = sum(kept(r, m, g) for r in parts["tune"])
+                cols = columns(parts["tune"], m, g, a.drift)
+                n = sum(kept(r, m, g, a.drift) for r in parts["tune"])
                 print(f"| {m} | {g} | {n}/{len(parts['tune'])} | "
                       + " | ".join(f"{cols[h]['refine+check']:.4f}" if h in cols else "" for h, *_ in COLUMNS) + " |")
         return 0
     print(f"Rule: keep the preview when refined burn-in > preview's + {a.margin} or refined input RMSE > "
-          f"preview's - {a.gain}.\n")
-    tabs = {k: columns(v, a.margin, a.gain) for k, v in parts.items()}
+          f"preview's - {a.gain}" + (f" or novel-light drift > {a.drift}" if a.drift != float("inf") else "") + ".\n")
+    tabs = {k: columns(v, a.margin, a.gain, a.drift) for k, v in parts.items()}
     print("| measure | tune: preview | tune: refine today | tune: refine + check | check: preview | "
           "check: refine today | check: refine + check |")
     print("|---|---|---|---|---|---|---|")
@@ -96,7 +100,7 @@ def main(argv=None) -> int:
             key = "rerender_rmse" if "rerender_rmse" in pr else "input_rmse"
             print(f"| {part} | `{r['case'].split('/')[-1]}` | {c['preview_burn_in']:.3f} -> {c['refined_burn_in']:.3f} | "
                   f"{c['preview_input_rmse']:.4f} -> {c['refined_input_rmse']:.4f} | {c['novel_drift']:.4f} | "
-                  f"{'yes' if kept(r, a.margin, a.gain) else 'no'} | {cap} | {pr[key]:.4f} / {rf[key]:.4f} |")
+                  f"{'yes' if kept(r, a.margin, a.gain, a.drift) else 'no'} | {cap} | {pr[key]:.4f} / {rf[key]:.4f} |")
     return 0
 
 
