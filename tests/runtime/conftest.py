@@ -97,3 +97,11 @@ def start_browser(tmp_path):
     yield start
     for b in started:
         b.close()
+
+
+@pytest.fixture(scope="module")
+def session(tiny_model):
+    """A one-thread preview session of :func:`tiny_model` (one per test module)."""
+    from svbrdf.runtime.inference.session import load_session
+
+    return load_session(tiny_model, threads=1)

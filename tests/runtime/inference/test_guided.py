@@ -100,12 +100,6 @@ ort = pytest.importorskip("onnxruntime")
 from svbrdf.runtime.inference.pipeline import (  # noqa: E402
     PhotoOptions, check_memory, estimate, process_photo,
 )
-from svbrdf.runtime.inference.session import load_session  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def session(tiny_model):
-    return load_session(tiny_model, threads=1)
 
 
 def _photo(h, w, seed=3):

@@ -9,13 +9,7 @@ from svbrdf.runtime.io.images import write_image
 
 pytest.importorskip("onnxruntime")
 from svbrdf.runtime.inference.pipeline import PhotoOptions, estimate, process_photo  # noqa: E402
-from svbrdf.runtime.inference.session import load_session  # noqa: E402
 from svbrdf.runtime.post import PostProcess  # noqa: E402
-
-
-@pytest.fixture(scope="module")
-def session(tiny_model):
-    return load_session(tiny_model, threads=1)
 
 
 def _photo(h=40, w=56, seed=3):

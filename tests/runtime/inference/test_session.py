@@ -22,11 +22,6 @@ from svbrdf.runtime.inference.session import FULL, PreviewSession, load_session
 from svbrdf.runtime.inference.pipeline import estimate  # noqa: E402
 
 
-@pytest.fixture(scope="module")
-def session(tiny_model):
-    return load_session(tiny_model, threads=1)
-
-
 def _texture(h, w, seed=0):
     """A stationary material-like photo: a few oriented sinusoids plus fine noise, linear, around 0.35."""
     rng = np.random.default_rng(seed)

@@ -23,7 +23,6 @@ from svbrdf.runtime.inference.manifest import MIN_SIZE
 pytest.importorskip("onnxruntime")
 from svbrdf.runtime.cli.preview import main  # noqa: E402
 from svbrdf.runtime.inference.pipeline import estimate
-from svbrdf.runtime.inference.session import load_session  # noqa: E402
 
 STRESS = settings(max_examples=40, deadline=None, derandomize=True,
                   suppress_health_check=[HealthCheck.too_slow])
@@ -105,11 +104,6 @@ def _assert_valid_maps(maps, shape):
         arr = getattr(maps, name)
         assert arr.min() >= 0 and arr.max() <= 1, name
     np.testing.assert_allclose(np.linalg.norm(maps.normal, axis=-1), 1.0, atol=1e-5)
-
-
-@pytest.fixture(scope="module")
-def session(tiny_model):
-    return load_session(tiny_model, threads=1)
 
 
 # ------------------------------------------------------------------------------ read_image + estimate
