@@ -194,7 +194,7 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
 
     Returns:
         A new :class:`Maps` of (H, W) float32 maps (clipped to their ranges, unit normals), same meta; a constant
-        channel (e.g. the one specular level) stays that constant.
+        channel (e.g. the one specular level) stays that constant, as a read-only view that takes no memory.
     """
     h, w = maps.shape
     big = guide.shape[:2]
@@ -208,7 +208,7 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
     for n in maps.names:
         a = np.asarray(getattr(maps, n), np.float32)
         if a.min() == a.max():
-            result[n] = np.full(big + (a.shape[-1],), a.flat[0], np.float32)
+            result[n] = np.broadcast_to(a.reshape(-1)[:1], big + (a.shape[-1],))  # read-only, no memory
             continue
         varying.append(a)
         plans.append((n, at, a.shape[-1]))

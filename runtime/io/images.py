@@ -28,7 +28,7 @@ import functools
 import os
 import warnings
 from pathlib import Path
-from typing import Optional, Union
+from typing import Callable, Optional, Union
 
 import numpy as np
 import OpenImageIO as oiio
@@ -298,18 +298,30 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
 QUANTISE_STRIP_BYTES = 8 << 20
 
 
-def _quantise(a: np.ndarray, bits: int, srgb_encode: bool) -> np.ndarray:
+def _rows(a: np.ndarray, y0: int, rows: int, transform) -> np.ndarray:
+    """Rows ``y0:y0 + rows`` of ``a`` as a new float32 array, through ``transform`` when given."""
+    s = a[y0:y0 + rows]
+    if transform is None:
+        return np.array(s, dtype=np.float32)
+    s = np.asarray(transform(s), dtype=np.float32)
+    if s.shape[:2] != (min(rows, a.shape[0] - y0), a.shape[1]) or s.shape[-1] != a.shape[-1]:
+        raise ValueError(f"transform changed a strip's shape to {s.shape}")
+    return s
+
+
+def _quantise(a: np.ndarray, bits: int, srgb_encode: bool, transform=None) -> np.ndarray:
     """(H, W, C) float32 -> uint8/uint16 codes as OpenImageIO writes a float buffer into an integer file: clip to
     [0, 1] (sRGB-encode the first three channels and clip again with ``srgb_encode``), then round half to even of
     ``value * max`` in float32 (what OpenImageIO's writer does with a float buffer: the same codes, half-way values
-    included, tests/runtime/io/test_imageio.py). Strip by strip, so the
+    included, tests/runtime/io/test_imageio.py). Strip by strip (each through ``transform`` first), so the
     float temporaries stay near :data:`QUANTISE_STRIP_BYTES`; the codes are a quarter (8-bit) or half of the floats."""
     dtype, top = (np.uint8, 255.0) if bits == 8 else (np.uint16, 65535.0)
     h, w, c = a.shape
     out = np.empty((h, w, c), dtype)
     rows = max(1, QUANTISE_STRIP_BYTES // (w * c * 4))
     for y0 in range(0, h, rows):
-        s = np.clip(a[y0:y0 + rows], 0.0, 1.0)
+        s = _rows(a, y0, rows, transform)
+        np.clip(s, 0.0, 1.0, out=s)
         if srgb_encode:
             s[..., :3] = linear_to_srgb(s[..., :3])  # alpha stays linear
             np.clip(s, 0.0, 1.0, out=s)
@@ -327,6 +339,7 @@ def write_image(
     srgb_encode: bool = False,
     force: bool = False,
     colour_space: Optional[str] = None,
+    transform: Optional[Callable[[np.ndarray], np.ndarray]] = None,
 ) -> Path:
     """Write a float image atomically as PNG, OpenEXR or TIFF (format from the extension).
 
@@ -342,6 +355,9 @@ def write_image(
             (in a PNG a gAMA chunk of 1.0, so that readers such as ``oiiotool`` do not take them as sRGB),
             ``"sRGB"`` for an image already sRGB-encoded. Default: ``"sRGB"`` with ``srgb_encode``, else untagged.
         force: overwrite an existing file.
+        transform: a conversion applied to each strip of rows ((h, W, C) float32 -> the same shape) before the
+            file's own encoding, so that it takes no full-size copy of ``arr`` (the writers clip and encode each
+            map this way); NaN/Inf are checked on ``arr``.
 
     Returns:
         The written path.
@@ -370,7 +386,10 @@ def write_image(
 
     a = _as_hwc(path, arr)
     if not is_float:  # quantised here, in strips: the caller's array is never modified, no full-size float copy
-        a = _quantise(a, bits, srgb_encode)
+        a = _quantise(a, bits, srgb_encode, transform)
+    elif transform is not None:
+        out_rows = max(1, QUANTISE_STRIP_BYTES // (a.shape[1] * a.shape[2] * 4))
+        a = np.concatenate([_rows(a, y0, out_rows, transform) for y0 in range(0, a.shape[0], out_rows)])
     h, w, c = a.shape
 
     spec = oiio.ImageSpec(w, h, c, pixel_type)

@@ -43,6 +43,7 @@ model at 1024 px and more, and a side-by-side panel is looked at, not measured.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import json
 import os
 from concurrent.futures import ThreadPoolExecutor
@@ -56,7 +57,7 @@ from ..core.colour import linear_to_srgb
 from ..errors import ImageError
 from ..io.files import staged_write
 from ..io.images import write_image
-from ..core.maps import SUPPORTED_NORMAL_CONVENTIONS, Maps, encode_normal, normal_gl_to_dx
+from ..core.maps import MAP_RANGES, SUPPORTED_NORMAL_CONVENTIONS, Maps, encode_normal, normal_gl_to_dx, normalize_normals
 from ..core.render import ZHAO, RenderConfig, novel_lights, render
 
 #: Sidecar format version (bump when keys change meaning).
@@ -87,6 +88,8 @@ class TextureFile:
         srgb: the image is linear colour to sRGB-encode (RGB only; alpha stays linear); otherwise the values
             are stored as given (data maps, or an image already sRGB-encoded).
         text: a document (glTF, USD, MaterialX, the sidecar), written as UTF-8.
+        transform: applied to each strip of ``pixels`` as it is written (clipping, the normals' encoding), so a
+            layout takes no full-size copy of a map (``transform`` of :func:`~svbrdf.runtime.io.images.write_image`).
     """
 
     file: str
@@ -95,6 +98,7 @@ class TextureFile:
     bits: int = 8
     srgb: bool = False
     text: Optional[str] = None
+    transform: Optional[Callable[[np.ndarray], np.ndarray]] = None
 
 
 @dataclass(frozen=True)
@@ -171,16 +175,16 @@ def _brdf_description(config: RenderConfig) -> dict:
 
 
 def generic_layout(maps: Maps, name: str, normal: str = "opengl", fmt: str = "png") -> Layout:
-    """The project's own layout (module docstring) of the maps present in ``maps``, clipped to their ranges.
+    """The project's own layout (module docstring) of the maps present in ``maps``, clipped to their ranges as they
+    are written (strip by strip: no full-size copy).
 
     Args:
-        maps: the texture set (unclipped; :meth:`Maps.clipped` is applied here).
+        maps: the texture set (unclipped: each file clips and encodes its rows as it is written).
         name: base name of the files.
         normal: normal convention on disk, ``"opengl"`` or ``"dx"``.
         fmt: ``"png"`` (16-bit) or ``"exr"`` (32-bit float) for the data maps.
     """
     data_bits = 16 if fmt == "png" else 32
-    m = maps.clipped()
     info = {
         "basecolor": {"map": "diffuse", "colour_space": "sRGB", "bits": 8},
         "normal": {"map": "normal", "colour_space": "data", "bits": data_bits, "encoding": "(n + 1) / 2",
@@ -190,19 +194,27 @@ def generic_layout(maps: Maps, name: str, normal: str = "opengl", fmt: str = "pn
     }
     files = {}
     for role, (map_name, template) in GENERIC_FILES.items():
-        arr = getattr(m, map_name)
+        arr = getattr(maps, map_name)
         if arr is None:
             continue
-        if role == "normal":
-            arr = encode_normal(normal_gl_to_dx(arr) if normal == "dx" else arr)
         bits = 8 if role == "basecolor" else data_bits
         files[role] = TextureFile(template.format(name=name, ext=fmt), info[role], arr, bits,
-                                  srgb=role == "basecolor")
+                                  srgb=role == "basecolor", transform=functools.partial(_file_rows, map_name, normal))
     if maps.relief is not None:
         for role, entry in relief_file_info(maps.relief, data_bits).items():
             files[role] = TextureFile(RELIEF_FILES[role].format(name=name, ext=fmt), entry,
                                       getattr(maps.relief, role)[..., None], data_bits)
     return Layout(files, normal)
+
+
+def _file_rows(map_name: str, normal: str, rows: np.ndarray) -> np.ndarray:
+    """Rows of a map as its file stores them: clipped to the map's range (:meth:`Maps.clipped`), normals made unit
+    length and encoded ``(n + 1) / 2`` in ``normal``'s convention."""
+    out = np.clip(rows, *MAP_RANGES[map_name])
+    if map_name == "normal":
+        out = normalize_normals(out)
+        out = encode_normal(normal_gl_to_dx(out) if normal == "dx" else out)
+    return out
 
 
 def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> Dict[str, Path]:
@@ -227,7 +239,8 @@ def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> 
             (stage / f.file).write_text(f.text, encoding="utf-8")
         else:
             write_image(stage / f.file, f.pixels, bits=f.bits, srgb_encode=f.srgb,
-                        colour_space="sRGB" if f.srgb or f.info.get("colour_space") == "sRGB" else "linear")
+                        colour_space="sRGB" if f.srgb or f.info.get("colour_space") == "sRGB" else "linear",
+                        transform=f.transform)
 
     with staged_write(out_dir, [f.file for f in plan.values()], force=force, error=ImageError) as stage:
         workers = max(1, min(WRITE_WORKERS, len(plan)))

@@ -1,19 +1,21 @@
 """The benchmarked methods: a registry of small runners that turn a :class:`~.cases.BenchCase` into maps.
 
-=========  ===========================================================================================
-name       what runs; what ``seconds`` measures
-=========  ===========================================================================================
-baseline   guessed diffuse map (:func:`svbrdf.trainer.losses.guessed_diffuse`) as albedo, flat normal,
-           roughness 0.5, specular 0.04; the median time of the guess over ``repeats`` after one warm-up.
-           Needs torch.
-preview    the ONNX generator through the runtime (:func:`svbrdf.runtime.inference.pipeline.estimate`); ``--model`` or
-           the packaged model; median time of ``estimate`` over ``repeats`` after one warm-up (session load
-           time recorded separately as ``load_seconds``). Needs a model.
-finetune   stage two of the trainer from a stage-one checkpoint (``--init``, default the one the preview
-           model was exported from, :func:`svbrdf.trainer.checkpoint.default_checkpoint`), one run per case
-           and preset, evaluated at every requested iteration count.
-scratch    the trainer from random weights (stage ``fit``), same evaluation points.
-=========  ===========================================================================================
+============  ===========================================================================================
+name          what runs; what ``seconds`` measures
+============  ===========================================================================================
+baseline      guessed diffuse map (:func:`svbrdf.trainer.losses.guessed_diffuse`) as albedo, flat normal,
+              roughness 0.5, specular 0.04; the median time of the guess over ``repeats`` after one warm-up.
+              Needs torch.
+preview       the ONNX generator through the runtime (:func:`svbrdf.runtime.inference.pipeline.estimate`); ``--model`` or
+              the packaged model; median time of ``estimate`` over ``repeats`` after one warm-up (session load
+              time recorded separately as ``load_seconds``). Needs a model.
+preview-full  the same with the network at the photo's own size at any size (photos above 512 px otherwise run
+              it at half size or less and get their detail back from the photo: :mod:`svbrdf.runtime.inference.guided`).
+finetune      stage two of the trainer from a stage-one checkpoint (``--init``, default the one the preview
+              model was exported from, :func:`svbrdf.trainer.checkpoint.default_checkpoint`), one run per case
+              and preset, evaluated at every requested iteration count.
+scratch       the trainer from random weights (stage ``fit``), same evaluation points.
+============  ===========================================================================================
 
 Timing of the training methods: ``train_seconds`` is the wall time since the run started (building the
 trainer, computing the guessed diffuse map, loading the checkpoint, then the iterations) **minus** the time
@@ -159,9 +161,17 @@ class Baseline(Method):
 
 
 class Preview(Method):
+    """``preview``: :func:`~svbrdf.runtime.inference.pipeline.estimate` as shipped; ``preview-full``: the network at
+    the photo's own size at any size (``Upsampling(network_size=None)``, the reference of the guided upsampling of
+    :mod:`svbrdf.runtime.inference.guided`), to compare the two in one run."""
+
     name = "preview"
 
-    def __init__(self) -> None:
+    def __init__(self, name: str = "preview") -> None:
+        from svbrdf.runtime.inference.guided import Upsampling
+
+        self.name = name
+        self.upsampling = Upsampling(network_size=None) if name == "preview-full" else Upsampling()
         self._session = None
         self._key = None
         self._load_seconds = 0.0
@@ -190,7 +200,8 @@ class Preview(Method):
         from svbrdf.runtime.inference.pipeline import estimate
 
         session = self._load(opts)
-        maps, seconds = _timed_median(lambda: estimate(case.photo, session), opts.repeats)
+        maps, seconds = _timed_median(lambda: estimate(case.photo, session, upsampling=self.upsampling),
+                                      opts.repeats)
         on_point(Point(maps, None, 0.0, seconds))
         return {"load_seconds": self._load_seconds, "model": str(session.path),
                 "threads": maps.meta.get("threads")}
@@ -330,7 +341,8 @@ class Training(Method):
 
 
 #: The registry, in report order.
-METHODS: Dict[str, Method] = {m.name: m for m in (Baseline(), Preview(), Training("finetune"), Training("scratch"))}
+METHODS: Dict[str, Method] = {m.name: m for m in (Baseline(), Preview(), Preview("preview-full"), Training("finetune"),
+                                                   Training("scratch"))}
 
 
 __all__ = ["Point", "BenchOptions", "Method", "Baseline", "Preview", "Training", "METHODS", "BASELINE_ROUGHNESS",

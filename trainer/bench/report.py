@@ -85,7 +85,7 @@ ARTIST_HEADS = {
     "burn_in_capture": "burn-in capture ↓", "seconds": "seconds",
 }
 TIMES = ("seconds", "train_seconds", "eval_seconds")
-METHOD_ORDER = ("baseline", "preview", "finetune", "scratch")
+METHOD_ORDER = ("baseline", "preview", "preview-full", "finetune", "scratch")
 BUDGET = "budget"
 
 

@@ -430,3 +430,22 @@ def test_integer_writes_quantise_as_openimageio_does(tmp_path, bits, srgb, monke
         read.append(inp.read_image(0, 0, 0, 3, kind))
         inp.close()
     assert np.array_equal(read[0], read[1])
+
+
+@pytest.mark.parametrize("ext, bits", [(".png", 16), (".exr", 32)])
+def test_a_transform_is_applied_strip_by_strip_as_a_full_copy_would_be(tmp_path, monkeypatch, ext, bits):
+    """``write_image(transform=)`` gives the file of ``write_image(transform(arr))`` in strips of a few rows (no
+    full-size copy), and refuses a transform that changes a strip's shape."""
+    import svbrdf.runtime.io.images as images
+
+    rng = np.random.default_rng(7)
+    a = rng.uniform(-0.5, 1.5, (37, 11, 3)).astype(np.float32)
+    f = lambda s: np.clip(s * 0.5 + 0.25, 0.0, 1.0)  # noqa: E731
+    write_image(tmp_path / f"full{ext}", f(a), bits=bits)
+    monkeypatch.setattr(images, "QUANTISE_STRIP_BYTES", 5 * 11 * 3 * 4)  # 5 rows per strip
+    write_image(tmp_path / f"strips{ext}", a, bits=bits, transform=f)
+    np.testing.assert_array_equal(read_image(tmp_path / f"strips{ext}", raw=True),
+                                  read_image(tmp_path / f"full{ext}", raw=True))
+    with pytest.raises(ValueError, match="shape"):
+        write_image(tmp_path / f"bad{ext}", a, bits=bits, transform=lambda s: s[:, :5])
+    assert not (tmp_path / f"bad{ext}").exists()

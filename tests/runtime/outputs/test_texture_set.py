@@ -462,3 +462,26 @@ def test_ao_strength_is_the_depth_gain_of_the_ao_and_is_recorded(tmp_path):
     for bad in (0, -1, float("nan"), "x"):
         with pytest.raises(SvbrdfError, match="ao_strength"):
             relief_maps(normal, ao_strength=bad)
+
+
+@pytest.mark.parametrize("normal", ["opengl", "dx"])
+def test_maps_out_of_range_are_written_as_their_clipped_copy(tmp_path, normal):
+    """The writer clips and encodes each map strip by strip (no full-size copy): the files are those of
+    :meth:`Maps.clipped`, to the bit, for values outside the ranges and normals that are not unit length."""
+    rng = np.random.default_rng(11)
+    h, w = 40, 24
+    raw = Maps(diffuse=rng.uniform(-0.2, 1.3, (h, w, 3)).astype(np.float32),
+               specular=rng.uniform(-0.1, 1.1, (h, w, 1)).astype(np.float32),
+               roughness=rng.uniform(-0.1, 1.2, (h, w, 1)).astype(np.float32),
+               normal=rng.uniform(-1.5, 1.5, (h, w, 3)).astype(np.float32))
+    from svbrdf.runtime.core.maps import encode_normal, normal_gl_to_dx
+    from svbrdf.runtime.io.images import write_image
+
+    paths = write_texture_set(raw, tmp_path / "raw", "m", normal=normal)
+    c = raw.clipped()  # what the writer wrote before: one clipped copy of the set, then each file from it
+    n = encode_normal(normal_gl_to_dx(c.normal) if normal == "dx" else c.normal)
+    expected = {"basecolor": (c.diffuse, 8, True), "normal": (n, 16, False), "roughness": (c.roughness, 16, False),
+                "specular": (c.specular, 16, False)}
+    for role, (arr, bits, srgb) in expected.items():
+        ref = write_image(tmp_path / f"{role}.png", arr, bits=bits, srgb_encode=srgb)
+        np.testing.assert_array_equal(read_image(paths[role], raw=True), read_image(ref, raw=True))

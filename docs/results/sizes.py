@@ -1,0 +1,153 @@
+"""Run time and peak memory of ``svbrdf-preview`` against the photo's size, this checkout against an earlier commit, in
+one run (issue 54, item 4). From the repository root, with the package installed (the light install is enough):
+
+    python docs/results/sizes.py --before 8477f92 --out docs/results/sizes      # ~15 minutes on 2 cores
+
+For every size (256, 1024, 2048, 4096, 8192 px) a photo is made once in a temporary folder: the centre square of a
+real photo (default: a Henzler et al. 4032 x 3024 iPhone flash photo from ``../shared/data``; ``--photo``) resized
+to that size (OpenImageIO, blackman-harris down, lanczos3 up), plus the issue's own 1024 px photo (bath_tile/00,
+as taken). Each is run ``--repeats`` times through the command line of both versions, taking turns (``--max-size``
+raised to the photo's size, ``--threads 2``, a fresh process and output folder each time); the seconds are those the
+CLI reports on its line (reading the photo to the files on disk, as the issue asks), the peak memory that of the
+process (``wait4``). The earlier version runs from a ``git worktree`` of ``--before`` put first on ``PYTHONPATH``,
+with the same installed libraries. Writes ``sizes.json`` (every run), ``sizes.md`` (medians) and ``sizes.png`` (seconds
+against megapixels and against peak memory).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import re
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[2]
+SHARED = ROOT.parent / "shared" / "data"
+PHOTO = SHARED / "henzler-flash" / "test" / "2003" / "IMG_9392.JPG"
+CAPTURE = SHARED / "guo-svbrdf-diff-renderer" / "bath_tile" / "00.png"
+SIZES = (256, 1024, 2048, 4096, 8192)
+LINE = re.compile(r"  (\d+)x(\d+)  ([0-9.]+) s \(")
+
+
+def make_photos(photo: Path, sizes, folder: Path) -> dict:
+    """``{label: path}``: the centre square of ``photo`` at each size (8-bit PNG, sRGB as read), and bath_tile/00."""
+    import OpenImageIO as oiio
+
+    src = oiio.ImageBuf(str(photo))
+    spec = src.spec()
+    side = min(spec.width, spec.height)
+    x0, y0 = (spec.width - side) // 2, (spec.height - side) // 2
+    square = oiio.ImageBufAlgo.cut(src, oiio.ROI(x0, x0 + side, y0, y0 + side, 0, 1, 0, 3))
+    out = {}
+    for n in sizes:
+        filt = "blackman-harris" if n <= side else "lanczos3"
+        img = oiio.ImageBufAlgo.resize(square, filtername=filt, roi=oiio.ROI(0, n, 0, n, 0, 1, 0, 3))
+        path = folder / f"photo{n}.png"
+        img.write(str(path), "uint8")
+        out[str(n)] = path
+    if CAPTURE.is_file():
+        out["1024 bath_tile/00"] = CAPTURE
+    return out
+
+
+def run_cli(env: dict, photo: Path, size: int, out: Path) -> dict:
+    """One ``svbrdf-preview`` run in a fresh process: the seconds it reports, its peak RSS, its exit code."""
+    shutil.rmtree(out, ignore_errors=True)
+    cmd = [sys.executable, "-m", "svbrdf.runtime.cli.preview", str(photo), "-o", str(out), "--threads", "2",
+           "--max-size", str(max(size, 256)), "--force"]
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    _, status, usage = os.wait4(proc.pid, 0)
+    text = proc.stdout.read() + proc.stderr.read()
+    proc.returncode = os.waitstatus_to_exitcode(status)
+    m = LINE.search(text)
+    shutil.rmtree(out, ignore_errors=True)
+    return {"seconds": float(m.group(3)) if m else None, "peak_rss_mb": usage.ru_maxrss / 1024,
+            "rc": proc.returncode, "line": text.strip().splitlines()[-1] if text.strip() else ""}
+
+
+def plot(rows: list, path: Path) -> None:
+    """The benchmark's plot (:func:`svbrdf.trainer.bench.report.plot_pareto`): seconds on the x axis, the photo's
+    megapixels and the peak memory (GiB) on the two panels, one line per version."""
+    from svbrdf.trainer.bench.report import plot_pareto
+
+    series = []
+    for version in ("before", "after"):
+        pts = [(r[version]["seconds"], r["pixels"] / 1e6, r[version]["peak_rss_mb"] / 1024) for r in rows
+               if r["label"].isdigit() and r[version]["seconds"] is not None]
+        series.append({"label": version, "method": "preview" if version == "after" else "baseline", "points": pts})
+    plot_pareto(series, path, titles=("photo size (megapixels)", "peak memory (GiB)"), force=True)
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--before", default="8477f92", help="git commit of the earlier version (default: 8477f92)")
+    p.add_argument("--photo", type=Path, default=PHOTO, help="the real photo the sizes are made from")
+    p.add_argument("--sizes", default=",".join(map(str, SIZES)))
+    p.add_argument("--repeats", type=int, default=3)
+    p.add_argument("--out", type=Path, default=Path("docs/results/sizes"))
+    args = p.parse_args(argv)
+    if not args.photo.is_file():
+        print(f"sizes.py: error: {args.photo} not found (pass --photo)", file=sys.stderr)
+        return 2
+    args.out.mkdir(parents=True, exist_ok=True)
+    with tempfile.TemporaryDirectory(prefix="svbrdf-sizes-") as tmp:
+        tmp = Path(tmp)
+        before = tmp / "before"
+        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(before), args.before],
+                       check=True)
+        try:
+            (tmp / "pp").mkdir()
+            (tmp / "pp" / "svbrdf").symlink_to(before)  # the import name svbrdf is the repository root
+            base = {**os.environ, "OMP_WAIT_POLICY": "PASSIVE"}
+            envs = {"before": {**base, "PYTHONPATH": str(tmp / "pp")}, "after": base}
+            photos = make_photos(args.photo, [int(s) for s in args.sizes.split(",")], tmp)
+            records = []
+            for label, photo in photos.items():
+                size = int(label.split()[0])
+                for i in range(args.repeats):
+                    for version in ("before", "after") if i % 2 == 0 else ("after", "before"):
+                        rec = run_cli(envs[version], photo, size, tmp / "out")
+                        rec.update(label=label, version=version, repeat=i, load=os.getloadavg()[0])
+                        records.append(rec)
+                        print(f"{label:>18} {version:6} {rec['seconds']} s  {rec['peak_rss_mb']:.0f} MB  rc {rec['rc']}",
+                              flush=True)
+        finally:
+            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(before)], check=False)
+    rows = []
+    for label in photos:
+        row = {"label": label, "pixels": int(label.split()[0]) ** 2}
+        for version in ("before", "after"):
+            rs = [r for r in records if r["label"] == label and r["version"] == version]
+            secs = [r["seconds"] for r in rs if r["seconds"] is not None]
+            row[version] = {"seconds": statistics.median(secs) if secs else None,
+                            "peak_rss_mb": max(r["peak_rss_mb"] for r in rs),
+                            "failed": sum(r["rc"] != 0 for r in rs)}
+        rows.append(row)
+    doc = {"command": " ".join(sys.argv), "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
+           "before": args.before, "machine": {"cores": os.cpu_count(), "platform": platform.platform()},
+           "rows": rows, "records": records}
+    (args.out / "sizes.json").write_text(json.dumps(doc, indent=1) + "\n")
+    lines = ["| photo | before: s | after: s | before: peak MB | after: peak MB |", "|---|---|---|---|---|"]
+    for r in rows:
+        b, a = r["before"], r["after"]
+        fmt = lambda v: "failed" if v["seconds"] is None else f"{v['seconds']:.2f}"  # noqa: E731
+        lines.append(f"| {r['label']} px | {fmt(b)} | {fmt(a)} | {b['peak_rss_mb']:.0f} | {a['peak_rss_mb']:.0f} |")
+    loads = [r["load"] for r in records]
+    lines.append(f"\nMedian of {args.repeats} runs each, taking turns; load average {min(loads):.1f}-{max(loads):.1f} "
+                 f"during the run; before = {args.before}. Command: `{doc['command']}`.")
+    (args.out / "sizes.md").write_text("\n".join(lines) + "\n")
+    plot(rows, args.out / "sizes.png")
+    print("\n".join(lines))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
