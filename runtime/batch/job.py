@@ -95,8 +95,11 @@ def run_job(job: Job) -> Dict[str, Any]:
         from ..inference.refine import load_refine
         from ..io.images import read_image
 
+        from ..inference.guided import Upsampling
+
         options = PhotoOptions.from_mapping({**opts, "maps": tuple(opts["maps"])}).replace(
-            force=False, quiet=job.quiet, threads=job.threads, model=job.model)
+            force=False, quiet=job.quiet, threads=job.threads, model=job.model,
+            upsampling=Upsampling(network_size=opts.get("network_size")))
         photo.write_bytes(job.data)
         session = _session(job.model, job.threads, options.maps)
         if session.info.sha256 != opts["model_sha256"]:

@@ -59,10 +59,11 @@ PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".hdr", ".bm
 #: The options (:class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`) that change a texture set (recorded per photo;
 #: a done photo is redone only when they or the photo change).
 OPTION_KEYS = ("refine", "quality", "iters", "target", "maps", "normal", "format", "max_size", "tile", "fov",
-               "tileable", "view", "relief", "ao_strength")
+               "tileable", "view", "relief", "ao_strength", "network_size")
 #: The options added to :data:`OPTION_KEYS` after libraries were first written, with the value a record that
-#: lacks them was made with (:func:`same_options`).
-OPTION_DEFAULTS = {"tileable": False, "view": False, "relief": [], "ao_strength": AO_STRENGTH}
+#: lacks them was made with (:func:`same_options`; ``network_size``: ``upsampling.network_size`` of the options, None
+#: = the network at the photo's own size, as every set up to 2048 px was made before 2026-11-28).
+OPTION_DEFAULTS = {"tileable": False, "view": False, "relief": [], "ao_strength": AO_STRENGTH, "network_size": None}
 
 
 def collect_photos(items: Iterable[str]) -> List[Path]:
@@ -155,8 +156,10 @@ def library_options(args: Any, model_sha256: str) -> Dict[str, Any]:
     """What makes a texture set (:data:`OPTION_KEYS` of ``args``, a
     :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`, plus the model's sha256), JSON-ready; ``args``
     without a key of :data:`OPTION_DEFAULTS` gets its default."""
-    opts = {k: getattr(args, k, OPTION_DEFAULTS[k]) if k in OPTION_DEFAULTS else getattr(args, k)
-            for k in OPTION_KEYS}
+    upsampling = getattr(args, "upsampling", None)
+    values = {"network_size": getattr(upsampling, "network_size", OPTION_DEFAULTS["network_size"])}
+    opts = {k: values[k] if k in values else getattr(args, k, OPTION_DEFAULTS[k]) if k in OPTION_DEFAULTS
+            else getattr(args, k) for k in OPTION_KEYS}
     opts["maps"] = list(opts["maps"])
     if opts["relief"] is None:  # PhotoOptions' default: both relief maps with all four maps
         from ..core.maps import MAP_NAMES

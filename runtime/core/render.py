@@ -163,11 +163,21 @@ def light_vectors(
         np.asarray(camera_pos, dtype=np.float64).reshape(3)
     lp = cam if light_pos is None else np.asarray(light_pos, dtype=np.float64).reshape(3)
     v = cam - pos
-    v /= np.linalg.norm(v, axis=-1, keepdims=True)
+    v /= np.sqrt(_sum_squares(v))
     l = lp - pos
-    d2 = np.sum(l * l, axis=-1, keepdims=True)
+    d2 = _sum_squares(l)
     l /= np.sqrt(d2)
     return v.astype(np.float32), l.astype(np.float32), d2.astype(np.float32)
+
+
+def _sum_squares(a: np.ndarray) -> np.ndarray:
+    """(..., 3) -> (..., 1): ``x^2 + y^2 + z^2`` added in the order of ``np.sum`` over the last axis (the same bits),
+    by channel: a reduction over an axis of 3 is several times slower."""
+    x, y, z = a[..., 0:1], a[..., 1:2], a[..., 2:3]
+    out = x * x
+    out += y * y
+    out += z * z
+    return out
 
 
 def render(

@@ -1,25 +1,32 @@
-"""Maps of a large photo from the network at a smaller size: the maps upsampled with the photo's own detail (numpy).
+"""The preview of a photo longer than 512 px: the network on the photo in k x k pixel blocks, the maps brought back
+to the photo's size with its own detail (numpy).
 
-The network costs about 0.5 s per megapixel on two cores, so a 4096 px photo (16 Mpx, 25 tiles) takes 12 s and an
-8192 px one a minute. Above :data:`DIRECT_MAX_SIZE` the preview instead runs the network and the post-processing on
-the photo downsized to :attr:`Upsampling.network_size` (the same path and the same maps as a photo of that size),
-and brings the maps to the photo's size with :func:`guided_upsample`: each map channel ``P`` is
+The stage one was trained on 256 px crops, and its maps relight real photos and ground truth better when it sees a
+photo of at most :data:`NETWORK_SIZE` (512) px than at 1024 px (issue 54, CHANGELOG 2026-11-28: at 1024 px the real
+capture relit at its other views 0.948x the error, the re-render of the checked ground truth 0.814x, normals' slope
+correlation 5x), in a quarter of the time. So a photo longer than :attr:`Upsampling.network_size` runs the network
+and the post-processing on itself averaged over k x k pixel blocks (:func:`network_photo`, ``k = ceil(long side /
+network_size)``), and :func:`guided_upsample` brings the maps to its size: each map channel ``P`` is
 
 .. math::
 
     P_{full} = \\operatorname{up}(P) + \\operatorname{up}(a) \\cdot (I_{full} - \\operatorname{up}(I))
 
 with ``I`` the photo's luminance (mean of the linear channels) at the network's size, ``I_full`` at the photo's,
-``up`` the bilinear upsampling (pixel centres aligned) and ``a`` the local gain of the map on the photo,
-``cov(I, P) / (var(I) + eps)`` over a ``(2 r + 1)^2`` window at the network's size (the guided filter's linear
-model; He et al. 2010). The low frequencies are the network's maps as they are (the plain upsampling); the detail
-finer than the network's pixels is the photo's, scaled by how each map followed the photo around that place (zero
-where it did not, e.g. a constant specular or a filled highlight). Normals are renormalised and every map clipped
-to its range. The work is done in strips of rows, so the temporaries stay near :attr:`Upsampling.strip_bytes`.
+``up`` the bilinear upsampling (the centres of the k x k blocks aligned: :func:`upsample_rows`) and ``a`` the local
+gain of the map on the photo, ``cov(I, P) / (var(I) + eps)`` over a ``(2 r + 1)^2`` window at the network's size
+(the guided filter's linear model; He et al. 2010). The low frequencies are the network's maps as they are (the plain
+upsampling); the detail finer than the network's pixels is the photo's, scaled by how each map followed the photo
+around that place (zero where it did not, e.g. a constant specular or a filled highlight). Normals are renormalised
+and every map clipped to its range. The work is done in strips of rows, so the temporaries stay near
+:attr:`Upsampling.strip_bytes`. ``Upsampling(network_size=None)`` runs the network at the photo's own size at any size
+(in tiles above ``tile``): the reference path (``svbrdf-preview --network-size full``, ``svbrdf-bench --methods
+preview-full``).
 """
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Optional, Tuple
 
@@ -27,22 +34,22 @@ import numpy as np
 
 from ..core.maps import MAP_RANGES, Maps, normalize_normals
 
-__all__ = ["Upsampling", "DIRECT_MAX_SIZE", "guided_upsample", "local_gain", "bilinear_rows", "upsample_rows",
+__all__ = ["Upsampling", "NETWORK_SIZE", "guided_upsample", "local_gain", "bilinear_rows", "upsample_rows",
            "upsample_planes", "luminance", "network_photo"]
 
-#: Photos whose long side (after ``max_size``) is at most this run the network at their own size (tiled above
-#: ``tile``), as before issue 54; larger ones through :func:`guided_upsample` (with the default
-#: :class:`Upsampling`).
-DIRECT_MAX_SIZE = 2048
+#: Longest side (px) of the photo the network sees by default (:attr:`Upsampling.network_size`): photos up to this
+#: size run the network at their own size, longer ones through :func:`guided_upsample`.
+NETWORK_SIZE = 512
 
 
 @dataclass(frozen=True)
 class Upsampling:
-    """How a photo larger than :data:`DIRECT_MAX_SIZE` gets its maps (module docstring).
+    """How a photo longer than ``network_size`` gets its maps (module docstring).
 
     Attributes:
-        network_size: long side (px) of the photo the network and the post-processing see; ``None``: the photo's
-            own size at any size (the network in tiles: 0.5 s per megapixel on two cores).
+        network_size: the longest side (px) of the photo the network and the post-processing see (the photo in k x k
+            pixel blocks, :func:`network_photo`); shorter photos run at their own size. ``None``: the photo's own
+            size at any size (the network in tiles above ``tile``: about 0.5 s per megapixel on two cores).
         radius: half-width of the window of the local gain, pixels at the network's size.
         eps: regulariser of the gain, a fraction of the squared mean luminance (flat areas of the photo get no
             detail: its noise is not the material's). Against the maps of the network at 2048 px (a 4032 x 3024
@@ -52,26 +59,36 @@ class Upsampling:
         strip_bytes: bytes of float32 temporaries one strip of rows may take. Small enough for the C allocator to
             reuse freed strips instead of mapping fresh pages: at 4096 px, 8 MB took 3.7-5.3 s against 5.4-6.8 s
             for 64 MB strips (a third of the page faults; docs/lab/speed/README.md).
-        direct_max_size: photos up to this long side run the network at their own size whatever
-            ``network_size`` says (:data:`DIRECT_MAX_SIZE`: the preview's maps of such photos are unchanged).
+        threads: strips upsampled at once (each strip's pixels are computed the same way: the result does not depend
+            on it).
     """
 
-    network_size: Optional[int] = 1024
+    network_size: Optional[int] = NETWORK_SIZE
     radius: int = 2
     eps: float = 1e-4
     strip_bytes: int = 8 << 20
-    direct_max_size: int = DIRECT_MAX_SIZE
+    threads: int = 2
 
     def __post_init__(self) -> None:
         if self.network_size is not None and self.network_size < 8:
             raise ValueError(f"network_size must be None or >= 8 px, got {self.network_size}")
-        if self.radius < 1 or not self.eps > 0 or self.strip_bytes < 1 or self.direct_max_size < 8:
-            raise ValueError(f"need radius >= 1, eps > 0, strip_bytes >= 1 and direct_max_size >= 8; got {self.radius}, "
-                             f"{self.eps}, {self.strip_bytes}, {self.direct_max_size}")
+        if self.radius < 1 or not self.eps > 0 or self.strip_bytes < 1 or self.threads < 1:
+            raise ValueError(f"need radius >= 1, eps > 0, strip_bytes >= 1 and threads >= 1; got {self.radius}, "
+                             f"{self.eps}, {self.strip_bytes}, {self.threads}")
+
+    def factor(self, size: Tuple[int, int]) -> int:
+        """The k of the k x k pixel blocks the network sees of a photo of ``size`` (H, W): ``ceil(long side /
+        network_size)``, but no more than keeps the short side at the network's minimum (8 px); 1 (the photo as it
+        is) without ``network_size``."""
+        from .manifest import MIN_SIZE
+
+        if self.network_size is None:
+            return 1
+        return max(1, min(-(-max(size) // self.network_size), min(size) // MIN_SIZE))
 
     def applies(self, size: Tuple[int, int]) -> bool:
-        """Whether a photo of ``size`` (H, W) takes the guided path."""
-        return self.network_size is not None and max(size) > max(self.direct_max_size, self.network_size)
+        """Whether a photo of ``size`` (H, W) takes the guided path (:meth:`factor` > 1)."""
+        return self.factor(size) > 1
 
 
 def local_gain(guide: np.ndarray, maps: np.ndarray, radius: int, eps: float) -> np.ndarray:
@@ -223,7 +240,8 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
         if fast:  # channel planes: every operation below runs over contiguous rows
             stack = np.ascontiguousarray(np.moveaxis(stack, -1, 0))
         rows = max(1, settings.strip_bytes // (big[1] * (2 * at + 1) * 4 * 2))
-        for y0 in range(0, big[0], rows):
+
+        def strip_of(y0: int) -> None:
             y1 = min(big[0], y0 + rows)
             if fast:
                 up = upsample_planes(stack, slice(y0, y1), big)  # (2 C + 1, len, W)
@@ -241,6 +259,14 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
                     strip[..., j] = plane
                 if n == "normal":
                     strip[...] = normalize_normals(strip)
+
+        starts = range(0, big[0], rows)
+        if settings.threads > 1 and len(starts) > 1:  # numpy leaves the GIL in its array operations
+            with ThreadPoolExecutor(settings.threads) as pool:
+                list(pool.map(strip_of, starts))
+        else:
+            for y0 in starts:
+                strip_of(y0)
     return maps._with(result)
 
 
@@ -249,12 +275,11 @@ def luminance(image: np.ndarray) -> np.ndarray:
     return np.asarray(image, np.float32).mean(axis=-1, dtype=np.float32)
 
 
-def network_photo(image: np.ndarray, network_size: int) -> np.ndarray:
-    """The (h, w, 3) photo the network sees: ``image`` (H, W, 3) averaged over k x k pixel blocks, ``k = ceil(max(H,
-    W) / network_size)`` (the last block of a row or column over the pixels it has), so that ``max(h, w) <=
-    network_size``, ``(h, w) = (ceil(H / k), ceil(W / k))``, and :func:`upsample_rows` brings the maps back by slices.
-    A block mean of 16 Mpx takes a tenth of OpenImageIO's resize."""
+def network_photo(image: np.ndarray, k: int) -> np.ndarray:
+    """The (h, w, 3) photo the network sees: ``image`` (H, W, 3) averaged over k x k pixel blocks (the last block of a
+    row or column over the pixels it has), ``(h, w) = (ceil(H / k), ceil(W / k))``, so that :func:`upsample_rows`
+    brings the maps back by slices; ``k`` from :meth:`Upsampling.factor`. A block mean of 16 Mpx takes a tenth of
+    OpenImageIO's resize."""
     from ..core.filters import block_mean
 
-    k = -(-max(image.shape[:2]) // network_size)
     return block_mean(image, k, partial=True) if k > 1 else np.asarray(image, np.float32)

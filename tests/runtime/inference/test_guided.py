@@ -11,7 +11,7 @@ from svbrdf.runtime.core.filters import block_mean
 from svbrdf.runtime.core.maps import Maps, normalize_normals
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.inference.guided import (
-    DIRECT_MAX_SIZE, Upsampling, bilinear_rows, guided_upsample, local_gain, network_photo, upsample_rows,
+    NETWORK_SIZE, Upsampling, bilinear_rows, guided_upsample, local_gain, network_photo, upsample_rows,
 )
 from svbrdf.runtime.io.images import write_image
 
@@ -26,11 +26,11 @@ def _maps(h, w, seed=0):
 
 
 def test_settings_refuse_bad_sizes():
-    for bad in (dict(network_size=4), dict(radius=0), dict(eps=0.0), dict(strip_bytes=0), dict(direct_max_size=2)):
+    for bad in (dict(network_size=4), dict(radius=0), dict(eps=0.0), dict(strip_bytes=0)):
         with pytest.raises(ValueError):
             Upsampling(**bad)
-    assert not Upsampling().applies((DIRECT_MAX_SIZE, DIRECT_MAX_SIZE))  # the preview's own sizes: unchanged
-    assert Upsampling().applies((DIRECT_MAX_SIZE, DIRECT_MAX_SIZE + 1))
+    assert NETWORK_SIZE == 512 and not Upsampling().applies((512, 512))  # the network at the photo's own size
+    assert Upsampling().applies((512, 513)) and Upsampling().applies((1024, 1024))
     assert not Upsampling(network_size=None).applies((8192, 8192))
     assert not Upsampling(network_size=4096).applies((4096, 3000))
 
@@ -86,16 +86,22 @@ def test_local_gain_is_the_slope_where_the_map_follows_the_guide():
     assert np.all(np.abs(local_gain(guide, np.full((30, 30, 1), 0.3), 2, 1e-6)) < 1e-5)  # float32 rounding
 
 
-def test_network_photo_is_block_means_of_the_smallest_k_that_fits():
+def test_the_network_sees_block_means_of_the_smallest_k_that_fits():
     rng = np.random.default_rng(5)
     image = rng.random((100, 64, 3)).astype(np.float32)
-    small = network_photo(image, 50)
+    assert Upsampling(network_size=50).factor((100, 64)) == 2
+    small = network_photo(image, 2)
     assert small.shape == (50, 32, 3)
     np.testing.assert_allclose(small, block_mean(image, 2), atol=1e-6)
-    small = network_photo(image, 40)  # k = 3: 34 x 22, the last block row and column over the pixels they have
+    assert Upsampling(network_size=40).factor((100, 64)) == 3  # 34 x 22: the last blocks over the pixels they have
+    small = network_photo(image, 3)
     assert small.shape == (34, 22, 3)
     np.testing.assert_allclose(small, block_mean(image, 3, partial=True), atol=1e-6)
-    np.testing.assert_array_equal(network_photo(image, 100), image)  # k = 1: the photo as it is
+    np.testing.assert_array_equal(network_photo(image, 1), image)  # k = 1: the photo as it is
+    # the short side stays at the network's minimum (8 px): a 12 x 600 strip is seen in 1 x 1 blocks, 16 x 600 in 2 x 2
+    assert Upsampling().factor((12, 600)) == 1 and not Upsampling().applies((12, 600))
+    assert Upsampling().factor((16, 600)) == 2 and Upsampling().factor((600, 4000)) == 8
+    assert Upsampling(network_size=None).factor((8192, 8192)) == 1
 
 
 @pytest.mark.parametrize("big, k", [((64, 48), 2), ((96, 40), 8), ((30, 45), 3), ((7, 7), 7)])
@@ -140,7 +146,7 @@ def test_guided_estimate_agrees_with_the_network_at_its_size(session):
     0.04; the test network's normals are noise, so their local gain on the photo is noise too), and are at the
     photo's size with unit normals."""
     photo = _photo(128, 96)
-    settings = Upsampling(network_size=64, direct_max_size=64)
+    settings = Upsampling(network_size=64)
     out = estimate(photo, session, upsampling=settings)
     assert out.shape == (128, 96) and out.meta["network_size"] == [64, 48] and out.meta["size"] == [128, 96]
     assert "upsample" in out.meta["timings"]
@@ -152,11 +158,11 @@ def test_guided_estimate_agrees_with_the_network_at_its_size(session):
     assert out.meta["burn_in"] == ref.meta["burn_in"]  # the scores are the network-size maps'
 
 
-def test_photos_up_to_the_direct_size_take_the_reference_path_unchanged(session):
+def test_photos_up_to_the_network_size_take_the_reference_path_unchanged(session):
     photo = _photo(64, 48)
-    a = estimate(photo, session)
+    a = estimate(photo, session, upsampling=Upsampling(network_size=64))
     b = estimate(photo, session, upsampling=Upsampling(network_size=None))
-    c = estimate(photo, session, upsampling=Upsampling(network_size=32, direct_max_size=64))
+    c = estimate(photo, session)
     for name in a.names:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
         np.testing.assert_array_equal(getattr(a, name), getattr(c, name))
@@ -200,7 +206,7 @@ def test_process_photo_of_a_large_photo_writes_maps_at_its_size(session, tmp_pat
 
     path = tmp_path / "large.png"
     write_image(path, _photo(160, 120), bits=8)
-    options = PhotoOptions(max_size=8192, upsampling=Upsampling(network_size=64, direct_max_size=64))
+    options = PhotoOptions(max_size=8192, upsampling=Upsampling(network_size=64))
     maps, relit, _ = process_photo(path, options, session)
     assert maps.shape == (160, 120) and relit.shape == (160, 360, 3)
     paths = write_maps(maps, relit, tmp_path / "out", "large", options, {})
