@@ -136,6 +136,22 @@ def test_changed_options_need_force(tiny_model, tmp_path, capsys):
     assert _manifest(lib)["p00"]["options"]["format"] == "exr"
 
 
+def test_the_network_size_is_an_option_of_the_set(tiny_model, tmp_path, capsys):
+    """``--network-size`` reaches the workers (the sidecar's ``network_size``) and is recorded: another one redoes a
+    set only with --force."""
+    _photos(tmp_path / "in", 1, size=(40, 72))
+    lib = tmp_path / "lib"
+    argv = [tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1"]
+    assert _run(capsys, *argv, "--network-size", "36")[0] == 0
+    assert _manifest(lib)["p00"]["options"]["network_size"] == 36
+    assert json.loads((lib / "p00" / "p00.json").read_text())["meta"]["network_size"] == [20, 36]
+    code, _, err = _run(capsys, *argv, "--network-size", "full")
+    assert code == 1 and "with other options; use --force to redo it" in err
+    assert _run(capsys, *argv, "--network-size", "full", "--force")[0] == 0
+    assert _manifest(lib)["p00"]["options"]["network_size"] is None
+    assert "network_size" not in json.loads((lib / "p00" / "p00.json").read_text())["meta"]
+
+
 def test_a_folder_that_is_not_a_library_is_refused(tiny_model, tmp_path, capsys):
     _photos(tmp_path / "in", 1)
     lib = tmp_path / "lib"

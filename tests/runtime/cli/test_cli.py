@@ -201,6 +201,9 @@ def test_an_existing_user_file_is_left_untouched(photo, tiny_model, tmp_path, ca
     ["p.png", "--normal", "yz"],
     ["p.png", "--fov", "500"],
     ["p.png", "--refine", "--iters", "3", "--quality", "auto"],
+    ["p.png", "--network-size", "4"],
+    ["p.png", "--network-size", "0"],
+    ["p.png", "--network-size", "half"],
 ])
 def test_usage_errors_exit_2(argv, capsys):
     code, out, err = _run(capsys, *argv)
@@ -430,3 +433,19 @@ def test_maps_height_or_ao_alone_computes_the_normal_map_and_writes_it(photo, ti
     assert code == 0 and json.loads((tmp_path / "s" / "wood.json").read_text())["relief"]["ao"]["strength"] == 1.0
     code, _, err = _run(capsys, photo, "--model", tiny_model, "--ao-strength", "0")
     assert code == 2 and "--ao-strength: must be a finite number > 0" in err
+
+
+def test_network_size_picks_the_path_and_is_recorded(tiny_model, tmp_path, capsys):
+    """A 96 x 64 photo with ``--network-size 32``: the network sees 32 x 22 block means and the maps are at the
+    photo's size (the sidecar records both); ``full``: the network at the photo's own size, no upsampling."""
+    path = tmp_path / "p.png"
+    rng = np.random.default_rng(3)
+    write_image(path, rng.uniform(0.1, 0.6, (64, 96, 3)).astype(np.float32), bits=8, srgb_encode=True)
+    for value, network in (("32", [22, 32]), ("full", None)):
+        out = tmp_path / value
+        code, _, err = _run(capsys, path, "-o", out, "--model", tiny_model, "--network-size", value)
+        assert code == 0, err
+        meta = json.loads((out / "p.json").read_text())["meta"]
+        assert meta["size"] == [64, 96] and meta.get("network_size") == network
+        assert read_image(out / "p_roughness.png").shape[:2] == (64, 96)
+        assert ("upsample" in meta["timings"]) == (network is not None)
