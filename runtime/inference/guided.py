@@ -271,8 +271,13 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
 
 
 def luminance(image: np.ndarray) -> np.ndarray:
-    """(H, W) float32 mean of the linear channels of an (H, W, 3) photo."""
-    return np.asarray(image, np.float32).mean(axis=-1, dtype=np.float32)
+    """(H, W) float32 mean of the linear channels of an (H, W, 3) photo: ``(r + g) + b`` over 3, channel by channel
+    (the bits of ``mean(axis=-1)``, several times faster than a reduction over an axis of 3)."""
+    a = np.asarray(image, np.float32)
+    out = a[..., 0] + a[..., 1]
+    out += a[..., 2]
+    out /= np.float32(a.shape[-1])
+    return out
 
 
 def network_photo(image: np.ndarray, k: int) -> np.ndarray:

@@ -76,7 +76,13 @@ def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
     """Warn (:class:`~svbrdf.runtime.io.images.ImageWarning`) when an (H, W, 3) photo has no colour: a one-channel
     file (read as R = G = B) or three channels equal within :data:`GREY_TOLERANCE`. The model then invents the
     colour of the diffuse and specular maps. Returns whether it warned."""
-    grey = all(float(np.abs(image[..., c] - image[..., 1]).max()) <= GREY_TOLERANCE for c in (0, 2))
+    grey = True
+    rows = max(1, (1 << 20) // max(1, image.shape[1]))  # strips of a megapixel: a colour photo stops at the first
+    for y0 in range(0, image.shape[0], rows):
+        s = image[y0:y0 + rows]
+        if any(float(np.abs(s[..., c] - s[..., 1]).max()) > GREY_TOLERANCE for c in (0, 2)):
+            grey = False
+            break
     if grey:
         warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the "
                                    f"diffuse and specular maps"), stacklevel=2)
