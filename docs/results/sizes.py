@@ -63,14 +63,15 @@ def run_cli(env: dict, photo: Path, size: int, out: Path) -> dict:
     shutil.rmtree(out, ignore_errors=True)
     cmd = [sys.executable, "-m", "svbrdf.runtime.cli.preview", str(photo), "-o", str(out), "--threads", "2",
            "--max-size", str(max(size, 256)), "--force"]
-    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    _, status, usage = os.wait4(proc.pid, 0)
-    text = proc.stdout.read() + proc.stderr.read()
-    proc.returncode = os.waitstatus_to_exitcode(status)
+    with tempfile.TemporaryFile("w+") as log:  # a file, not a pipe: a talkative run cannot block before wait4
+        proc = subprocess.Popen(cmd, env=env, stdout=log, stderr=subprocess.STDOUT, text=True)
+        _, status, usage = os.wait4(proc.pid, 0)
+        log.seek(0)
+        text = log.read()
     m = LINE.search(text)
     shutil.rmtree(out, ignore_errors=True)
     return {"seconds": float(m.group(3)) if m else None, "peak_rss_mb": usage.ru_maxrss / 1024,
-            "rc": proc.returncode, "line": text.strip().splitlines()[-1] if text.strip() else ""}
+            "rc": os.waitstatus_to_exitcode(status), "line": text.strip().splitlines()[-1] if text.strip() else ""}
 
 
 def plot(rows: list, path: Path) -> None:

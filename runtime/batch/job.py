@@ -92,10 +92,9 @@ def run_job(job: Job) -> Dict[str, Any]:
     try:
         from ..core.render import rerender_rmse
         from ..inference.pipeline import PhotoOptions, process_photo, write_maps
+        from ..inference.guided import Upsampling
         from ..inference.refine import load_refine
         from ..io.images import read_image
-
-        from ..inference.guided import Upsampling
 
         options = PhotoOptions.from_mapping({**opts, "maps": tuple(opts["maps"])}).replace(
             force=False, quiet=job.quiet, threads=job.threads, model=job.model,

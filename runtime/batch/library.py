@@ -156,10 +156,9 @@ def library_options(args: Any, model_sha256: str) -> Dict[str, Any]:
     """What makes a texture set (:data:`OPTION_KEYS` of ``args``, a
     :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`, plus the model's sha256), JSON-ready; ``args``
     without a key of :data:`OPTION_DEFAULTS` gets its default."""
-    upsampling = getattr(args, "upsampling", None)
-    values = {"network_size": getattr(upsampling, "network_size", OPTION_DEFAULTS["network_size"])}
-    opts = {k: values[k] if k in values else getattr(args, k, OPTION_DEFAULTS[k]) if k in OPTION_DEFAULTS
-            else getattr(args, k) for k in OPTION_KEYS}
+    opts = {k: getattr(args, k, OPTION_DEFAULTS[k]) if k in OPTION_DEFAULTS else getattr(args, k)
+            for k in OPTION_KEYS if k != "network_size"}
+    opts["network_size"] = getattr(getattr(args, "upsampling", None), "network_size", OPTION_DEFAULTS["network_size"])
     opts["maps"] = list(opts["maps"])
     if opts["relief"] is None:  # PhotoOptions' default: both relief maps with all four maps
         from ..core.maps import MAP_NAMES

@@ -20,14 +20,18 @@ PROG = "svbrdf-preview"
 __all__ = ["add_texture_options", "check_options", "photo_options", "min_tile"]
 
 
-def _positive(text: str) -> int:
+def _at_least(text: str, low: int, what: str = "an integer") -> int:
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer: {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be >= 1, got {value}")
+        raise argparse.ArgumentTypeError(f"not {what}: {text!r}") from None
+    if value < low:
+        raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
     return value
+
+
+def _positive(text: str) -> int:
+    return _at_least(text, 1)
 
 
 def _positive_float(text: str) -> float:
@@ -44,17 +48,7 @@ def _network_size(text: str):
     """``--network-size``: ``full`` or a long side >= 8 -> :class:`~svbrdf.runtime.inference.guided.Upsampling`."""
     if text.strip().lower() == "full":
         return Upsampling(network_size=None)
-    return Upsampling(network_size=_at_least(text, 8))
-
-
-def _at_least(text: str, low: int) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"not an integer or 'full': {text!r}") from None
-    if value < low:
-        raise argparse.ArgumentTypeError(f"must be >= {low}, got {value}")
-    return value
+    return Upsampling(network_size=_at_least(text, 8, "an integer or 'full'"))
 
 
 def _map_list(text: str) -> tuple:
@@ -92,8 +86,8 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                    help="downsize photos whose long side exceeds N pixels (default: 2048)")
     p.add_argument("--network-size", metavar="N", dest="upsampling", type=_network_size, default=Upsampling(),
                    help="the network sees the photo in pixel blocks, at most N px long, and the maps get the "
-                        "photo's own detail back at its size (default: 512: better maps than at 1024 px, in a quarter "
-                        "of the time); 'full': the network at the photo's own size, in tiles (the reference)")
+                        "photo's own detail back at its size (default: 512: better maps than at 1024 px, in half "
+                        "the time); 'full': the network at the photo's own size, in tiles (the reference)")
     p.add_argument("--tile", metavar="N", type=_positive, default=1024,
                    help="process larger images in overlapping N x N tiles to bound memory (default: 1024; "
                         f"at least {min_tile()})")
