@@ -91,11 +91,12 @@ def run_job(job: Job) -> Dict[str, Any]:
 
     try:
         from ..core.render import rerender_rmse
-        from ..inference.pipeline import PhotoOptions, process_photo, write_maps
+        from ..inference.pipeline import PhotoOptions, process_photo, small_pages, write_maps
         from ..inference.guided import Upsampling
         from ..inference.refine import load_refine
         from ..io.images import read_image
 
+        small_pages()  # the worker's process, as svbrdf-preview's
         options = PhotoOptions.from_mapping({**opts, "maps": tuple(opts["maps"])}).replace(
             force=False, quiet=job.quiet, threads=job.threads, model=job.model,
             upsampling=Upsampling(network_size=opts.get("network_size")))

@@ -174,6 +174,9 @@ def main(argv: Optional[List[str]] = None) -> int:
     problem = check_options(args)
     if problem:
         return _usage(parser, problem)
+    from ..inference.pipeline import small_pages
+
+    small_pages()
     try:
         return _run(args)
     except KeyboardInterrupt:
