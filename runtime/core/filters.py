@@ -14,7 +14,7 @@ def block_mean(arr: np.ndarray, k: int, partial: bool = False) -> np.ndarray:
     When H or W is not a multiple of ``k``, the last block row/column is dropped (``partial=False``: every block has
     k x k pixels, as the low-frequency scores want) or averaged over the pixels it has (``partial=True``: the strip
     reader, which must cover the whole image). Rows are summed first, over contiguous memory: 4x faster at 1024 px
-    than one reduction over both block axes.
+    than one reduction over both block axes; then the block's columns, one slice add each.
 
     Returns:
         (H // k, W // k, C), or (ceil(H / k), ceil(W / k), C) with ``partial``; ``k = 1`` returns the array as
@@ -33,7 +33,13 @@ def block_mean(arr: np.ndarray, k: int, partial: bool = False) -> np.ndarray:
         rr, cc = (r // k) * k, (w // k) * k
         a = np.ascontiguousarray(arr[:rr, :cc], dtype=np.float32)
     rows = a.reshape(rr // k, k, cc * c).sum(axis=1, dtype=np.float32)
-    sums = rows.reshape(rr // k, cc // k, k, c).sum(axis=2)
+    if c == 1:  # each block's k values are contiguous: one reduction
+        sums = rows.reshape(rr // k, cc // k, k, 1).sum(axis=2)
+    else:  # the k pixels of a block added in order, as the reduction over that axis adds them (the same bits), 3.5x faster
+        rows = rows.reshape(rr // k, cc // k, k * c)
+        sums = rows[:, :, :c].copy()
+        for j in range(1, k):
+            sums += rows[:, :, j * c:(j + 1) * c]
     if not partial:
         return sums / np.float32(k * k)
     n_rows = np.minimum(k, r - k * np.arange(rr // k)).astype(np.float32)

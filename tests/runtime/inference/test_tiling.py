@@ -163,6 +163,27 @@ def test_block_mean_full_and_partial_blocks(shape):
     assert block_mean(a, 1).dtype == np.float32 and block_mean(a, 1).shape == shape
 
 
+@pytest.mark.parametrize("k", [2, 3, 8, 17])
+@pytest.mark.parametrize("c", [1, 3, 4])
+def test_block_mean_adds_in_the_order_of_one_reduction(k, c):
+    """The block's columns added slice by slice give the bits of numpy's reduction over that axis (what the
+    post-processing was tuned with), full and partial blocks."""
+    from svbrdf.runtime.core.filters import block_mean
+
+    a = np.random.default_rng(k * c).uniform(-1, 2, (5 * k + 3, 4 * k + 1, c)).astype(np.float32)
+    bh, bw = a.shape[0] // k, a.shape[1] // k
+    rows = a[:bh * k, :bw * k].reshape(bh, k, bw * k * c).sum(axis=1, dtype=np.float32)
+    want = rows.reshape(bh, bw, k, c).sum(axis=2) / np.float32(k * k)
+    np.testing.assert_array_equal(block_mean(a, k), want)
+    bh, bw = -(-a.shape[0] // k), -(-a.shape[1] // k)
+    padded = np.zeros((bh * k, bw * k, c), np.float32)
+    padded[:a.shape[0], :a.shape[1]] = a
+    sums = padded.reshape(bh, k, bw * k * c).sum(axis=1, dtype=np.float32).reshape(bh, bw, k, c).sum(axis=2)
+    counts = (np.minimum(k, a.shape[0] - k * np.arange(bh)).astype(np.float32)[:, None, None]
+              * np.minimum(k, a.shape[1] - k * np.arange(bw)).astype(np.float32)[None, :, None])
+    np.testing.assert_array_equal(block_mean(a, k, partial=True), sums / counts)
+
+
 def test_box_mean_is_the_window_mean_with_edges_repeated():
     from svbrdf.runtime.core.filters import box_mean
 
