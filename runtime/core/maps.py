@@ -282,8 +282,9 @@ class Maps:
         """A copy with :attr:`relief`: the height map and ambient occlusion of the normal map, as written
         (:func:`~svbrdf.runtime.core.relief.relief_maps`; ``maps`` picks ``"height"`` and/or ``"ao"``).
 
-        The normals are first made unit length as the writers make them (:func:`normalize_normals`: a zero-length
-        normal becomes (0, 0, 1), the documented repair), so the height's slopes are those of the written normal
+        The normals are made unit length as the writers make them (:func:`normalize_normals`: a zero-length
+        normal becomes (0, 0, 1), the documented repair), strip by strip as their slopes are taken (``zero="unit"``
+        of :func:`~svbrdf.runtime.core.relief.normal_slopes`), so the height's slopes are those of the written normal
         map. ``tileable``: the maps repeat (the height is integrated across the wrap). ``ao_strength``: the AO is that
         of the height times it (default :data:`~svbrdf.runtime.core.relief.AO_STRENGTH`, measured; 1 = the normal
         map's own depth).
@@ -296,7 +297,7 @@ class Maps:
                               f"{', '.join(self.names)}")
         if not np.isfinite(self.normal).all():
             raise SvbrdfError("normal map: NaN or infinite values; the height and AO need finite normals")
-        relief = relief_maps(normalize_normals(self.normal), tileable=tileable, maps=maps, ao_strength=ao_strength)
+        relief = relief_maps(self.normal, tileable=tileable, maps=maps, ao_strength=ao_strength, zero="unit")
         return self._with(dict(self.items()), relief=relief)
 
     def _with(self, arrays: Mapping[str, np.ndarray], relief: Optional[Relief] = None) -> "Maps":

@@ -144,6 +144,26 @@ def test_steep_and_degenerate_normals():
     assert np.isfinite(height).all()
 
 
+def test_unit_takes_the_slopes_of_the_normals_as_written():
+    """zero="unit": each strip made unit as the writers make it (z clamped at 0, a zero vector flat), the same bits
+    as normalising the whole map first; any length accepted."""
+    from svbrdf.runtime.core.maps import normalize_normals
+
+    rng = np.random.default_rng(5)
+    n = rng.normal(size=(70, 45, 3)).astype(np.float32)
+    n[..., 2] = np.abs(n[..., 2]) + 0.2
+    n[3, 4] = 0.0  # zero-length
+    n[40, 7, 2] = -0.5  # into the surface
+    n *= np.float32(2.5)  # components beyond [-1, 1]
+    for got, want in zip(normal_slopes(n, zero="unit"), normal_slopes(normalize_normals(n), zero="error")):
+        np.testing.assert_array_equal(got, want)
+    for tileable in (False, True):
+        np.testing.assert_array_equal(height_from_normals(n, zero="unit", tileable=tileable)[0],
+                                      height_from_normals(normalize_normals(n), tileable=tileable)[0])
+    with pytest.raises(SvbrdfError, match="expected 'error', 'flat' or 'unit'"):
+        normal_slopes(n, zero="repair")
+
+
 @pytest.mark.parametrize("bad, match", [
     (np.zeros((4, 5)), r"expected an \(H, W, 3\) array"),
     (np.zeros((4, 5, 4)), r"expected an \(H, W, 3\) array"),
