@@ -91,7 +91,8 @@ def run_job(job: Job) -> Dict[str, Any]:
 
     try:
         from ..core.render import rerender_rmse
-        from ..inference.pipeline import PhotoOptions, process_photo, small_pages, write_maps
+        from ..inference.pipeline import (PhotoOptions, process_photo, processed_pixels, reuse_memory, small_pages,
+                                          write_maps)
         from ..inference.guided import Upsampling
         from ..inference.refine import load_refine
         from ..io.images import read_image
@@ -101,6 +102,10 @@ def run_job(job: Job) -> Dict[str, Any]:
             force=False, quiet=job.quiet, threads=job.threads, model=job.model,
             upsampling=Upsampling(network_size=opts.get("network_size")))
         photo.write_bytes(job.data)
+        try:
+            reuse_memory(processed_pixels(photo, options.max_size))  # the worker's process, per photo
+        except SvbrdfError:  # an unreadable photo: process_photo says so
+            pass
         session = _session(job.model, job.threads, options.maps)
         if session.info.sha256 != opts["model_sha256"]:
             raise SvbrdfError(f"this worker's model {session.info.path} (sha256 {session.info.sha256[:12]}) is not "

@@ -75,7 +75,7 @@ def _process(photo: Path, session, config, options, out_dir: Path, refine=None) 
     write one texture set with ``options`` (:class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`); returns the
     report line."""
     from ..errors import exists_message
-    from ..inference.pipeline import process_photo, write_maps
+    from ..inference.pipeline import process_photo, processed_pixels, reuse_memory, write_maps
 
     start = time.perf_counter()
     name = photo.stem
@@ -89,6 +89,10 @@ def _process(photo: Path, session, config, options, out_dir: Path, refine=None) 
         for early in early_files:
             if (out_dir / early).exists():
                 raise SvbrdfError(exists_message(out_dir / early))
+    try:
+        reuse_memory(processed_pixels(photo, options.max_size))
+    except SvbrdfError:  # an unreadable photo: process_photo says so
+        pass
     maps, relit, detail = process_photo(photo, options, session, config, refine)
     write_maps(maps, relit, out_dir, name, options, {"tool": f"{PROG} {__version__}"})
     h, w = maps.shape

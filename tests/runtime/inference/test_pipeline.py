@@ -1,6 +1,9 @@
 """The per-photo pipeline: estimate(..., post=PostProcess), PhotoOptions and process_photo (the one path of both CLIs)."""
 
 import argparse
+import os
+import platform
+import sys
 
 import numpy as np
 import pytest
@@ -63,3 +66,40 @@ def test_process_photo_with_options(session, tmp_path):
     assert bare.meta["even_lighting"] is None
     with pytest.raises(ValueError, match="needs the refine function"):
         process_photo(path, PhotoOptions(refine=True), session)
+
+
+def test_processed_pixels_reads_the_header(tmp_path):
+    from svbrdf.runtime.inference.pipeline import processed_pixels
+
+    path = tmp_path / "p.png"
+    write_image(path, np.full((30, 80, 3), 0.5, np.float32), bits=8)
+    assert processed_pixels(path, 2048) == 30 * 80
+    assert processed_pixels(path, 40) == 15 * 40  # downsized to the long side
+
+
+def _rss() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux") or not os.path.exists("/proc/self/statm")
+                    or platform.libc_ver()[0] != "glibc", reason="glibc's allocator on Linux")
+def test_reuse_memory_keeps_freed_arrays_in_the_process_up_to_its_size():
+    """Up to REUSE_PIXELS a freed large array stays in the process (the next one reuses its pages); above it,
+    glibc's defaults give it back to the system."""
+    from svbrdf.runtime.inference.pipeline import REUSE_PIXELS, reuse_memory
+
+    def rss_after_free() -> int:
+        a = np.ones(40 * 2**20 // 4, np.float32)  # 40 MB, touched
+        before = _rss()
+        del a
+        return before - _rss()
+
+    try:
+        assert reuse_memory(1024 * 1024) is True
+        kept = rss_after_free()
+        assert reuse_memory(REUSE_PIXELS + 1) is False
+        returned = rss_after_free()
+    finally:
+        reuse_memory(REUSE_PIXELS + 1)  # the test process back on glibc's settings
+    assert kept < 4 * 2**20 and returned > 36 * 2**20  # bytes given back by the free
