@@ -37,8 +37,9 @@ Everything here imports numpy and the project's error type only.
 
 from __future__ import annotations
 
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Dict, Optional, Tuple
+from typing import Callable, Dict, Optional, Tuple
 
 import numpy as np
 
@@ -61,6 +62,11 @@ AO_DIRECTIONS = (4, 8)
 AO_MAX_SIZE = 2048
 #: Rows processed at a time by the per-pixel loops (keeps the temporaries in cache; any value gives the same result).
 _STRIP = 32
+#: Threads of the relief's large passes: the height's DCTs (each thread a slice of rows or columns), the slopes and
+#: the AO levels (each thread a run of row strips); the same values with any count.
+THREADS = 2
+#: Pixels from which those passes are split over :data:`THREADS` (smaller maps: one thread, no start-up cost).
+_THREAD_PIXELS = 1 << 21
 #: Rows processed at a time in the finest AO level (keeps the temporaries in cache; any value gives the same AO).
 _AO_STRIP = 16
 
@@ -151,10 +157,9 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
     p = np.empty((h, w), np.float32)
     q = np.empty((h, w), np.float32)
     inv_max = np.float32(1.0 / max_slope)
-    degenerate = 0
-    first = None
-    for r0 in range(0, h, _STRIP):  # row strips: every temporary stays in cache
-        r1 = min(h, r0 + _STRIP)
+
+    def strip_slopes(r0: int, r1: int) -> Tuple[int, Optional[Tuple[int, int]]]:  # rows r0:r1; (degenerate, first)
+        degenerate, first = 0, None
         strip = normalize_normals(n[r0:r1]) if zero == "unit" else n[r0:r1]
         nx, ny, nz = strip[..., 0], strip[..., 1], strip[..., 2]
         d = nx * nx
@@ -180,6 +185,11 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
         if small.any() and degenerate:
             p[r0:r1][bad] = 0.0
             q[r0:r1][bad] = 0.0
+        return degenerate, first
+
+    counts = _strips(strip_slopes, h, _STRIP, h * w)
+    found = [f for _, f in counts if f is not None]
+    degenerate, first = sum(c for c, _ in counts), (found[0] if found else None)
     if degenerate and zero == "error":
         raise SvbrdfError(f"normal map: {degenerate} zero-length normal(s) (first at row {first[0]}, column "
                           f"{first[1]}); pass zero='flat' to treat them as flat")
@@ -233,6 +243,36 @@ def _dct2(x: np.ndarray, axis: int) -> np.ndarray:
         tail[...] = w.imag[_along(axis, slice(m, 0, -1))]
         tail *= np.float32(-1.0)  # not np.negative(out=): numpy 2.4.6 negates 16-byte-strided float32 views wrongly
     return out
+
+
+def _strips(work: Callable[[int, int], object], h: int, strip: int, pixels: int) -> list:
+    """``[work(r0, r1) for each strip of `strip` rows of h]``, in order; for ``pixels`` >= ``_THREAD_PIXELS``
+    the strips are cut into :data:`THREADS` runs done on threads (each strip's work is its own, so the result is the
+    same)."""
+    starts = list(range(0, h, strip))
+    if THREADS < 2 or pixels < _THREAD_PIXELS or len(starts) < THREADS:
+        return [work(r0, min(h, r0 + strip)) for r0 in starts]
+    cuts = [len(starts) * i // THREADS for i in range(THREADS + 1)]
+
+    def run(i: int) -> list:
+        return [work(r0, min(h, r0 + strip)) for r0 in starts[cuts[i]:cuts[i + 1]]]
+
+    with ThreadPoolExecutor(THREADS) as pool:
+        return [r for part in pool.map(run, range(THREADS)) for r in part]
+
+
+def _sliced(fn: Callable[[np.ndarray, int], np.ndarray], x: np.ndarray, axis: int) -> np.ndarray:
+    """``fn(x, axis)`` of a transform along ``axis`` (:func:`_dct2`, :func:`_idct2`), on :data:`THREADS` threads
+    for a large ``x``: each takes a slice of the other axis (the transform treats its lines independently, so the
+    values are the same), and the slices are joined. numpy leaves the GIL in its FFT."""
+    other = 1 - axis
+    n = x.shape[other]
+    if THREADS < 2 or x.size < _THREAD_PIXELS or n < THREADS:
+        return fn(x, axis)
+    cuts = [n * i // THREADS for i in range(THREADS + 1)]
+    with ThreadPoolExecutor(THREADS) as pool:
+        parts = list(pool.map(lambda i: fn(x[_along(other, slice(cuts[i], cuts[i + 1]))], axis), range(THREADS)))
+    return np.concatenate(parts, axis=other)
 
 
 def _idct2(X: np.ndarray, axis: int) -> np.ndarray:
@@ -365,10 +405,10 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
                                1.0 / (h * w))
         hpx = np.fft.irfft2(spec, s=(h, w)).astype(np.float32, copy=False)
     else:
-        spec = _dct2(_dct2(rhs, 1), 0)
+        spec = _sliced(_dct2, _sliced(_dct2, rhs, 1), 0)
         del rhs
         _divide_by_eigenvalues(spec, _laplacian_eigen(h, False), _laplacian_eigen(w, False))
-        hpx = _idct2(_idct2(spec, 0), 1)
+        hpx = _sliced(_idct2, _sliced(_idct2, spec, 0), 1)
     del spec
     hpx -= np.float32(hpx.mean(dtype=np.float64))  # exact 0 mean after float32 rounding
     height = hpx / np.float32(w)
@@ -652,9 +692,11 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
         arr = levels[lev]
         hs = _level_heights(arr, float(2 ** lev), pairs, tileable)
         cur = np.empty(arr.shape, np.float32)
-        for r0 in range(0, arr.shape[0], _AO_STRIP):
-            r1 = min(arr.shape[0], r0 + _AO_STRIP)
-            cur[r0:r1] = _level_ao(hs, slice(r0, r1), arr.shape[1])
+
+        def strip_ao(r0: int, r1: int, cur=cur, hs=hs, width=arr.shape[1]) -> None:
+            cur[r0:r1] = _level_ao(hs, slice(r0, r1), width)
+
+        _strips(strip_ao, arr.shape[0], _AO_STRIP, arr.size)
         cur *= np.float32(1.0 / (2 * len(pairs)))
         del hs
         if ao is not None:

@@ -299,3 +299,26 @@ def test_ao_max_size_levels():
     assert _corr(full, coarse) > 0.8
     four = ambient_occlusion(hp / 128, tileable=True, directions=4)
     assert _corr(full, four) > 0.8
+
+
+@pytest.mark.parametrize("tileable", [False, True])
+def test_threads_give_the_same_relief(monkeypatch, tileable):
+    """The DCT passes, the slopes and the AO levels split over threads (slices of rows or columns, runs of strips)
+    give the values of one thread, and a zero-length normal is reported at the same place."""
+    from svbrdf.runtime.core import relief
+
+    rng = np.random.default_rng(11)
+    n = rng.normal(size=(150, 97, 3)).astype(np.float32)
+    n[..., 2] = np.abs(n[..., 2]) + 0.5
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    monkeypatch.setattr(relief, "_THREAD_PIXELS", 1)
+    out = {}
+    for threads in (1, 3):
+        monkeypatch.setattr(relief, "THREADS", threads)
+        r = relief.relief_maps(n, tileable=tileable)
+        out[threads] = (r.height, r.ao, r.scale)
+    assert all(np.array_equal(a, b) for a, b in zip(out[1][:2], out[3][:2])) and out[1][2] == out[3][2]
+    n[120, 40] = 0.0
+    n[130, 3] = 0.0
+    with pytest.raises(SvbrdfError, match=r"2 zero-length normal\(s\) \(first at row 120, column 40\)"):
+        relief.height_from_normals(n)
