@@ -222,7 +222,7 @@ def _twiddle(n: int, half: int, axis: int, sign: float) -> np.ndarray:
     return tw[:, None] if axis == 0 else tw[None, :]
 
 
-def _dct2(x: np.ndarray, axis: int) -> np.ndarray:
+def _dct2(x: np.ndarray, axis: int, out: Optional[np.ndarray] = None) -> np.ndarray:
     """Unnormalised DCT-II of a 2-D float32 array along ``axis`` (0 or 1):
     ``X[k] = sum_n x[n] cos(pi k (2 n + 1) / (2 N))``, by one real FFT of length N of the even samples followed
     by the odd ones reversed (Makhoul 1980): ``X[k] = Re(exp(-i pi k / 2N) V[k])``, ``X[N - k] = -Im(...)``.
@@ -235,7 +235,7 @@ def _dct2(x: np.ndarray, axis: int) -> np.ndarray:
     w = np.fft.rfft(v, axis=axis, norm="forward")  # scaled 1/n: much faster in numpy 2.4 than unscaled
     del v
     w *= _twiddle(n, half, axis, -1.0) * np.float32(n)
-    out = np.empty(x.shape, np.float32)
+    out = np.empty(x.shape, np.float32) if out is None else out
     out[_along(axis, slice(0, half))] = w.real
     m = (n - 1) // 2  # X[n - k] = -Im(w[k]) for k = 1..m
     if m:
@@ -263,19 +263,20 @@ def _strips(work: Callable[[int, int], object], h: int, strip: int, pixels: int)
 
 def _sliced(fn: Callable[[np.ndarray, int], np.ndarray], x: np.ndarray, axis: int) -> np.ndarray:
     """``fn(x, axis)`` of a transform along ``axis`` (:func:`_dct2`, :func:`_idct2`), on :data:`THREADS` threads
-    for a large ``x``: each takes a slice of the other axis (the transform treats its lines independently, so the
-    values are the same), and the slices are joined. numpy leaves the GIL in its FFT."""
+    for a large ``x``: each transforms a slice of the other axis into its part of the output (the transform treats
+    its lines independently, so the values are the same). numpy leaves the GIL in its FFT."""
     other = 1 - axis
     n = x.shape[other]
     if THREADS < 2 or x.size < _THREAD_PIXELS or n < THREADS:
         return fn(x, axis)
-    cuts = [n * i // THREADS for i in range(THREADS + 1)]
+    out = np.empty(x.shape, np.float32)
+    part = [_along(other, slice(n * i // THREADS, n * (i + 1) // THREADS)) for i in range(THREADS)]
     with ThreadPoolExecutor(THREADS) as pool:
-        parts = list(pool.map(lambda i: fn(x[_along(other, slice(cuts[i], cuts[i + 1]))], axis), range(THREADS)))
-    return np.concatenate(parts, axis=other)
+        list(pool.map(lambda i: fn(x[part[i]], axis, out=out[part[i]]), range(THREADS)))
+    return out
 
 
-def _idct2(X: np.ndarray, axis: int) -> np.ndarray:
+def _idct2(X: np.ndarray, axis: int, out: Optional[np.ndarray] = None) -> np.ndarray:
     """The inverse of :func:`_dct2` along ``axis``: ``w[k] = X[k] - i X[N - k]`` (``X[N] = 0``) times
     ``exp(i pi k / 2N)``, an inverse real FFT, and the samples put back in order. float32."""
     n = X.shape[axis]
@@ -291,7 +292,7 @@ def _idct2(X: np.ndarray, axis: int) -> np.ndarray:
     w *= _twiddle(n, half, axis, 1.0)
     v = np.fft.irfft(w, n=n, axis=axis)
     del w
-    out = np.empty(X.shape, np.float32)
+    out = np.empty(X.shape, np.float32) if out is None else out
     out[_along(axis, slice(0, None, 2))] = v[_along(axis, slice(0, c))]
     out[_along(axis, slice(1, None, 2))] = v[_along(axis, slice(c, None))][_along(axis, slice(None, None, -1))]
     return out

@@ -118,8 +118,11 @@ def small_pages() -> bool:
 
 #: Processed pixels up to which :func:`reuse_memory` keeps freed memory in the process (4096 x 4096).
 REUSE_PIXELS = 4096 * 4096
-_M_TRIM_THRESHOLD, _M_MMAP_MAX = -1, -4  # glibc's mallopt parameters (malloc.h)
-_GLIBC_DEFAULTS = {_M_TRIM_THRESHOLD: 128 * 1024, _M_MMAP_MAX: 65536}
+_M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD, _M_MMAP_MAX = -1, -3, -4  # glibc's mallopt parameters (malloc.h)
+#: glibc's settings put back after a kept heap: mapping above 32 MB and trimming the heap's top above 64 MB (where its
+#: dynamic thresholds settle for arrays of this size; any mallopt call stops them moving).
+_GLIBC_BACK = {_M_MMAP_MAX: 65536, _M_MMAP_THRESHOLD: 32 << 20, _M_TRIM_THRESHOLD: 64 << 20}
+_kept = False
 
 
 def reuse_memory(pixels: int) -> bool:
@@ -128,25 +131,31 @@ def reuse_memory(pixels: int) -> bool:
     array (``mallopt``: ``M_MMAP_MAX`` 0, ``M_TRIM_THRESHOLD`` 2 GiB) instead of being mapped afresh each time
     and faulted in page by page: measured with ``svbrdf-preview --threads 2`` on the 2-core AMD EPYC, taking turns,
     1024 px 0.90 -> 0.82 s (median of 3), 4096 px 6.6 -> 5.0 s (2 runs), for a peak 1.15 -> 1.47 GB at 4096 px. Above
-    it, glibc's own settings are put back (at 8192 px the heap would add 1 GB to the peak, 3.7 -> 4.7 GB, for
-    24.8 -> 22.3 s). A process-wide setting, like :func:`small_pages`: the CLIs and the batch workers call it per
-    photo; an application embedding the library decides for itself.
+    it glibc maps each large array (at 8192 px the heap would add 1 GB to the peak, 3.7 -> 4.7 GB, for
+    24.8 -> 22.3 s): its own settings when this never kept the heap, else :data:`_GLIBC_BACK` and the heap trimmed.
+    A process-wide setting, like :func:`small_pages`: the CLIs and the batch workers call it per photo; an
+    application embedding the library decides for itself.
 
     Returns:
         whether the heap is kept (False also where the C library has no ``mallopt``).
     """
+    global _kept
+    keep = pixels <= REUSE_PIXELS
+    if keep == _kept:
+        return keep
     try:
         import ctypes
 
-        mallopt = ctypes.CDLL("libc.so.6").mallopt
+        libc = ctypes.CDLL("libc.so.6")
+        mallopt = libc.mallopt
     except (OSError, AttributeError):  # not glibc
         return False
-    keep = pixels <= REUSE_PIXELS
-    settings = {_M_TRIM_THRESHOLD: 2**31 - 1, _M_MMAP_MAX: 0} if keep else _GLIBC_DEFAULTS
+    settings = {_M_TRIM_THRESHOLD: 2**31 - 1, _M_MMAP_MAX: 0} if keep else _GLIBC_BACK
     for param, value in settings.items():
         mallopt(param, value)
     if not keep:
-        ctypes.CDLL("libc.so.6").malloc_trim(0)  # what an earlier, smaller photo left in the heap
+        libc.malloc_trim(0)  # what the earlier, smaller photos left in the heap
+    _kept = keep
     return keep
 
 
