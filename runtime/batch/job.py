@@ -129,7 +129,7 @@ def run_job(job: Job) -> Dict[str, Any]:
         from ..io.images import write_image
         from ..outputs.contact_sheet import strip
 
-        write_image(tmp / "thumb.png", strip(image, maps, None if relit is None else relit()), bits=8, colour_space="sRGB")
+        write_image(tmp / "thumb.png", strip(image, maps, relit), bits=8, colour_space="sRGB")
         return {"name": job.name, "status": "done", "files": {p.name: p.read_bytes() for p in sorted(out.iterdir())},
                 "thumb": (tmp / "thumb.png").read_bytes(), "scores": scores, "size": list(maps.shape),
                 "detail": detail, "warnings": [clean(str(w.message)) for w in caught],

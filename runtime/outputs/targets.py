@@ -407,7 +407,7 @@ def write_target(
     *,
     force: bool = False,
     extra_meta: Optional[dict] = None,
-    relit=None,
+    relit: Optional[np.ndarray] = None,
 ) -> Dict[str, Path]:
     """Write a texture set for a target tool (see the module docstring), all or nothing.
 
@@ -420,8 +420,7 @@ def write_target(
             :func:`~svbrdf.runtime.outputs.texture_set.write_texture_set` with its defaults.
         force: overwrite existing files.
         extra_meta: more metadata for the sidecar (see :func:`~svbrdf.runtime.outputs.texture_set.write_texture_set`).
-        relit: optional sRGB-encoded (h, w, 3) preview, written as ``<name>_relit.png``, or a zero-argument
-            callable returning it (as for :func:`~svbrdf.runtime.outputs.texture_set.write_texture_set`).
+        relit: optional sRGB-encoded (h, w, 3) preview, written as ``<name>_relit.png``.
 
     Returns:
         Paths written, keyed by role (:func:`target_files`).

@@ -46,11 +46,10 @@ import dataclasses
 import functools
 import json
 import os
-import threading
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Callable, Dict, Mapping, Optional, Sequence, Union
+from typing import Any, Callable, Dict, Mapping, Optional, Sequence
 
 import numpy as np
 
@@ -84,9 +83,7 @@ class TextureFile:
     Attributes:
         file: file name inside the output folder.
         info: its entry in the sidecar's ``"files"`` (content, colour space, bits, ...; ``"file"`` is added).
-        pixels: image as (H, W, C) float, C in 1, 3, 4 (see :func:`~svbrdf.runtime.io.images.write_image`), or a
-            zero-argument callable returning it, called by the thread that writes the file (:func:`commit` starts
-            those first: the relit panel renders while the maps are encoded).
+        pixels: image as (H, W, C) float, C in 1, 3, 4 (see :func:`~svbrdf.runtime.io.images.write_image`).
         bits: bit depth of the image (PNG 8 or 16, EXR 16 or 32).
         srgb: the image is linear colour to sRGB-encode (RGB only; alpha stays linear); otherwise the values
             are stored as given (data maps, or an image already sRGB-encoded).
@@ -97,7 +94,7 @@ class TextureFile:
 
     file: str
     info: Mapping[str, Any]
-    pixels: Union[None, np.ndarray, Callable[[], np.ndarray]] = None
+    pixels: Optional[np.ndarray] = None
     bits: int = 8
     srgb: bool = False
     text: Optional[str] = None
@@ -228,9 +225,6 @@ def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> 
     written (:func:`~svbrdf.runtime.io.files.staged_write`). When several writes fail, the error of the first
     file in plan order is raised.
 
-    A file whose ``pixels`` is a callable is made by the thread that writes it, and those files are started
-    first (the relit panel of :class:`DeferredPanel` renders beside the maps' encoding).
-
     Returns:
         Paths written, keyed by role.
 
@@ -244,7 +238,7 @@ def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> 
         if f.text is not None:
             (stage / f.file).write_text(f.text, encoding="utf-8")
         else:
-            write_image(stage / f.file, f.pixels() if callable(f.pixels) else f.pixels, bits=f.bits, srgb_encode=f.srgb,
+            write_image(stage / f.file, f.pixels, bits=f.bits, srgb_encode=f.srgb,
                         colour_space="sRGB" if f.srgb or f.info.get("colour_space") == "sRGB" else "linear",
                         transform=f.transform)
 
@@ -254,12 +248,10 @@ def commit(out_dir, plan: Mapping[str, TextureFile], *, force: bool = False) -> 
             for f in plan.values():
                 write(f)
         else:
-            # the files made by a callable first (they compute, then encode), the others in plan order
-            order = sorted(plan, key=lambda role: not callable(plan[role].pixels))
             with ThreadPoolExecutor(workers) as pool:  # leaving the block waits for every write
-                jobs = {role: pool.submit(write, plan[role]) for role in order}
-            for role in plan:
-                jobs[role].result()
+                jobs = [pool.submit(write, f) for f in plan.values()]
+            for job in jobs:
+                job.result()
     return {role: out_dir / f.file for role, f in plan.items()}
 
 
@@ -294,7 +286,9 @@ def write_layout(
             if not np.all(np.isfinite(getattr(maps.relief, map_name))):
                 raise ImageError(f"{out_dir / name}: relief map {map_name!r} has NaN/Inf values")
     if relit is not None:
-        relit = functools.partial(_checked_relit, relit) if callable(relit) else _checked_relit(relit)
+        relit = np.asarray(relit, dtype=np.float32)
+        if relit.ndim != 3 or relit.shape[-1] != 3:
+            raise ValueError(f"relit must be (h, w, 3), got {relit.shape}")
 
     config = maps.render_config or ZHAO
     plan = layout(maps, config)
@@ -302,7 +296,7 @@ def write_layout(
     if relit is not None:
         files["relit"] = TextureFile(RELIT_FILE.format(name=name), {
             "colour_space": "sRGB", "bits": 8, "content": "renders under the flash and novel lights, side by side"},
-            relit, bits=8)
+            np.clip(relit, 0.0, 1.0), bits=8)
     h, w = maps.shape
     sidecar = {
         "format_version": SIDECAR_VERSION,
@@ -328,14 +322,6 @@ def write_layout(
     return commit(out_dir, ordered, force=force)
 
 
-def _checked_relit(relit: Union[np.ndarray, Callable[[], np.ndarray]]) -> np.ndarray:
-    """The relit panel (made by ``relit()`` when callable) as float32 in [0, 1]; ValueError unless (h, w, 3)."""
-    panel = np.asarray(relit() if callable(relit) else relit, dtype=np.float32)
-    if panel.ndim != 3 or panel.shape[-1] != 3:
-        raise ValueError(f"relit must be (h, w, 3), got {panel.shape}")
-    return np.clip(panel, 0.0, 1.0)
-
-
 def write_texture_set(
     maps: Maps,
     out_dir,
@@ -345,7 +331,7 @@ def write_texture_set(
     fmt: str = "png",
     force: bool = False,
     extra_meta: Optional[dict] = None,
-    relit: Union[None, np.ndarray, Callable[[], np.ndarray]] = None,
+    relit: Optional[np.ndarray] = None,
 ) -> Dict[str, Path]:
     """Write a texture set in the project's own layout (see the module docstring for the files), all or nothing.
 
@@ -361,8 +347,7 @@ def write_texture_set(
         force: overwrite existing files.
         extra_meta: more metadata for the sidecar (e.g. model sha256, timings); overrides ``maps.meta`` keys.
         relit: optional (h, w, 3) float image, already sRGB-encoded in [0, 1] (e.g. :func:`relit_panel`),
-            written as ``<name>_relit.png``; or a zero-argument callable returning it (a :class:`DeferredPanel`),
-            called in the writers' pool while the maps are encoded.
+            written as ``<name>_relit.png``.
 
     Returns:
         Paths written, keyed ``basecolor``, ``normal``, ``roughness``, ``specular``, ``height``, ``ao`` (those
@@ -425,33 +410,6 @@ def relit_panel(
     return np.clip(linear_to_srgb(panel), 0.0, 1.0)
 
 
-class DeferredPanel:
-    """The relit panel of a texture set (:func:`relit_panel` with its defaults), rendered on the first call, once,
-    from whichever thread calls first (the others wait for it). What
-    :func:`~svbrdf.runtime.inference.pipeline.process_photo` returns: handed to the writers as ``relit``, it renders
-    in their pool while the maps are encoded (at 1024 px the panel takes 0.16 s and the files 0.2-0.3 s of two
-    threads).
-
-    Args:
-        maps: the texture set (all four maps).
-        config: the renderer settings.
-    """
-
-    def __init__(self, maps: Maps, config: RenderConfig = ZHAO):
-        maps.require(what="the relit panel")
-        self._args: Optional[tuple] = (maps, config)
-        self._panel: Optional[np.ndarray] = None
-        self._lock = threading.Lock()
-
-    def __call__(self) -> np.ndarray:
-        """(h, 3 w, 3) float32, sRGB-encoded in [0, 1] (:func:`relit_panel`); the same array on every call."""
-        with self._lock:
-            if self._panel is None:
-                self._panel = relit_panel(*self._args)
-                self._args = None  # the maps are not held longer than the panel needs them
-            return self._panel
-
-
 def _downsized(maps: Maps, size: int) -> Maps:
     """The maps averaged over k x k pixel blocks, ``k = ceil(long side / size)``, so that the long side is at most
     ``size`` (the last block of a row or column over the pixels it has; normals renormalised); the same object when
@@ -465,5 +423,5 @@ def _downsized(maps: Maps, size: int) -> Maps:
     return maps._with({n: block_mean(a, k, partial=True) for n, a in maps.items()}).clipped()
 
 
-__all__ = ["PANEL_SIZE", "WRITE_WORKERS", "write_texture_set", "relit_panel", "DeferredPanel", "SIDECAR_VERSION", "TextureFile", "Layout", "generic_layout",
+__all__ = ["PANEL_SIZE", "WRITE_WORKERS", "write_texture_set", "relit_panel", "SIDECAR_VERSION", "TextureFile", "Layout", "generic_layout",
            "commit", "write_layout", "GENERIC_FILES", "RELIEF_FILES", "relief_file_info", "SIDECAR_FILE", "RELIT_FILE"]

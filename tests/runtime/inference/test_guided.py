@@ -208,6 +208,6 @@ def test_process_photo_of_a_large_photo_writes_maps_at_its_size(session, tmp_pat
     write_image(path, _photo(160, 120), bits=8)
     options = PhotoOptions(max_size=8192, upsampling=Upsampling(network_size=64))
     maps, relit, _ = process_photo(path, options, session)
-    assert maps.shape == (160, 120) and relit().shape == (160, 360, 3)
+    assert maps.shape == (160, 120) and relit.shape == (160, 360, 3)
     paths = write_maps(maps, relit, tmp_path / "out", "large", options, {})
     assert paths["normal"].is_file()

@@ -10,7 +10,7 @@ from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.io.images import image_info, read_image
 from svbrdf.runtime.core.maps import Maps, normalize_normals
 from svbrdf.runtime.core.render import DESCHAINTRE, ZHAO, novel_lights, render
-from svbrdf.runtime.outputs.texture_set import DeferredPanel, relit_panel, write_texture_set
+from svbrdf.runtime.outputs.texture_set import relit_panel, write_texture_set
 
 H, W = 12, 16
 
@@ -262,31 +262,6 @@ def test_concurrent_writing_reports_the_first_failure_and_leaves_nothing(tmp_pat
         write_texture_set(maps, tmp_path / "out", "m")
     assert str(tmp_path / "out" / "m_normal.png") in str(err.value)
     assert not (tmp_path / "out").exists()
-
-
-@pytest.mark.parametrize("workers", [1, 2])
-def test_a_deferred_panel_is_rendered_by_the_writers(tmp_path, maps, monkeypatch, workers):
-    """The panel handed over as a DeferredPanel is rendered in the writers' pool, once, and written as the same file
-    as the panel rendered beforehand; a panel that fails to render leaves nothing behind."""
-    from svbrdf.runtime.outputs import texture_set
-
-    monkeypatch.setattr(texture_set, "WRITE_WORKERS", workers)
-    eager = write_texture_set(maps, tmp_path / "eager", "m", relit=relit_panel(maps))
-    deferred = DeferredPanel(maps)
-    lazy = write_texture_set(maps, tmp_path / "lazy", "m", relit=deferred)
-    assert {r: p.read_bytes() for r, p in eager.items()} == {r: p.read_bytes() for r, p in lazy.items()}
-    assert deferred() is deferred() and deferred()[:, :W].shape == (H, W, 3)
-
-    def broken():
-        raise ValueError("no panel")
-
-    with pytest.raises(ValueError, match="no panel"):
-        write_texture_set(maps, tmp_path / "broken", "m", relit=broken)
-    with pytest.raises(ValueError, match="relit must be"):
-        write_texture_set(maps, tmp_path / "flat", "m", relit=lambda: np.zeros((H, W), np.float32))
-    assert not (tmp_path / "broken").exists() and not (tmp_path / "flat").exists()
-    with pytest.raises(ValueError, match="relit panel needs"):
-        DeferredPanel(maps.subset(["roughness", "normal"]))  # refused when made, not when written
 
 
 def test_relit_panel_needs_every_map(maps):
