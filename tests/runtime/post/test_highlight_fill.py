@@ -255,3 +255,21 @@ def test_no_shoulder_when_it_is_switched_off(monkeypatch):
     assert hf.highlight_mask(photo, centre).any()
     monkeypatch.setattr(hf, "SHOULDER", None)
     assert not hf.highlight_mask(photo, centre).any()
+
+
+def test_the_offset_search_cost_is_the_weighted_ssd_at_every_offset():
+    """_Source.ssd, its channels' correlations added in the frequency domain, against the sum written out for
+    every periodic offset."""
+    rng = np.random.default_rng(2)
+    h, w = 12, 10
+    xs = rng.uniform(0, 1, (h, w, 4))
+    wts = np.array([0.5, 0.0, 2.0, 1.5])
+    b = (rng.uniform(0, 1, (h, w)) > 0.6).astype(np.float64)
+    target = rng.uniform(0, 1, (h, w, 4))
+    src = hf._Source(xs, wts, np.zeros((h, w), bool))
+    got = src.ssd(b, target)
+    for oy in range(h):
+        for ox in range(w):
+            shifted = np.roll(xs, (-oy, -ox), axis=(0, 1))  # shifted[p] = xs[p + o]
+            want = float(np.einsum("hw,hwc,c->", b, (target - shifted) ** 2, wts))
+            assert got[oy, ox] == pytest.approx(want, rel=1e-9, abs=1e-9)
