@@ -67,6 +67,8 @@ _STRIP = 32
 THREADS = 2
 #: Pixels from which those passes are split over :data:`THREADS` (smaller maps: one thread, no start-up cost).
 _THREAD_PIXELS = 1 << 21
+#: Lines of the other axis a DCT pass transforms at a time (:func:`_sliced`; the same values with any count).
+_SLICE_LINES = 1024
 #: Rows processed at a time in the finest AO level (keeps the temporaries in cache; any value gives the same AO).
 _AO_STRIP = 16
 
@@ -262,17 +264,23 @@ def _strips(work: Callable[[int, int], object], h: int, strip: int, pixels: int)
 
 
 def _sliced(fn: Callable[[np.ndarray, int], np.ndarray], x: np.ndarray, axis: int) -> np.ndarray:
-    """``fn(x, axis)`` of a transform along ``axis`` (:func:`_dct2`, :func:`_idct2`), on :data:`THREADS` threads
-    for a large ``x``: each transforms a slice of the other axis into its part of the output (the transform treats
-    its lines independently, so the values are the same). numpy leaves the GIL in its FFT."""
+    """``fn(x, axis)`` of a transform along ``axis`` (:func:`_dct2`, :func:`_idct2`) for a large ``x``: in slices
+    of at most :data:`_SLICE_LINES` lines of the other axis, each transformed into its part of the output (the
+    transform treats its lines independently, so the values are the same; its temporaries stay those of a slice),
+    on :data:`THREADS` threads. numpy leaves the GIL in its FFT."""
     other = 1 - axis
     n = x.shape[other]
-    if THREADS < 2 or x.size < _THREAD_PIXELS or n < THREADS:
+    if x.size < _THREAD_PIXELS or n < 2:
         return fn(x, axis)
     out = np.empty(x.shape, np.float32)
-    part = [_along(other, slice(n * i // THREADS, n * (i + 1) // THREADS)) for i in range(THREADS)]
+    count = max(THREADS, -(-n // _SLICE_LINES))
+    part = [_along(other, slice(n * i // count, n * (i + 1) // count)) for i in range(count)]
+    if THREADS < 2:
+        for p in part:
+            fn(x[p], axis, out=out[p])
+        return out
     with ThreadPoolExecutor(THREADS) as pool:
-        list(pool.map(lambda i: fn(x[part[i]], axis, out=out[part[i]]), range(THREADS)))
+        list(pool.map(lambda p: fn(x[p], axis, out=out[p]), part))
     return out
 
 
@@ -406,10 +414,12 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
                                1.0 / (h * w))
         hpx = np.fft.irfft2(spec, s=(h, w)).astype(np.float32, copy=False)
     else:
-        spec = _sliced(_dct2, _sliced(_dct2, rhs, 1), 0)
-        del rhs
+        spec = _sliced(_dct2, rhs, 1)
+        del rhs  # each pass's input freed as soon as it is transformed (the peak at 8192 px)
+        spec = _sliced(_dct2, spec, 0)
         _divide_by_eigenvalues(spec, _laplacian_eigen(h, False), _laplacian_eigen(w, False))
-        hpx = _sliced(_idct2, _sliced(_idct2, spec, 0), 1)
+        spec = _sliced(_idct2, spec, 0)
+        hpx = _sliced(_idct2, spec, 1)
     del spec
     hpx -= np.float32(hpx.mean(dtype=np.float64))  # exact 0 mean after float32 rounding
     height = hpx / np.float32(w)
@@ -417,7 +427,8 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
 
 
 def _scale_of(height: np.ndarray) -> float:
-    return 2.0 * float(np.max(np.abs(height))) if height.size else 0.0
+    """``2 max |height|`` (from the largest and the smallest value: no (H, W) temporary)."""
+    return 2.0 * max(float(height.max()), -float(height.min())) if height.size else 0.0
 
 
 def normalise(height) -> Tuple[np.ndarray, float]:
@@ -438,8 +449,10 @@ def normalise(height) -> Tuple[np.ndarray, float]:
     scale = _scale_of(centred)
     if scale <= 0.0:
         return np.full(arr.shape, 0.5, np.float32), 0.0
-    h01 = np.clip(0.5 + centred / np.float32(scale), 0.0, 1.0)
-    return h01.astype(np.float32, copy=False), scale
+    centred /= np.float32(scale)  # in place, the operations of clip(0.5 + centred / scale, 0, 1) in float32
+    centred += np.float32(0.5)
+    np.clip(centred, 0.0, 1.0, out=centred)
+    return centred.astype(np.float32, copy=False), scale
 
 
 def denormalise(h01, scale: float) -> np.ndarray:
@@ -539,18 +552,26 @@ def _upsample(a: np.ndarray, shape: Tuple[int, int], tileable: bool) -> np.ndarr
     return _upsample_axis(_upsample_axis(a, 1, tileable), 0, tileable)[: shape[0], : shape[1]]
 
 
+#: Lines (of the other axis) :func:`_upsample_axis` treats at a time: its temporaries stay small (the same values).
+_UPSAMPLE_BLOCK = 256
+
+
 def _upsample_axis(a: np.ndarray, axis: int, tileable: bool) -> np.ndarray:
     n = a.shape[axis]
     pad = [(0, 0), (0, 0)]
     pad[axis] = (1, 1)
-    quarter = np.pad(a, pad, mode="wrap" if tileable else "edge")
-    quarter *= np.float32(0.25)
-    three = a * np.float32(0.75)
     shape = list(a.shape)
     shape[axis] = 2 * n
     out = np.empty(shape, np.float32)
-    np.add(three, quarter[_along(axis, slice(0, n))], out=out[_along(axis, slice(0, None, 2))])
-    np.add(three, quarter[_along(axis, slice(2, None))], out=out[_along(axis, slice(1, None, 2))])
+    other = 1 - axis
+    for b0 in range(0, a.shape[other], _UPSAMPLE_BLOCK):  # each block of lines on its own
+        lines = _along(other, slice(b0, b0 + _UPSAMPLE_BLOCK))
+        block, dst = a[lines], out[lines]
+        quarter = np.pad(block, pad, mode="wrap" if tileable else "edge")
+        quarter *= np.float32(0.25)
+        three = block * np.float32(0.75)
+        np.add(three, quarter[_along(axis, slice(0, n))], out=dst[_along(axis, slice(0, None, 2))])
+        np.add(three, quarter[_along(axis, slice(2, None))], out=dst[_along(axis, slice(1, None, 2))])
     return out
 
 
@@ -619,7 +640,7 @@ def _level_heights(arr: np.ndarray, unit: float, pairs, tileable: bool):
 
 
 def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool = False, directions: int = 8,
-                      radius: float = AO_RADIUS, max_size: int = AO_MAX_SIZE) -> np.ndarray:
+                      radius: float = AO_RADIUS, max_size: int = AO_MAX_SIZE, strength: float = 1.0) -> np.ndarray:
     """Horizon-based ambient occlusion of a height field: (H, W) float32 in [0, 1], 1 = open.
 
     Model. In each of ``directions`` azimuths (the 4 axis directions, and with 8 the 4 diagonals too) the
@@ -642,7 +663,8 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
 
     Depth. The AO is that of the relief the normal map implies: the network's normal maps are shallow (their
     heights span 0.1 % to 1 % of the map's width), so their AO stays close to 1. To exaggerate it (an artistic
-    choice), pass a larger height or scale: ``ambient_occlusion(k * height)``.
+    choice), pass a larger height or scale, or ``strength``: ``ambient_occlusion(height, strength=k)`` is
+    ``ambient_occlusion(k * height)`` (the same float32 products) without a scaled copy held through the call.
 
     Args:
         height: (H, W) float height. Without ``scale``: in units of the map's width, as returned by
@@ -654,6 +676,7 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
         directions: 4 or 8 (:data:`AO_DIRECTIONS`).
         radius: the farthest sample, in units of the map's width (:data:`AO_RADIUS` = 1/16); at least 2 px.
         max_size: the largest grid the AO is computed on (see above; >= 16).
+        strength: the AO is that of ``strength x`` the height (see Depth).
 
     Returns:
         (H, W) float32 AO in [0, 1], linear data, 1 = open; exactly 1 on a flat (or planar) height.
@@ -677,7 +700,16 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
         raise SvbrdfError(f"max_size={max_size!r}: expected at least 16")
     pairs = _PAIRS[: directions // 2]
     radius_px = max(2.0, radius * w)
-    hpx = (hh * np.float32(w)).astype(np.float32)  # heights in pixels, like the distances
+    try:
+        strength = float(strength)
+    except (TypeError, ValueError):
+        raise SvbrdfError(f"strength: expected a number, got {strength!r}") from None
+    if not (np.isfinite(strength) and strength > 0):
+        raise SvbrdfError(f"strength: expected a number > 0, got {strength}")
+    if strength != 1.0:  # k * height, then in pixels: the products of ambient_occlusion(k * height)
+        hpx = (hh * np.float32(strength)) * np.float32(w)
+    else:
+        hpx = (hh * np.float32(w)).astype(np.float32)  # heights in pixels, like the distances
     if not np.any(hpx != hpx.flat[0]):
         return np.ones((h, w), np.float32)
     # level l: heights averaged over 2^l x 2^l px; its samples are 2^l and 2^(l+1) px away. Levels finer than
@@ -688,6 +720,9 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
     first = 0
     while max(levels[first].shape) > max_size:
         first += 1
+    shapes = [lv.shape for lv in levels]
+    levels[:first] = [None] * first  # the levels finer than max_size only gave the coarser ones (268 MB at 8192 px)
+    del hpx
     ao = None
     for lev in range(len(levels) - 1, first - 1, -1):
         arr = levels[lev]
@@ -704,7 +739,7 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
             np.minimum(cur, _upsample(ao, arr.shape, tileable), out=cur)
         ao = cur
     for lev in range(first - 1, -1, -1):  # back to full resolution (bilinear)
-        ao = _upsample(ao, levels[lev].shape, tileable)
+        ao = _upsample(ao, shapes[lev], tileable)
     np.clip(ao, 0.0, 1.0, out=ao)
     return ao
 
@@ -820,6 +855,6 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
     if unknown or not names:
         raise SvbrdfError(f"relief maps: unknown or no names {unknown!r}; valid names: {', '.join(RELIEF_NAMES)}")
     height, _ = height_from_normals(normal, tileable=tileable, zero=zero)
-    ao = ambient_occlusion(height * np.float32(ao_strength), tileable=tileable) if "ao" in names else None
+    ao = ambient_occlusion(height, tileable=tileable, strength=ao_strength) if "ao" in names else None
     h01, scale = normalise(height)
     return Relief(h01 if "height" in names else None, scale, ao, bool(tileable), ao_strength)

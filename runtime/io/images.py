@@ -296,7 +296,7 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
     return a
 
 
-#: Bytes of float32 one strip of :func:`_quantise` converts at a time.
+#: Bytes of float32 one strip of :func:`_strips` converts (and writes) at a time.
 QUANTISE_STRIP_BYTES = 8 << 20
 
 
@@ -311,26 +311,33 @@ def _rows(a: np.ndarray, y0: int, rows: int, transform) -> np.ndarray:
     return s
 
 
-def _quantise(a: np.ndarray, bits: int, srgb_encode: bool, transform=None) -> np.ndarray:
-    """(H, W, C) float32 -> uint8/uint16 codes as OpenImageIO writes a float buffer into an integer file: clip to
-    [0, 1] (sRGB-encode the first three channels and clip again with ``srgb_encode``), then round half to even of
-    ``value * max`` in float32 (what OpenImageIO's writer does with a float buffer: the same codes, half-way values
-    included, tests/runtime/io/test_imageio.py). Strip by strip (each through ``transform`` first), so the
-    float temporaries stay near :data:`QUANTISE_STRIP_BYTES`; the codes are a quarter (8-bit) or half of the floats."""
-    dtype, top = (np.uint8, 255.0) if bits == 8 else (np.uint16, 65535.0)
+def _strips(a: np.ndarray, bits: Optional[int], srgb_encode: bool, transform=None):
+    """``(y0, strip)`` of (H, W, C) float ``a``, :data:`QUANTISE_STRIP_BYTES` of float32 at a time (each through
+    ``transform`` first), as the file stores it. ``bits`` 8 or 16: uint8/uint16 codes as OpenImageIO writes a float
+    buffer into an integer file: clip to [0, 1] (sRGB-encode the first three channels and clip again with
+    ``srgb_encode``), then round half to even of ``value * max`` in float32 (what OpenImageIO's writer does with a
+    float buffer: the same codes, half-way values included, tests/runtime/io/test_imageio.py). ``bits`` None: the
+    float32 values. No strip outlives its writing: no full-size copy of the image is made."""
     h, w, c = a.shape
-    out = np.empty((h, w, c), dtype)
     rows = max(1, QUANTISE_STRIP_BYTES // (w * c * 4))
     for y0 in range(0, h, rows):
         s = _rows(a, y0, rows, transform)
+        if bits is None:
+            yield y0, s
+            continue
+        dtype, top = (np.uint8, 255.0) if bits == 8 else (np.uint16, 65535.0)
         np.clip(s, 0.0, 1.0, out=s)
         if srgb_encode:
             s[..., :3] = linear_to_srgb(s[..., :3])  # alpha stays linear
             np.clip(s, 0.0, 1.0, out=s)
         np.multiply(s, np.float32(top), out=s)
         np.rint(s, out=s)
-        out[y0:y0 + rows] = s
-    return out
+        yield y0, s.astype(dtype)
+
+
+def _quantise(a: np.ndarray, bits: int, srgb_encode: bool, transform=None) -> np.ndarray:
+    """The (H, W, C) uint8/uint16 codes of :func:`_strips` in one array."""
+    return np.concatenate([codes for _, codes in _strips(a, bits, srgb_encode, transform)])
 
 
 def write_image(
@@ -387,11 +394,6 @@ def write_image(
         raise ImageError(f"{path}: folder {path.parent} does not exist")
 
     a = _as_hwc(path, arr)
-    if not is_float:  # quantised here, in strips: the caller's array is never modified, no full-size float copy
-        a = _quantise(a, bits, srgb_encode, transform)
-    elif transform is not None:
-        out_rows = max(1, QUANTISE_STRIP_BYTES // (a.shape[1] * a.shape[2] * 4))
-        a = np.concatenate([_rows(a, y0, out_rows, transform) for y0 in range(0, a.shape[0], out_rows)])
     h, w, c = a.shape
 
     spec = oiio.ImageSpec(w, h, c, pixel_type)
@@ -406,7 +408,16 @@ def write_image(
         out = oiio.ImageOutput.create(str(tmp))
         if out is None:
             raise ImageError(f"{path}: cannot write ({_one_line(oiio.geterror())})")
-        ok = out.open(str(tmp), spec) and out.write_image(np.ascontiguousarray(a))
+        ok = out.open(str(tmp), spec)
+        # quantised (or transformed) and written strip by strip: the caller's array is never modified and no
+        # full-size copy of it is made (the 16-bit codes of an 8192 px normal map are 384 MB)
+        if ok and (is_float and transform is None):
+            ok = out.write_image(np.ascontiguousarray(a))
+        elif ok:
+            for y0, strip in _strips(a, None if is_float else bits, srgb_encode, transform):
+                ok = out.write_scanlines(y0, y0 + strip.shape[0], 0, np.ascontiguousarray(strip))
+                if not ok:
+                    break
         err = "" if ok else out.geterror()
         ok = out.close() and ok
         if not ok:

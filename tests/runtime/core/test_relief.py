@@ -322,3 +322,12 @@ def test_threads_give_the_same_relief(monkeypatch, tileable):
     n[130, 3] = 0.0
     with pytest.raises(SvbrdfError, match=r"2 zero-length normal\(s\) \(first at row 120, column 40\)"):
         relief.height_from_normals(n)
+
+
+def test_ao_strength_is_the_ao_of_the_scaled_height():
+    """strength=k gives the AO of k x the height to the bit (relief_maps passes its AO strength so), and is checked."""
+    h = np.random.default_rng(8).normal(size=(60, 70)).astype(np.float32) * 0.01
+    np.testing.assert_array_equal(ambient_occlusion(h, strength=8.0), ambient_occlusion(h * np.float32(8.0)))
+    for bad in (0.0, -1.0, float("nan"), "deep"):
+        with pytest.raises(SvbrdfError, match="strength"):
+            ambient_occlusion(h, strength=bad)

@@ -254,7 +254,8 @@ def test_failed_replace_leaves_nothing(tmp_path, img, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_failed_oiio_write_leaves_nothing(tmp_path, img, monkeypatch):
+@pytest.mark.parametrize("name, bits", [("w.png", 16), ("w.exr", 32)])  # by strips; whole
+def test_failed_oiio_write_leaves_nothing(tmp_path, img, monkeypatch, name, bits):
     real_create = oiio.ImageOutput.create
 
     class Failing:
@@ -265,6 +266,9 @@ def test_failed_oiio_write_leaves_nothing(tmp_path, img, monkeypatch):
             return self.out.open(*a)
 
         def write_image(self, *a):
+            return False
+
+        def write_scanlines(self, *a):  # the integer formats are written strip by strip
             return False
 
         def geterror(self):
@@ -279,8 +283,8 @@ def test_failed_oiio_write_leaves_nothing(tmp_path, img, monkeypatch):
             return Failing(real_create(name))
 
     monkeypatch.setattr(imageio.oiio, "ImageOutput", FakeImageOutput)
-    with pytest.raises(ImageError, match=r"w.png: write failed \(disk full\)$"):
-        write_image(tmp_path / "w.png", img)
+    with pytest.raises(ImageError, match=rf"{name}: write failed \(disk full\)$"):
+        write_image(tmp_path / name, img, bits=bits)
     assert list(tmp_path.iterdir()) == []
 
 
