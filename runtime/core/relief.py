@@ -127,6 +127,17 @@ def _check_scale(scale) -> float:
     return s
 
 
+def _positive(value, name: str, unit: str = "") -> float:
+    """``value`` as a float > 0 and finite; SvbrdfError naming ``name`` (and the ``unit`` expected) otherwise."""
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise SvbrdfError(f"{name}: expected a number, got {value!r}") from None
+    if not (np.isfinite(number) and number > 0):
+        raise SvbrdfError(f"{name}: expected a number > 0{unit}, got {number}")
+    return number
+
+
 # ------------------------------------------------------------------------------------------------- slopes
 
 def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") -> Tuple[np.ndarray, np.ndarray]:
@@ -147,12 +158,7 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
         ``(p, q)``: two (H, W) float32 arrays, dimensionless (rise over run, run = one pixel step).
     """
     n = _check_normal(normal, zero)
-    try:
-        max_slope = float(max_slope)
-    except (TypeError, ValueError):
-        raise SvbrdfError(f"max_slope: expected a number, got {max_slope!r}") from None
-    if not (np.isfinite(max_slope) and max_slope > 0):
-        raise SvbrdfError(f"max_slope: expected a number > 0, got {max_slope}")
+    max_slope = _positive(max_slope, "max_slope")
     if zero == "unit":
         from .maps import normalize_normals  # (maps imports this module)
     h, w = n.shape[:2]
@@ -689,23 +695,13 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
         hh = denormalise(hh, scale)
     if directions not in AO_DIRECTIONS:
         raise SvbrdfError(f"directions={directions!r}: expected one of {', '.join(map(str, AO_DIRECTIONS))}")
-    try:
-        radius = float(radius)
-    except (TypeError, ValueError):
-        raise SvbrdfError(f"radius: expected a number, got {radius!r}") from None
-    if not (np.isfinite(radius) and radius > 0):
-        raise SvbrdfError(f"radius: expected a number > 0 (units of the map's width), got {radius}")
+    radius = _positive(radius, "radius", " (units of the map's width)")
     h, w = hh.shape
     if max_size < 16:
         raise SvbrdfError(f"max_size={max_size!r}: expected at least 16")
     pairs = _PAIRS[: directions // 2]
     radius_px = max(2.0, radius * w)
-    try:
-        strength = float(strength)
-    except (TypeError, ValueError):
-        raise SvbrdfError(f"strength: expected a number, got {strength!r}") from None
-    if not (np.isfinite(strength) and strength > 0):
-        raise SvbrdfError(f"strength: expected a number > 0, got {strength}")
+    strength = _positive(strength, "strength")
     if strength != 1.0:  # k * height, then in pixels: the products of ambient_occlusion(k * height)
         hpx = (hh * np.float32(strength)) * np.float32(w)
     else:
@@ -844,12 +840,7 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
         if normal.normal is None:
             raise SvbrdfError("the height and AO need the normal map; this texture set has none")
         normal = normal.normal
-    try:
-        ao_strength = float(ao_strength)
-    except (TypeError, ValueError):
-        raise SvbrdfError(f"ao_strength: expected a number, got {ao_strength!r}") from None
-    if not (np.isfinite(ao_strength) and ao_strength > 0):
-        raise SvbrdfError(f"ao_strength: expected a number > 0, got {ao_strength}")
+    ao_strength = _positive(ao_strength, "ao_strength")
     names = (maps,) if isinstance(maps, str) else tuple(maps)
     unknown = [n for n in names if n not in RELIEF_NAMES]
     if unknown or not names:
