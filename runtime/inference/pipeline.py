@@ -131,9 +131,9 @@ def reuse_memory(pixels: int) -> bool:
     :data:`REUSE_PIXELS`, large arrays come from the heap and freed memory stays in the process for the next
     array (``mallopt``: ``M_MMAP_MAX`` 0, ``M_TRIM_THRESHOLD`` 2 GiB) instead of being mapped afresh each time
     and faulted in page by page: measured with ``svbrdf-preview --threads 2`` on the 2-core AMD EPYC, taking turns,
-    1024 px 0.90 -> 0.82 s (median of 3), 4096 px 6.6 -> 5.0 s (2 runs), for a peak 1.15 -> 1.47 GB at 4096 px. Above
-    it glibc maps each large array (at 8192 px the heap would add 1 GB to the peak, 3.7 -> 4.7 GB, for
-    24.8 -> 22.3 s): its own settings when this never kept the heap, else :data:`_GLIBC_BACK` and the heap trimmed.
+    1024 px 0.90 -> 0.83 s (median of 3), 4096 px 6.56 / 6.08 -> 4.75 / 4.97 s, for a peak of 1122 -> 1436 MiB at
+    4096 px. Above it glibc maps each large array (at 8192 px the heap would add 1 GiB to the peak, 3608 -> 4611 MiB,
+    for 24.8 -> 22.3 s): its own settings when this never kept the heap, else :data:`_GLIBC_BACK` and the heap trimmed.
     A process-wide setting, like :func:`small_pages`: the CLIs and the batch workers call it per photo; an
     application embedding the library decides for itself.
 
@@ -163,7 +163,10 @@ def reuse_memory(pixels: int) -> bool:
 def processed_pixels(photo, max_size: int) -> int:
     """Pixels of ``photo`` (a file) once downsized to ``max_size``, from its header."""
     info = image_info(photo)
-    h, w = info["height"], info["width"]
+    return _downsized_pixels(info["height"], info["width"], max_size)
+
+
+def _downsized_pixels(h: int, w: int, max_size: int) -> int:
     scale = min(1.0, max_size / max(h, w, 1))
     return int(round(h * scale) * round(w * scale))
 
@@ -190,8 +193,7 @@ def check_memory(photo, max_size: int) -> None:
     """
     info = image_info(photo)
     h, w = info["height"], info["width"]
-    scale = min(1.0, max_size / max(h, w, 1))
-    needed = BYTES_PER_PIXEL * (h * scale) * (w * scale)
+    needed = BYTES_PER_PIXEL * _downsized_pixels(h, w, max_size)
     free = available_memory()
     if free is not None and needed > free:
         raise ImageError(f"{photo}: a {w}x{h} photo at --max-size {max_size} needs about {needed / 2**30:.1f} GiB "

@@ -335,11 +335,6 @@ def _strips(a: np.ndarray, bits: Optional[int], srgb_encode: bool, transform=Non
         yield y0, s.astype(dtype)
 
 
-def _quantise(a: np.ndarray, bits: int, srgb_encode: bool, transform=None) -> np.ndarray:
-    """The (H, W, C) uint8/uint16 codes of :func:`_strips` in one array."""
-    return np.concatenate([codes for _, codes in _strips(a, bits, srgb_encode, transform)])
-
-
 def write_image(
     path: PathLike,
     arr: np.ndarray,
