@@ -1,9 +1,10 @@
 """The trainer's one place of colour conversion: the sRGB transfer function on torch tensors.
 
-The same IEC 61966-2-1 curve as :mod:`svbrdf.runtime.core.colour` (the numpy pair, OpenImageIO), differentiable, written
+The same IEC 61966-2-1 curve as :mod:`svbrdf.runtime.core.colour` (the numpy pair), differentiable, written
 with the same operations as kornia's ``linear_rgb_to_rgb`` / ``rgb_to_linear_rgb`` (which it used to call), so results
 are exactly kornia's (checked in ``tests/trainer/test_colour.py``) without importing kornia: the procedural prior
-trains on GPU machines that do not have it. Both agree with the numpy pair to within 3e-5 on [0, 1].
+trains on GPU machines that do not have it. The numpy pair uses the same float32 operations: the two agree but for
+the last bits of the power.
 
 Clamping convention (that of the numpy pair): none. Values at or below the curve's threshold (0.0031308 linear,
 0.04045 encoded) follow the linear segment, so negative values stay negative; values above 1 follow the power

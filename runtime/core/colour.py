@@ -1,56 +1,29 @@
-"""The project's one place of colour conversion: the sRGB transfer function, via OpenImageIO.
+"""The project's one place of colour conversion: the sRGB transfer function on numpy arrays.
 
-Photos (8/16-bit integer files) are sRGB-encoded; every map and render in memory is linear. The conversion
-is OpenImageIO's ``ImageBufAlgo.colorconvert`` between its built-in ``"sRGB"`` and ``"linear"`` colour spaces
-(OCIO names "sRGB Encoded Rec.709 (sRGB)" and "Linear Rec.709 (sRGB)"), run on a FLOAT buffer. Both share the
-Rec.709 primaries, so only the transfer function changes, and it is the exact piecewise IEC 61966-2-1 curve:
+Photos (8/16-bit integer files) are sRGB-encoded; every map and render in memory is linear. The curve is the exact
+piecewise IEC 61966-2-1 transfer function, per channel:
 
 .. math::
 
     \\text{linear} = \\begin{cases} s / 12.92 & s \\le 0.04045 \\\\
                                    ((s + 0.055) / 1.055)^{2.4} & s > 0.04045 \\end{cases}
 
-and its inverse (``12.92 l`` for ``l <= 0.0031308``, else ``1.055 l^{1/2.4} - 0.055``), to within 3e-5
-(measured against this closed form; see ``tests/runtime/core/test_colour.py``). It is applied per channel.
-Values below 0 follow the linear segment and values above 1 the power segment (no clamping here, unless
-:func:`linear_to_srgb` is asked to ``clip``). The torch pair of the trainer, :mod:`svbrdf.trainer.colour`, is the
-same curve with the same convention.
+and its inverse (``12.92 l`` for ``l <= 0.0031308``, else ``1.055 l^{1/2.4} - 0.055``), in float32 with the same
+operations as the trainer's torch pair (:mod:`svbrdf.trainer.colour`, itself kornia's): the two agree to a float32
+rounding (``tests/trainer/test_colour.py``). Values below the thresholds, negative ones included, follow the linear
+segment and values above 1 the power segment (no clamping here, unless :func:`linear_to_srgb` is asked to ``clip``).
 
-Two traps this module avoids (see the platform notes): converting a uint8 buffer keeps uint8 precision, and
-OpenImageIO's ``"scene_linear"`` role is a different gamut (ACEScg), not linear sRGB.
+Until 2026-11-28 this was OpenImageIO's ``colorconvert`` (within 1e-5 of the curve on [0, 1]); the closed form is 3.5x
+faster (50 M values: 0.21 s on one core against 0.75 s on two) and the same as the trainer's.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import OpenImageIO as oiio
 
-#: OpenImageIO colour-space names used for the conversion (never "scene_linear": wrong gamut).
-SRGB_SPACE = "sRGB"
-LINEAR_SPACE = "linear"
-_ROW = 1024
-
-
-def _convert(arr: np.ndarray, src: str, dst: str) -> np.ndarray:
-    a = np.asarray(arr, dtype=np.float32)
-    if a.size == 0:
-        return a.copy()
-    # The curve is per channel, so any layout is converted as a flat list of RGB triples laid out in rows
-    # of up to _ROW pixels (zero-padded): OpenImageIO transforms the first three channels of each pixel, and
-    # narrow images are slow (per-scanline overhead).
-    flat = a.reshape(-1)
-    width = min(_ROW, -(-flat.size // 3))
-    rows = -(-flat.size // (3 * width))
-    pad = rows * width * 3 - flat.size
-    if pad:
-        flat = np.concatenate([flat, np.zeros(pad, np.float32)])
-    buf = oiio.ImageBuf(oiio.ImageSpec(width, rows, 3, oiio.FLOAT))
-    buf.set_pixels(oiio.ROI(), np.ascontiguousarray(flat.reshape(rows, width, 3)))
-    out = oiio.ImageBufAlgo.colorconvert(buf, src, dst)
-    if out.has_error:  # only possible if the built-in colour config were broken
-        raise RuntimeError(f"OpenImageIO colorconvert {src} -> {dst} failed: {out.geterror()}")
-    res = out.get_pixels(oiio.FLOAT).reshape(-1)
-    return res[: a.size].reshape(a.shape).astype(np.float32, copy=False)
+#: Linear value / encoded value where the curve's linear segment ends.
+LINEAR_THRESHOLD = np.float32(0.0031308)
+ENCODED_THRESHOLD = np.float32(0.04045)
 
 
 def srgb_to_linear(arr: np.ndarray) -> np.ndarray:
@@ -62,7 +35,12 @@ def srgb_to_linear(arr: np.ndarray) -> np.ndarray:
     Returns:
         float32 array of the same shape, linear.
     """
-    return _convert(arr, SRGB_SPACE, LINEAR_SPACE)
+    s = np.asarray(arr, dtype=np.float32)
+    power = s + np.float32(0.055)
+    np.maximum(power, np.float32(0.0), out=power)
+    power /= np.float32(1.055)
+    np.power(power, np.float32(2.4), out=power)
+    return np.where(s > ENCODED_THRESHOLD, power, s / np.float32(12.92))
 
 
 def linear_to_srgb(arr: np.ndarray, clip: bool = False) -> np.ndarray:
@@ -76,9 +54,14 @@ def linear_to_srgb(arr: np.ndarray, clip: bool = False) -> np.ndarray:
     Returns:
         float32 array of the same shape, sRGB-encoded. Without ``clip``, clip to [0, 1] before quantising.
     """
+    x = np.asarray(arr, dtype=np.float32)
     if clip:
-        arr = np.clip(np.asarray(arr, dtype=np.float32), 0.0, 1.0)
-    return _convert(arr, LINEAR_SPACE, SRGB_SPACE)
+        x = np.clip(x, np.float32(0.0), np.float32(1.0))
+    power = np.maximum(x, LINEAR_THRESHOLD)
+    np.power(power, np.float32(1 / 2.4), out=power)
+    power *= np.float32(1.055)
+    power -= np.float32(0.055)
+    return np.where(x > LINEAR_THRESHOLD, power, x * np.float32(12.92))
 
 
-__all__ = ["srgb_to_linear", "linear_to_srgb", "SRGB_SPACE", "LINEAR_SPACE"]
+__all__ = ["srgb_to_linear", "linear_to_srgb", "LINEAR_THRESHOLD", "ENCODED_THRESHOLD"]

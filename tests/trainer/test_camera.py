@@ -22,7 +22,7 @@ def test_noise_free_exposure_equals_the_numpy_camera(quantize):
         if not quantize:
             assert diff.max() < 2e-6
         else:
-            # the torch and numpy sRGB curves agree to 3e-5 (test_colour.py); a value on a rounding boundary may
+            # the torch and numpy sRGB curves agree to float32 rounding (test_colour.py); a value on a rounding boundary may
             # land on the next 8-bit code (float32 against float64), and no further
             assert (diff > 6e-5).mean() < 0.01 and diff.max() < 0.01
     assert got.max() == 1.0  # bright pixels clip
