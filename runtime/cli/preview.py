@@ -93,7 +93,7 @@ def _process(photo: Path, session, config, options, out_dir: Path, refine=None) 
         reuse_memory(processed_pixels(photo, options.max_size))
     except SvbrdfError:  # an unreadable photo: process_photo says so
         pass
-    maps, relit, detail = process_photo(photo, options, session, config, refine)
+    maps, relit, detail = process_photo(photo, options, session, config, refine, later=True)  # relief beside the writes
     write_maps(maps, relit, out_dir, name, options, {"tool": f"{PROG} {__version__}"})
     h, w = maps.shape
     burn = f"burn-in {maps.meta['burn_in']['burn_in']:.2f}"

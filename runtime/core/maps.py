@@ -36,6 +36,7 @@ from typing import Dict, Iterable, Iterator, Mapping, Optional, Tuple, Union
 import numpy as np
 
 from ..errors import MapError, SvbrdfError
+from .filters import all_finite
 from .relief import AO_STRENGTH, RELIEF_NAMES, Relief, relief_maps
 from .render_config import RenderConfig
 
@@ -303,7 +304,7 @@ class Maps:
         if self.normal is None:
             raise SvbrdfError(f"the height and AO need the normal map; this texture set has only "
                               f"{', '.join(self.names)}")
-        if not np.isfinite(self.normal).all():
+        if not all_finite(self.normal):
             raise SvbrdfError("normal map: NaN or infinite values; the height and AO need finite normals")
         relief = relief_maps(self.normal, tileable=tileable, maps=maps, ao_strength=ao_strength, zero="unit")
         return self._with(dict(self.items()), relief=relief)

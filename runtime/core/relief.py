@@ -44,6 +44,7 @@ from typing import Callable, Dict, Optional, Tuple
 import numpy as np
 
 from ..errors import SvbrdfError
+from .filters import all_finite
 
 __all__ = ["MAX_SLOPE", "MIN_NORMAL_LENGTH", "AO_RADIUS", "AO_DIRECTIONS", "AO_MAX_SIZE", "height_from_normals",
            "normalise", "denormalise", "ambient_occlusion", "slope_correlation", "normal_slopes", "RELIEF_NAMES",
@@ -87,8 +88,7 @@ def _check_normal(normal, zero: str) -> np.ndarray:
         raise SvbrdfError(f"normal map: expected decoded float normals in [-1, 1], got dtype {arr.dtype} "
                           "(decode stored values v with n = 2 v - 1)")
     arr = arr.astype(np.float32, copy=False)
-    # one float64 sum is non-finite iff some value is (or the values are astronomically large: checked exactly)
-    if not np.isfinite(np.sum(arr, dtype=np.float64)):
+    if not all_finite(arr):
         bad = ~np.isfinite(arr).all(axis=-1)
         if bad.any():
             i, j = np.argwhere(bad)[0]
@@ -110,7 +110,7 @@ def _check_height(height, name: str = "height") -> np.ndarray:
     if not (np.issubdtype(arr.dtype, np.floating) or np.issubdtype(arr.dtype, np.integer)):
         raise SvbrdfError(f"{name}: expected a real array, got dtype {arr.dtype}")
     arr = arr.astype(np.float32, copy=False)
-    if not np.isfinite(arr).all():
+    if not all_finite(arr):
         bad = ~np.isfinite(arr)
         i, j = np.argwhere(bad)[0]
         raise SvbrdfError(f"{name}: {int(bad.sum())} pixel(s) are NaN or infinite (first at row {i}, column {j})")

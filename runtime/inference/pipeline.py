@@ -38,6 +38,7 @@ Pipeline of :func:`estimate`:
 
 from __future__ import annotations
 
+import functools
 import os
 import time
 import warnings
@@ -492,7 +493,7 @@ def _refine(refine, image, session, config, options: "PhotoOptions", name: str):
 
 
 def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, config=None,
-                  refine: Optional[Callable] = None, name: Optional[str] = None):
+                  refine: Optional[Callable] = None, name: Optional[str] = None, later: bool = False):
     """The texture set of one photo file with ``options``: the preview, or the refine with ``refine`` (see
     :func:`svbrdf.runtime.inference.refine.load_refine`). The one per-photo path of ``svbrdf-preview`` and
     ``svbrdf-batch`` (each builds its :class:`PhotoOptions` from its arguments).
@@ -505,6 +506,8 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
             (default: :meth:`PhotoOptions.render_config` of the session).
         refine: :func:`svbrdf.trainer.refine.refine`, for ``options.refine``.
         name: the photo's name in the refine's progress bar (default: the file name).
+        later: leave the relief and the relit panel to :func:`write_maps`, which computes them while the maps'
+            files are written (the maps come without their relief, the panel as a function that renders it).
 
     Returns:
         ``(maps, relit, detail)``: the :class:`~svbrdf.runtime.core.maps.Maps` (the requested maps, at the processed
@@ -550,6 +553,8 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
             raise SvbrdfError(f"{photo}: --tileable: {exc}") from None
         worst = [s["after"] for s in maps.meta["tileable"]["join"].values() if s["after"] is not None]
         detail += f", tileable (join score {max(worst):.2f})" if worst else ", tileable"
+    if later:
+        return maps, functools.partial(relit_panel, maps, config) if maps.complete else None, detail
     # The relief (height and AO from the normals) and the relit panel need only the final maps: on two threads (numpy
     # leaves the GIL in their large operations; at 1024 px the relief takes 0.09 s and the panel 0.15 s on their own).
     relit_job = None
@@ -557,29 +562,41 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         if maps.complete:
             relit_job = pool.submit(relit_panel, maps, config)  # at its display size (block means)
         if options.relief:
-            t = time.perf_counter()
-            try:
-                maps = maps.with_relief(tileable=options.tileable, maps=options.relief, ao_strength=options.ao_strength)
-            except SvbrdfError as exc:
-                raise SvbrdfError(f"{photo}: {exc}") from None
-            maps.meta.setdefault("timings", {})["relief"] = time.perf_counter() - t
+            maps = _with_relief(maps, options)
     relit = relit_job.result() if relit_job is not None else None
     return maps, relit, detail
+
+
+def _with_relief(maps: Maps, options: PhotoOptions) -> Maps:
+    """``maps`` with the relief ``options`` ask for, timed in their meta; errors name the photo."""
+    t = time.perf_counter()
+    try:
+        maps = maps.with_relief(tileable=options.tileable, maps=options.relief, ao_strength=options.ao_strength)
+    except SvbrdfError as exc:
+        raise SvbrdfError(f"{maps.meta.get('source', '<maps>')}: {exc}") from None
+    maps.meta.setdefault("timings", {})["relief"] = time.perf_counter() - t
+    return maps
 
 
 def write_maps(maps: Maps, relit: Optional[np.ndarray], out_dir: Path, name: str, options: PhotoOptions,
                extra_meta: dict) -> dict:
     """Write ``maps`` (and ``relit``) as the texture set ``name`` in ``out_dir`` for ``options.target`` (all or
     nothing, :mod:`svbrdf.runtime.outputs.texture_set`), and with ``options.view`` its viewer page
-    (:func:`svbrdf.runtime.outputs.viewer.write_viewer`); returns the written paths by role."""
+    (:func:`svbrdf.runtime.outputs.viewer.write_viewer`); returns the written paths by role. Maps without the relief
+    ``options`` ask for (:func:`process_photo` with ``later``) get it here: for the project's own layout while the
+    maps' files are written, for a target first; ``relit`` may be a function that renders the panel."""
     from ..outputs.texture_set import write_texture_set
 
+    relief = functools.partial(_with_relief, options=options) if options.relief and maps.relief is None else None
     if options.target != "generic":
         from ..outputs.targets import write_target
 
-        return write_target(maps, out_dir, name, options.target, force=options.force, extra_meta=extra_meta, relit=relit)
+        if relief is not None:
+            maps = relief(maps)
+        return write_target(maps, out_dir, name, options.target, force=options.force, extra_meta=extra_meta,
+                            relit=relit() if callable(relit) else relit)
     paths = write_texture_set(maps, out_dir, name, normal=options.normal, fmt=options.format,
-                              force=options.force, extra_meta=extra_meta, relit=relit)
+                              force=options.force, extra_meta=extra_meta, relit=relit, relief=relief)
     if options.view:
         from ..outputs.viewer import write_viewer
 

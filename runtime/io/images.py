@@ -39,7 +39,7 @@ import OpenImageIO as oiio
 from ..core.colour import linear_to_srgb, srgb_to_linear
 from ..errors import ImageError, exists_message
 from .files import atomic_write
-from ..core.filters import block_mean
+from ..core.filters import all_finite, block_mean
 
 PathLike = Union[str, os.PathLike]
 
@@ -298,7 +298,7 @@ def _as_hwc(path: Path, arr: np.ndarray) -> np.ndarray:
         raise ImageError(f"{path}: cannot write an array of shape {np.shape(arr)} (expected (H, W), (H, W, 1), "
                          f"(H, W, 3) or (H, W, 4))")
     a = a.astype(np.float32, copy=False)
-    if not np.all(np.isfinite(a)):
+    if not all_finite(a):
         raise ImageError(f"{path}: refusing to write NaN/Inf values")
     return a
 

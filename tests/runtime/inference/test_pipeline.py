@@ -67,6 +67,26 @@ def test_process_photo_with_options(session, tmp_path):
         process_photo(path, PhotoOptions(refine=True), session)
 
 
+@pytest.mark.parametrize("target", ["generic", "gltf"])
+def test_relief_and_panel_left_to_the_writers_give_the_same_files(session, tmp_path, target):
+    from svbrdf.runtime.inference.pipeline import write_maps
+
+    path = tmp_path / "wood.png"
+    write_image(path, _photo(), bits=16)
+    options = PhotoOptions(target=target)
+    now = process_photo(path, options, session)
+    maps, relit, _ = process_photo(path, options, session, later=True)
+    assert now[0].relief is not None and maps.relief is None and callable(relit)
+    np.testing.assert_array_equal(relit(), now[1])
+    a = write_maps(now[0], now[1], tmp_path / "a", "wood", options, {})
+    b = write_maps(maps, relit, tmp_path / "b", "wood", options, {})
+    assert list(a) == list(b) and {"sidecar", "relit"} <= set(a) and ("height" in a or "orm" in a)
+    for role in a:
+        if role != "sidecar":
+            assert a[role].read_bytes() == b[role].read_bytes(), role
+    assert "relief" in maps.meta["timings"]  # timed while the maps were written
+
+
 def test_processed_pixels_reads_the_header(tmp_path):
     from svbrdf.runtime.inference.pipeline import processed_pixels
 

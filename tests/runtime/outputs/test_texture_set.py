@@ -485,3 +485,77 @@ def test_maps_out_of_range_are_written_as_their_clipped_copy(tmp_path, normal):
     for role, (arr, bits, srgb) in expected.items():
         ref = write_image(tmp_path / f"{role}.png", arr, bits=bits, srgb_encode=srgb)
         np.testing.assert_array_equal(read_image(paths[role], raw=True), read_image(ref, raw=True))
+
+
+# ------------------------------------------------------------- the relief computed while the maps are written
+def _full_maps():
+    normal, _ = _bump_normals()
+    rng = np.random.default_rng(5)
+    return Maps(diffuse=rng.uniform(0.1, 0.8, (48, 64, 3)).astype(np.float32),
+                specular=np.full((48, 64, 1), 0.04, np.float32),
+                roughness=rng.uniform(0.2, 0.7, (48, 64, 1)).astype(np.float32), normal=normal,
+                meta={"source": "photo.jpg"})
+
+
+@pytest.mark.parametrize("fmt", ["png", "exr"])
+def test_relief_beside_the_writes_gives_the_same_files(tmp_path, fmt):
+    maps = _full_maps()
+    panel = relit_panel(maps)
+    before = write_texture_set(maps.with_relief(), tmp_path / "a", "m", fmt=fmt, relit=panel)
+    calls = []
+
+    def relief(m):
+        calls.append(m)
+        return m.with_relief()
+
+    beside = write_texture_set(maps, tmp_path / "b", "m", fmt=fmt, relit=lambda: panel, relief=relief)
+    assert len(calls) == 1 and calls[0] is maps
+    assert list(beside) == list(before) == ["basecolor", "normal", "roughness", "specular", "height", "ao",
+                                            "sidecar", "relit"]
+    for role in before:
+        assert _content(beside[role]) == _content(before[role]), role
+    assert sorted(p.name for p in (tmp_path / "b").iterdir()) == sorted(p.name for p in (tmp_path / "a").iterdir())
+
+
+def test_relief_beside_the_writes_fails_whole(tmp_path, monkeypatch):
+    from svbrdf.runtime.errors import SvbrdfError
+    from svbrdf.runtime.outputs import texture_set
+    from svbrdf.runtime.outputs.targets import write_target
+
+    maps = _full_maps()
+
+    def broken(m):
+        raise SvbrdfError("photo.jpg: normal map: 3 pixel(s) are NaN or infinite")
+
+    with pytest.raises(SvbrdfError, match="NaN or infinite"):
+        write_texture_set(maps, tmp_path / "out", "m", relief=broken)
+    assert not (tmp_path / "out").exists()
+    # a relief file that exists: refused, and none of the maps written beside the relief is left
+    (tmp_path / "out").mkdir()
+    (tmp_path / "out" / "m_ao.png").write_bytes(b"mine")
+    with pytest.raises(ImageError, match="m_ao.png"):
+        write_texture_set(maps, tmp_path / "out", "m", relief=lambda m: m.with_relief())
+    assert [p.name for p in (tmp_path / "out").iterdir()] == ["m_ao.png"]
+    assert (tmp_path / "out" / "m_ao.png").read_bytes() == b"mine"
+    # a failing write of a relief file
+    real = texture_set.write_image
+
+    def failing(path, *args, **kwargs):
+        if path.name == "m_height.png":
+            raise ImageError(f"{path}: disk full")
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(texture_set, "write_image", failing)
+    with pytest.raises(ImageError, match=r"m_height.png: disk full"):
+        write_texture_set(maps, tmp_path / "new", "m", relief=lambda m: m.with_relief())
+    assert not (tmp_path / "new").exists(), list((tmp_path / "new").rglob("*"))
+    monkeypatch.undo()
+    # a layout that packs the relief into the maps' files cannot write them first
+    from svbrdf.runtime.outputs.texture_set import write_layout
+    from svbrdf.runtime.outputs import targets
+
+    with pytest.raises(ValueError, match="changes its other files with the relief"):
+        write_layout(maps, tmp_path / "gltf", "m", lambda m, c: targets._PLANS["gltf"](m, c, targets.PRESETS["gltf"], "m"),
+                     relief=lambda m: m.with_relief())
+    assert not (tmp_path / "gltf").exists()
+    assert write_target(maps.with_relief(), tmp_path / "gltf", "m", "gltf")  # with maps that carry it
