@@ -49,10 +49,11 @@ from typing import Any, Callable, Iterable, Optional, Tuple, Union
 
 import numpy as np
 
+from ..core.filters import block_mean
 from ..core.maps import MAP_NAMES, N_CHANNELS, SLICES, Maps, select_maps
 from ..core.relief import AO_STRENGTH, RELIEF_NAMES
 from ..errors import ImageError, SvbrdfError
-from ..io.images import ImageWarning, image_info, read_image, resize_long_side
+from ..io.images import ImageWarning, image_info, read_image, read_strips, resize_long_side
 from ..post import PostProcess
 from ..post import apply as apply_post
 from ..post.flash_trend import even_lighting
@@ -86,9 +87,13 @@ def warn_if_greyscale(image: np.ndarray, name: str) -> bool:
             grey = False
             break
     if grey:
-        warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the "
-                                   f"diffuse and specular maps"), stacklevel=2)
+        _greyscale_warning(name)
     return grey
+
+
+def _greyscale_warning(name: str) -> None:
+    warnings.warn(ImageWarning(f"{name}: greyscale photo (no colour); the model invents the colour of the diffuse and "
+                               f"specular maps"), stacklevel=3)
 
 
 #: Peak bytes of a preview per pixel of the processed photo (after ``max_size``), for :func:`check_memory`:
@@ -118,6 +123,9 @@ def small_pages() -> bool:
     return bool(_set_madvise_hugepage(False))
 
 
+#: Bytes of float32 one strip of a photo read strip by strip takes (:func:`read_strips`): small enough for the C
+#: allocator to reuse the strips' memory instead of mapping fresh pages.
+READ_STRIP_BYTES = 8 << 20
 #: Processed pixels up to which :func:`reuse_memory` keeps freed memory in the process (4096 x 4096).
 REUSE_PIXELS = 4096 * 4096
 _M_TRIM_THRESHOLD, _M_MMAP_THRESHOLD, _M_MMAP_MAX = -1, -3, -4  # glibc's mallopt parameters (malloc.h)
@@ -293,6 +301,10 @@ def estimate(
     names = None if maps is None else select_maps(maps)
     timings = {}
     t = time.perf_counter()
+    streamed = _streamed(photo, max_size, upsampling)
+    if streamed is not None:  # a large photo file: only its block means and luminance are read into memory
+        timings["read"], timings["resize"] = time.perf_counter() - t, 0.0
+        return _estimate_guided(str(photo), streamed, timings, session, names, tile, overlap, post, upsampling)
     name, image, (in_h, in_w) = _as_image(photo, max_size)
     if min(in_h, in_w) < MIN_SIZE:
         raise ImageError(f"{name}: image is {in_w}x{in_h} pixels; the model needs at least {MIN_SIZE}x{MIN_SIZE}")
@@ -309,9 +321,11 @@ def estimate(
         raise ImageError(f"{name}: {in_w}x{in_h} downsized to {w}x{h} is below {MIN_SIZE} px; raise max_size")
     timings["resize"] = time.perf_counter() - t
     if upsampling.applies((h, w)):
-        held = [image]  # handed over, so that the guided path can free the full-size photo (768 MB at 8192 px)
-        del image
-        return _estimate_guided(name, held, (in_h, in_w), timings, session, names, tile, overlap, post, upsampling)
+        t = time.perf_counter()
+        reduced = (network_photo(image, upsampling.factor((h, w))), luminance(image), (in_h, in_w))
+        del image  # only the luminance is needed from here: the full-size photo is freed before the maps are made
+        timings["resize"] += time.perf_counter() - t
+        return _estimate_guided(name, reduced, timings, session, names, tile, overlap, post, upsampling)
 
     t = time.perf_counter()
     width = session.input_lighting(post.even_lighting)
@@ -347,17 +361,37 @@ def estimate(
     return out
 
 
-def _estimate_guided(name, held, input_size, timings, session, names, tile, overlap, post, upsampling) -> Maps:
-    """:func:`estimate` of a photo larger than the network's size: the maps of the photo downsized to
-    ``upsampling.network_size``, brought back to its size by :func:`guided_upsample`. ``held``: a list holding the
-    (H, W, 3) photo, emptied here."""
-    image = held.pop()
-    t = time.perf_counter()
-    small = network_photo(image, upsampling.factor(image.shape[:2]))
-    guide_low, guide = luminance(small), luminance(image)
-    size = image.shape[:2]
-    del image  # only the luminance is needed from here: the full-size photo is freed before the maps are made
-    timings["resize"] += time.perf_counter() - t
+def _streamed(photo, max_size: int, upsampling: Upsampling) -> Optional[tuple]:
+    """For a photo file on the guided path read as it is (no downsizing, EXIF orientation 1): ``(block means,
+    luminance, input size)`` of :func:`_estimate_guided`, read strip by strip (:func:`read_strips`; the same values as
+    from the whole photo, the greyscale warning included); otherwise None (:func:`_as_image` reads it)."""
+    if isinstance(photo, np.ndarray) or upsampling.network_size is None:
+        return None
+    check_memory(photo, max_size)
+    info = image_info(photo)
+    h, w = info["height"], info["width"]
+    if info["orientation"] != 1 or max(h, w) > max_size or min(h, w) < MIN_SIZE or not upsampling.applies((h, w)):
+        return None
+    k = upsampling.factor((h, w))
+    small = np.empty((-(-h // k), -(-w // k), 3), np.float32)
+    guide = np.empty((h, w), np.float32)
+    grey = True
+    for y0, strip in read_strips(photo, k * max(1, READ_STRIP_BYTES // (k * w * 12))):
+        small[y0 // k:y0 // k + -(-strip.shape[0] // k)] = block_mean(strip, k, partial=True)
+        guide[y0:y0 + strip.shape[0]] = luminance(strip)
+        grey = grey and not any(float(np.abs(strip[..., c] - strip[..., 1]).max()) > GREY_TOLERANCE for c in (0, 2))
+    if grey:
+        _greyscale_warning(str(photo))
+    return small, guide, (h, w)
+
+
+def _estimate_guided(name, reduced, timings, session, names, tile, overlap, post, upsampling) -> Maps:
+    """:func:`estimate` of a photo larger than the network's size: the maps of the photo in k x k pixel blocks, brought
+    back to its size by :func:`guided_upsample`. ``reduced``: ``(block means (h, w, 3), luminance (H, W), input size
+    before max_size)``."""
+    small, guide, input_size = reduced
+    size = guide.shape
+    guide_low = luminance(small)
     with warnings.catch_warnings():  # the photo itself was checked (and named) above
         warnings.simplefilter("ignore", ImageWarning)
         low = estimate(small, session, max_size=max(small.shape[:2]), tile=tile, overlap=overlap, maps=names,

@@ -211,3 +211,39 @@ def test_process_photo_of_a_large_photo_writes_maps_at_its_size(session, tmp_pat
     assert maps.shape == (160, 120) and relit.shape == (160, 360, 3)
     paths = write_maps(maps, relit, tmp_path / "out", "large", options, {})
     assert paths["normal"].is_file()
+
+
+def test_a_large_photo_file_is_read_strip_by_strip_with_the_same_maps(session, tmp_path, monkeypatch):
+    import warnings
+
+    from svbrdf.runtime.inference import pipeline
+    from svbrdf.runtime.io.images import read_image
+
+    up = Upsampling(network_size=64)
+    path = write_image(tmp_path / "large.png", _photo(203, 150), bits=8, srgb_encode=True)
+    monkeypatch.setattr(pipeline, "READ_STRIP_BYTES", 150 * 12 * 8 * 3)  # a few strips of k = 4 rows
+    calls = []
+    real = pipeline.read_strips
+    monkeypatch.setattr(pipeline, "read_strips", lambda *a: calls.append(a) or real(*a))
+    streamed = estimate(path, session, max_size=8192, upsampling=up)
+    assert len(calls) == 1 and calls[0][1] % 4 == 0
+    whole = estimate(read_image(path), session, max_size=8192, upsampling=up)
+    for name in streamed.names:
+        np.testing.assert_array_equal(getattr(streamed, name), getattr(whole, name))
+    assert streamed.meta["size"] == [203, 150] and streamed.meta["network_size"] == [51, 38]
+    # a greyscale file warns once, as the whole photo does; a rotated file is read whole (EXIF applied)
+    grey = write_image(tmp_path / "grey.png", _photo(200, 150).mean(-1, keepdims=True), bits=16)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        estimate(grey, session, max_size=8192, upsampling=up)
+    assert sum("greyscale" in str(w.message) for w in caught) == 1
+    import OpenImageIO as oiio
+
+    rotated = tmp_path / "rotated.tif"
+    spec = oiio.ImageSpec(150, 203, 3, oiio.FLOAT)
+    spec.attribute("Orientation", 6)
+    out = oiio.ImageOutput.create(str(rotated))
+    assert out.open(str(rotated), spec) and out.write_image(_photo(203, 150)) and out.close()
+    calls.clear()
+    turned = estimate(rotated, session, max_size=8192, upsampling=up)
+    assert not calls and turned.shape == (150, 203)

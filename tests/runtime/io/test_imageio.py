@@ -473,3 +473,52 @@ def test_a_transform_is_applied_strip_by_strip_as_a_full_copy_would_be(tmp_path,
     with pytest.raises(ValueError, match="shape"):
         write_image(tmp_path / f"bad{ext}", a, bits=bits, transform=lambda s: s[:, :5])
     assert not (tmp_path / f"bad{ext}").exists()
+
+
+# ---------------------------------------------------------------- strip by strip (read_strips)
+@pytest.mark.parametrize("kind", ["png8", "png16", "exr", "grey", "rgba"])
+@pytest.mark.parametrize("rows", [1, 7, 64, 500])
+def test_read_strips_is_read_image_in_strips(tmp_path, kind, rows):
+    from svbrdf.runtime.io.images import read_strips
+
+    photo = _big_photo(53, 71, seed=4)
+    if kind == "png8":
+        path = write_image(tmp_path / "p.png", photo, bits=8, srgb_encode=True)
+    elif kind == "png16":
+        path = write_image(tmp_path / "p.png", photo, bits=16, srgb_encode=True)
+    elif kind == "exr":
+        path = write_image(tmp_path / "p.exr", photo * 2.0, bits=32)
+    elif kind == "grey":
+        path = tmp_path / "g.png"
+        _write_oiio(path, photo[..., :1], oiio.UINT16)
+    else:
+        path = tmp_path / "a.png"
+        _write_oiio(path, np.concatenate([photo, np.ones_like(photo[..., :1])], axis=-1), oiio.UINT8)
+    with warnings.catch_warnings(record=True) as whole_warnings:
+        warnings.simplefilter("always")
+        whole = read_image(path)
+    with warnings.catch_warnings(record=True) as strip_warnings:
+        warnings.simplefilter("always")
+        strips = list(read_strips(path, rows))
+    assert [y0 for y0, _ in strips] == list(range(0, 53, rows))
+    assert all(s.dtype == np.float32 and s.shape[1:] == (71, 3) for _, s in strips)
+    np.testing.assert_array_equal(np.concatenate([s for _, s in strips]), whole)
+    assert [str(w.message) for w in strip_warnings] == [str(w.message) for w in whole_warnings]
+
+
+def test_read_strips_refuses_what_it_cannot_read(tmp_path, img):
+    from svbrdf.runtime.io.images import read_strips
+
+    rotated = tmp_path / "r.tif"
+    _write_oiio(rotated, img, oiio.FLOAT, Orientation=6)
+    with pytest.raises(ValueError, match="orientation"):
+        list(read_strips(rotated, 4))
+    good = write_image(tmp_path / "good.png", _big_photo(64, 80), bits=8)
+    with pytest.raises(ValueError, match="rows"):
+        list(read_strips(good, 0))
+    bad = tmp_path / "trunc.png"
+    bad.write_bytes(good.read_bytes()[: good.stat().st_size // 2])
+    with pytest.raises(ImageError, match="trunc.png: unreadable, corrupt or truncated"):
+        list(read_strips(bad, 8))
+    first = next(iter(read_strips(good, 8)))  # a caller that stops early: the file is closed, nothing hangs
+    assert first[0] == 0 and first[1].shape == (8, 80, 3)
