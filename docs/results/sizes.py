@@ -1,16 +1,16 @@
 """Run time and peak memory of ``svbrdf-preview`` against the photo's size, this checkout against an earlier commit, in
 one run (issue 54, item 4). From the repository root, with the package installed (the light install is enough):
 
-    python docs/results/sizes.py --before 8477f92 --out docs/results/sizes      # ~15 minutes on 2 cores
+    python docs/results/sizes.py --before 8477f92,17cb175 --out docs/results/sizes      # ~20 minutes on 2 cores
 
 For every size (256, 1024, 2048, 4096, 8192 px) a photo is made once in a temporary folder: the centre square of a
 real photo (default: a Henzler et al. 4032 x 3024 iPhone flash photo from ``../shared/data``; ``--photo``) resized
 to that size (OpenImageIO, blackman-harris down, lanczos3 up), plus the issue's own 1024 px photo (bath_tile/00,
-as taken). Each is run ``--repeats`` times through the command line of both versions, taking turns (``--max-size``
+as taken). Each is run ``--repeats`` times through the command line of every version, taking turns (``--max-size``
 raised to the photo's size, ``--threads 2``, a fresh process and output folder each time); the seconds are those the
 CLI reports on its line (reading the photo to the files on disk, as the issue asks), the peak memory that of the
-process (``wait4``). The earlier version runs from a ``git worktree`` of ``--before`` put first on ``PYTHONPATH``,
-with the same installed libraries. Writes ``sizes.json`` (every run), ``sizes.md`` (medians) and ``sizes.png`` (seconds
+process (``wait4``). Each earlier version (``--before``, comma-separated commits) runs from a ``git worktree`` of it
+put first on ``PYTHONPATH``, with the same installed libraries. Writes ``sizes.json`` (every run), ``sizes.md`` (medians) and ``sizes.png`` (seconds
 against megapixels and against peak memory).
 """
 
@@ -80,16 +80,18 @@ def plot(rows: list, path: Path) -> None:
     from svbrdf.trainer.bench.report import plot_pareto
 
     series = []
-    for version in ("before", "after"):
-        pts = [(r[version]["seconds"], r["pixels"] / 1e6, r[version]["peak_rss_mb"] / 1024) for r in rows
-               if r["label"].isdigit() and r[version]["seconds"] is not None]
-        series.append({"label": version, "method": "preview" if version == "after" else "baseline", "points": pts})
+    versions = list(rows[0]["versions"])
+    for version in versions:
+        pts = [(r["versions"][version]["seconds"], r["pixels"] / 1e6, r["versions"][version]["peak_rss_mb"] / 1024)
+               for r in rows if r["label"].isdigit() and r["versions"][version]["seconds"] is not None]
+        series.append({"label": version, "method": "preview" if version == "now" else "baseline", "points": pts})
     plot_pareto(series, path, titles=("photo size (megapixels)", "peak memory (GiB)"), force=True)
 
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    p.add_argument("--before", default="8477f92", help="git commit of the earlier version (default: 8477f92)")
+    p.add_argument("--before", default="8477f92", help="git commits of the earlier versions, comma-separated "
+                   "(default: 8477f92, before issue 54)")
     p.add_argument("--photo", type=Path, default=PHOTO, help="the real photo the sizes are made from")
     p.add_argument("--sizes", default=",".join(map(str, SIZES)))
     p.add_argument("--repeats", type=int, default=3)
@@ -99,51 +101,61 @@ def main(argv=None) -> int:
         print(f"sizes.py: error: {args.photo} not found (pass --photo)", file=sys.stderr)
         return 2
     args.out.mkdir(parents=True, exist_ok=True)
+    commits = [c for c in args.before.split(",") if c]
+    versions = commits + ["now"]
     with tempfile.TemporaryDirectory(prefix="svbrdf-sizes-") as tmp:
         tmp = Path(tmp)
-        before = tmp / "before"
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(before), args.before],
-                       check=True)
+        base = {**os.environ, "OMP_WAIT_POLICY": "PASSIVE"}
+        envs = {"now": base}
         try:
-            (tmp / "pp").mkdir()
-            (tmp / "pp" / "svbrdf").symlink_to(before)  # the import name svbrdf is the repository root
-            base = {**os.environ, "OMP_WAIT_POLICY": "PASSIVE"}
-            envs = {"before": {**base, "PYTHONPATH": str(tmp / "pp")}, "after": base}
+            for commit in commits:
+                tree, path = tmp / f"tree-{commit}", tmp / f"pp-{commit}"
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "-q", str(tree), commit],
+                               check=True)
+                path.mkdir()
+                (path / "svbrdf").symlink_to(tree)  # the import name svbrdf is the repository root
+                envs[commit] = {**base, "PYTHONPATH": str(path)}
             photos = make_photos(args.photo, [int(s) for s in args.sizes.split(",")], tmp)
             records = []
             for label, photo in photos.items():
                 size = int(label.split()[0])
                 for i in range(args.repeats):
-                    for version in ("before", "after") if i % 2 == 0 else ("after", "before"):
+                    for version in versions if i % 2 == 0 else versions[::-1]:  # taking turns
                         rec = run_cli(envs[version], photo, size, tmp / "out")
                         rec.update(label=label, version=version, repeat=i, load=os.getloadavg()[0])
                         records.append(rec)
-                        print(f"{label:>18} {version:6} {rec['seconds']} s  {rec['peak_rss_mb']:.0f} MB  rc {rec['rc']}",
+                        print(f"{label:>18} {version:8} {rec['seconds']} s  {rec['peak_rss_mb']:.0f} MB  rc {rec['rc']}",
                               flush=True)
         finally:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(before)], check=False)
+            for commit in commits:
+                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(tmp / f"tree-{commit}")],
+                               check=False)
     rows = []
     for label in photos:
-        row = {"label": label, "pixels": int(label.split()[0]) ** 2}
-        for version in ("before", "after"):
+        row = {"label": label, "pixels": int(label.split()[0]) ** 2, "versions": {}}
+        for version in versions:
             rs = [r for r in records if r["label"] == label and r["version"] == version]
             secs = [r["seconds"] for r in rs if r["seconds"] is not None]
-            row[version] = {"seconds": statistics.median(secs) if secs else None,
-                            "peak_rss_mb": max(r["peak_rss_mb"] for r in rs),
-                            "failed": sum(r["rc"] != 0 for r in rs)}
+            row["versions"][version] = {"seconds": statistics.median(secs) if secs else None,
+                                        "runs": [r["seconds"] for r in rs],
+                                        "peak_rss_mb": max(r["peak_rss_mb"] for r in rs),
+                                        "failed": sum(r["rc"] != 0 for r in rs)}
         rows.append(row)
     doc = {"command": " ".join(sys.argv), "date": time.strftime("%Y-%m-%dT%H:%M:%SZ", time.gmtime()),
-           "before": args.before, "machine": {"cores": os.cpu_count(), "platform": platform.platform()},
+           "before": commits, "machine": {"cores": os.cpu_count(), "platform": platform.platform()},
            "rows": rows, "records": records}
     (args.out / "sizes.json").write_text(json.dumps(doc, indent=1) + "\n")
-    lines = ["| photo | before: s | after: s | before: peak MB | after: peak MB |", "|---|---|---|---|---|"]
+    fmt = lambda v: "failed" if v["seconds"] is None else f"{v['seconds']:.2f}"  # noqa: E731
+    lines = ["| photo | " + " | ".join(f"{v}: s" for v in versions) + " | now: runs | "
+             + " | ".join(f"{v}: peak MiB" for v in versions) + " |", "|---" * (2 * len(versions) + 2) + "|"]
     for r in rows:
-        b, a = r["before"], r["after"]
-        fmt = lambda v: "failed" if v["seconds"] is None else f"{v['seconds']:.2f}"  # noqa: E731
-        lines.append(f"| {r['label']} px | {fmt(b)} | {fmt(a)} | {b['peak_rss_mb']:.0f} | {a['peak_rss_mb']:.0f} |")
+        vs = [r["versions"][v] for v in versions]
+        runs = ", ".join("failed" if x is None else f"{x:.2f}" for x in r["versions"]["now"]["runs"])
+        lines.append(f"| {r['label']} px | " + " | ".join(fmt(v) for v in vs) + f" | {runs} | "
+                     + " | ".join(f"{v['peak_rss_mb']:.0f}" for v in vs) + " |")
     loads = [r["load"] for r in records]
     lines.append(f"\nMedian of {args.repeats} runs each, taking turns; load average {min(loads):.1f}-{max(loads):.1f} "
-                 f"during the run; before = {args.before}. Command: `{doc['command']}`.")
+                 f"during the run; peak = the process's maximum resident set (wait4). Command: `{doc['command']}`.")
     (args.out / "sizes.md").write_text("\n".join(lines) + "\n")
     plot(rows, args.out / "sizes.png")
     print("\n".join(lines))
