@@ -372,9 +372,9 @@ def _write_beside_relief(maps: Maps, out_dir: Path, name: str, layout, config: R
         names.append(RELIT_FILE.format(name=name))
     with staged_write(out_dir, names, force=force, error=ImageError) as stage, \
             ThreadPoolExecutor(max(1, WRITE_WORKERS)) as pool:  # leaving the blocks waits for every write
+        panel = pool.submit(relit) if callable(relit) else None  # first: its file is the last to wait for it
         jobs = [pool.submit(_write_file, stage, f) for f in first.values()]
         try:
-            panel = pool.submit(relit) if callable(relit) else None
             full = relief(maps)
             _check_relief(full, out_dir / name)
             plan = layout(full, config)
