@@ -228,6 +228,18 @@ class _Decoder:
             warnings.warn(ImageWarning(f"{self.path}: {self.negatives} negative values clamped to 0"), stacklevel=3)
 
 
+def _dims(path: Path, spec: "oiio.ImageSpec") -> Tuple[int, int, int]:
+    """(height, width, channels) of a file's header; ImageError for an empty image."""
+    h, w, nch = spec.height, spec.width, spec.nchannels
+    if w <= 0 or h <= 0 or nch <= 0:
+        raise ImageError(f"{path}: empty image ({w}x{h}, {nch} channels)")
+    return h, w, nch
+
+
+def _unreadable(path: Path, inp: "oiio.ImageInput") -> ImageError:
+    return ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
+
+
 def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = None) -> np.ndarray:
     """Read an image file as an (H, W, 3) float32 array, as displayed (EXIF orientation applied).
 
@@ -255,16 +267,14 @@ def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = N
     inp = _open(path)
     try:
         spec = inp.spec()
-        h, w, nch = spec.height, spec.width, spec.nchannels
-        if w <= 0 or h <= 0 or nch <= 0:
-            raise ImageError(f"{path}: empty image ({w}x{h}, {nch} channels)")
+        h, w, nch = _dims(path, spec)
         orientation = spec.get_int_attribute("Orientation", 1)
         decode = _Decoder(path, spec, raw)
         k = int(max(h, w) // max_size) if max_size and max(h, w) > max_size else 1
         if k < 2:  # the whole file at once
             arr = inp.read_image(0, 0, 0, nch, decode.read_type)
             if arr is None:
-                raise ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
+                raise _unreadable(path, inp)
             arr = decode(np.asarray(arr).reshape(h, w, nch))
         else:  # strips of k * m rows, each reduced to m rows of k x k block means
             m = max(1, STRIP_BYTES // (k * w * nch * 4))
@@ -273,8 +283,7 @@ def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = N
                 y1 = min(h, y0 + k * m)
                 rows = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, decode.read_type)
                 if rows is None:
-                    raise ImageError(f"{path}: unreadable, corrupt or truncated image "
-                                     f"({_one_line(inp.geterror())})")
+                    raise _unreadable(path, inp)
                 strips.append(block_mean(decode(np.asarray(rows).reshape(y1 - y0, w, nch)), k,
                                              partial=True))
             arr = np.concatenate(strips, axis=0)
@@ -316,9 +325,7 @@ def read_strips(path: PathLike, rows: int) -> Iterator[Tuple[int, np.ndarray]]:
     inp = _open(path)
     try:
         spec = inp.spec()
-        h, w, nch = spec.height, spec.width, spec.nchannels
-        if w <= 0 or h <= 0 or nch <= 0:
-            raise ImageError(f"{path}: empty image ({w}x{h}, {nch} channels)")
+        h, w, nch = _dims(path, spec)
         if spec.get_int_attribute("Orientation", 1) != 1:
             raise ValueError(f"{path}: read_strips reads files stored as displayed (EXIF orientation 1)")
         decode = _Decoder(path, spec, False)
@@ -327,7 +334,7 @@ def read_strips(path: PathLike, rows: int) -> Iterator[Tuple[int, np.ndarray]]:
             y1 = min(h, y0 + rows)
             px = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, decode.read_type)
             if px is None:
-                raise ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
+                raise _unreadable(path, inp)
             return np.asarray(px).reshape(y1 - y0, w, nch)
 
         with ThreadPoolExecutor(1) as pool:  # leaving it (a caller that stops early too) waits for the decoding
