@@ -340,6 +340,18 @@ def test_uniform_png_written_with_its_own_options(tmp_path, monkeypatch, bits):
     np.testing.assert_array_equal(np.rint(back * top), np.rint(mixed * top))
 
 
+def test_png_options_of_the_caller_for_flat_images(tmp_path):
+    """A plot (flat, a few lines) with libpng's defaults (png_options={}): far smaller than with the maps' options, the
+    same pixels."""
+    plot = np.ones((200, 300, 3), np.float32)
+    plot[50:150:7] = 0.2
+    plot[:, 100] = np.float32([0.1, 0.4, 0.8])
+    fast = write_image(tmp_path / "fast.png", plot, bits=8)
+    small = write_image(tmp_path / "small.png", plot, bits=8, png_options={})
+    assert small.stat().st_size * 3 < fast.stat().st_size
+    np.testing.assert_array_equal(read_image(small, raw=True), read_image(fast, raw=True))
+
+
 def test_write_leaves_the_callers_array_alone(tmp_path):
     arr = np.linspace(-0.5, 1.5, 4 * 5 * 4, dtype=np.float32).reshape(4, 5, 4)
     before = arr.copy()
