@@ -36,11 +36,11 @@ def srgb_to_linear(arr: np.ndarray) -> np.ndarray:
         float32 array of the same shape, linear.
     """
     s = np.asarray(arr, dtype=np.float32)
-    power = s + np.float32(0.055)
+    power = np.atleast_1d(s + np.float32(0.055))  # an array, for the in-place steps (a 0-d input gives a scalar)
     np.maximum(power, np.float32(0.0), out=power)
     power /= np.float32(1.055)
     np.power(power, np.float32(2.4), out=power)
-    return np.where(s > ENCODED_THRESHOLD, power, s / np.float32(12.92))
+    return np.where(s > ENCODED_THRESHOLD, power.reshape(s.shape), s / np.float32(12.92))
 
 
 def linear_to_srgb(arr: np.ndarray, clip: bool = False) -> np.ndarray:
@@ -57,11 +57,11 @@ def linear_to_srgb(arr: np.ndarray, clip: bool = False) -> np.ndarray:
     x = np.asarray(arr, dtype=np.float32)
     if clip:
         x = np.clip(x, np.float32(0.0), np.float32(1.0))
-    power = np.maximum(x, LINEAR_THRESHOLD)
+    power = np.atleast_1d(np.maximum(x, LINEAR_THRESHOLD))  # an array, for the in-place steps
     np.power(power, np.float32(1 / 2.4), out=power)
     power *= np.float32(1.055)
     power -= np.float32(0.055)
-    return np.where(x > LINEAR_THRESHOLD, power, x * np.float32(12.92))
+    return np.where(x > LINEAR_THRESHOLD, power.reshape(x.shape), x * np.float32(12.92))
 
 
 __all__ = ["srgb_to_linear", "linear_to_srgb", "LINEAR_THRESHOLD", "ENCODED_THRESHOLD"]

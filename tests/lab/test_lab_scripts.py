@@ -108,16 +108,17 @@ def test_the_guided_path_agreement_script_runs_on_a_tiny_photo(tmp_path):
 
 
 def test_the_size_benchmark_runs_both_versions_on_a_tiny_photo(tmp_path):
-    """docs/results/sizes.py with ``--before HEAD``: both versions run, taking turns; the table, the records and the
-    plot are written, and its git worktree is gone afterwards."""
+    """docs/results/sizes.py with ``--before HEAD``: both versions (HEAD and the working tree, "now") run, taking
+    turns; the table, the records and the plot are written, and its git worktree is gone afterwards."""
     if subprocess.run(["git", "-C", str(ROOT), "rev-parse", "HEAD"], capture_output=True).returncode:
         pytest.skip("not a git checkout")
     out = tmp_path / "sizes"
     _script([ROOT / "docs" / "results" / "sizes.py", "--before", "HEAD", "--photo", _photo(tmp_path / "p.png"),
              "--sizes", "64", "--repeats", "1", "--out", out], tmp_path)
     doc = json.loads((out / "sizes.json").read_text())
-    assert doc["rows"][0]["label"] == "64" and doc["rows"][0]["before"]["seconds"] > 0
-    assert {r["version"] for r in doc["records"]} == {"before", "after"} and all(r["rc"] == 0 for r in doc["records"])
+    row = doc["rows"][0]
+    assert row["label"] == "64" and row["versions"]["HEAD"]["seconds"] > 0 and row["versions"]["now"]["seconds"] > 0
+    assert {r["version"] for r in doc["records"]} == {"HEAD", "now"} and all(r["rc"] == 0 for r in doc["records"])
     assert (out / "sizes.md").read_text().startswith("| photo |") and (out / "sizes.png").stat().st_size > 0
     worktrees = subprocess.run(["git", "-C", str(ROOT), "worktree", "list"], capture_output=True, text=True).stdout
     assert "svbrdf-sizes-" not in worktrees

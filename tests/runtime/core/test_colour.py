@@ -65,3 +65,10 @@ def test_linear_segment_below_zero_and_power_segment_above_one():
     np.testing.assert_allclose(enc[:2], 12.92 * x[:2], rtol=1e-6)
     np.testing.assert_allclose(enc[2:], _linear_to_srgb_ref(x[2:]), rtol=1e-6)
     np.testing.assert_allclose(srgb_to_linear(enc), x, rtol=2e-6)
+
+
+def test_scalars_and_zero_d_arrays():
+    for x in (0.4, np.float32(0.4), np.array(0.4, np.float32)):
+        enc = linear_to_srgb(x)
+        assert np.shape(enc) == () and float(enc) == pytest.approx(_linear_to_srgb_ref(np.float64(0.4)), abs=3e-7)
+        assert float(srgb_to_linear(enc)) == pytest.approx(0.4, abs=1e-6)
