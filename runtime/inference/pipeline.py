@@ -612,8 +612,8 @@ def _with_relief(maps: Maps, options: PhotoOptions) -> Maps:
     return maps
 
 
-def write_maps(maps: Maps, relit: Optional[np.ndarray], out_dir: Path, name: str, options: PhotoOptions,
-               extra_meta: dict) -> dict:
+def write_maps(maps: Maps, relit: Union[None, np.ndarray, Callable[[], np.ndarray]], out_dir: Path, name: str,
+               options: PhotoOptions, extra_meta: dict) -> dict:
     """Write ``maps`` (and ``relit``) as the texture set ``name`` in ``out_dir`` for ``options.target`` (all or
     nothing, :mod:`svbrdf.runtime.outputs.texture_set`), and with ``options.view`` its viewer page
     (:func:`svbrdf.runtime.outputs.viewer.write_viewer`); returns the written paths by role. Maps without the relief
