@@ -49,7 +49,7 @@ from typing import Any, Callable, Iterable, Optional, Tuple, Union
 
 import numpy as np
 
-from ..core.filters import block_mean
+from ..core.filters import all_finite, block_mean
 from ..core.maps import MAP_NAMES, N_CHANNELS, SLICES, Maps, select_maps
 from ..core.relief import AO_STRENGTH, RELIEF_NAMES
 from ..errors import ImageError, SvbrdfError
@@ -193,9 +193,12 @@ def available_memory() -> Optional[int]:
     return None
 
 
-def check_memory(photo, max_size: int) -> None:
+def check_memory(photo, max_size: int) -> dict:
     """Refuse, with one line, a photo whose preview at ``max_size`` would need more memory than is available
     (:data:`BYTES_PER_PIXEL` per processed pixel), before any pixel is decoded.
+
+    Returns:
+        the photo's header facts (:func:`~svbrdf.runtime.io.images.image_info`), read for the check.
 
     Raises:
         ImageError: the message names the photo, its size, the memory needed and available, and what to lower.
@@ -207,16 +210,18 @@ def check_memory(photo, max_size: int) -> None:
     if free is not None and needed > free:
         raise ImageError(f"{photo}: a {w}x{h} photo at --max-size {max_size} needs about {needed / 2**30:.1f} GiB "
                          f"and {free / 2**30:.1f} GiB are available; lower --max-size")
+    return info
 
 
-def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tuple:
-    """``(name, (H, W, 3) linear image with long side <= max_size, (height, width) before downsizing)``."""
+def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int, info: Optional[dict] = None) -> tuple:
+    """``(name, (H, W, 3) linear image with long side <= max_size, (height, width) before downsizing)``; ``info``:
+    the file's header facts (:func:`check_memory`)."""
     if isinstance(photo, np.ndarray):
         name = "<array>"
         if photo.ndim != 3 or photo.shape[-1] != 3:
             raise ImageError(f"{name}: expected an (H, W, 3) linear RGB array, got shape {photo.shape}")
         image = np.asarray(photo, dtype=np.float32)
-        if not np.all(np.isfinite(image)):
+        if not all_finite(image):
             raise ImageError(f"{name}: image has NaN/Inf values")
         if min(image.shape[:2]) >= MIN_SIZE and max(image.shape[:2]) > max_size:
             small = resize_long_side(image, max_size)
@@ -227,11 +232,9 @@ def _as_image(photo: Union[str, os.PathLike, np.ndarray], max_size: int) -> tupl
                           stacklevel=3)
             return name, small, image.shape[:2]
         return name, image, image.shape[:2]
-    check_memory(photo, max_size)
     image = read_image(photo, max_size=max_size)
     if max(image.shape[:2]) < max_size:  # not downsized
         return str(photo), image, image.shape[:2]
-    info = image_info(photo)
     size = (info["width"], info["height"]) if info["orientation"] in (5, 6, 7, 8) else (info["height"], info["width"])
     return str(photo), image, size
 
@@ -301,11 +304,12 @@ def estimate(
     names = None if maps is None else select_maps(maps)
     timings = {}
     t = time.perf_counter()
-    streamed = _streamed(photo, max_size, upsampling)
+    info = None if isinstance(photo, np.ndarray) else check_memory(photo, max_size)  # the one header read
+    streamed = None if info is None else _streamed(photo, info, max_size, upsampling)
     if streamed is not None:  # a large photo file: only its block means and luminance are read into memory
         timings["read"], timings["resize"] = time.perf_counter() - t, 0.0
         return _estimate_guided(str(photo), streamed, timings, session, names, tile, overlap, post, upsampling)
-    name, image, (in_h, in_w) = _as_image(photo, max_size)
+    name, image, (in_h, in_w) = _as_image(photo, max_size, info)
     if min(in_h, in_w) < MIN_SIZE:
         raise ImageError(f"{name}: image is {in_w}x{in_h} pixels; the model needs at least {MIN_SIZE}x{MIN_SIZE}")
     timings["read"] = time.perf_counter() - t
@@ -361,14 +365,13 @@ def estimate(
     return out
 
 
-def _streamed(photo, max_size: int, upsampling: Upsampling) -> Optional[tuple]:
-    """For a photo file on the guided path read as it is (no downsizing, EXIF orientation 1): ``(block means,
-    luminance, input size)`` of :func:`_estimate_guided`, read strip by strip (:func:`read_strips`; the same values as
-    from the whole photo, the greyscale warning included); otherwise None (:func:`_as_image` reads it)."""
-    if isinstance(photo, np.ndarray) or upsampling.network_size is None:
+def _streamed(photo, info: dict, max_size: int, upsampling: Upsampling) -> Optional[tuple]:
+    """For a photo file (header facts ``info``) on the guided path read as it is (no downsizing, EXIF orientation 1):
+    ``(block means, luminance, input size)`` of :func:`_estimate_guided`, read strip by strip (:func:`read_strips`;
+    the same values as from the whole photo, the greyscale warning included); otherwise None (:func:`_as_image`
+    reads it)."""
+    if upsampling.network_size is None:
         return None
-    check_memory(photo, max_size)
-    info = image_info(photo)
     h, w = info["height"], info["width"]
     if info["orientation"] != 1 or max(h, w) > max_size or min(h, w) < MIN_SIZE or not upsampling.applies((h, w)):
         return None

@@ -17,9 +17,11 @@ def _ramp():
 @pytest.mark.parametrize("torch_fn, np_fn", [(linear_to_srgb, np_colour.linear_to_srgb),
                                              (srgb_to_linear, np_colour.srgb_to_linear)])
 def test_torch_pair_is_the_runtime_curve(torch_fn, np_fn):
-    """The same float32 operations: equal but for the last bits of the power (two float32 steps at 1.5)."""
+    """The same float32 operations: equal but for the last bits of the power, whose vectorised kernels (numpy's,
+    torch's) differ between CPUs; allowed 8 float32 steps (measured here: 2)."""
     x = _ramp()
-    np.testing.assert_allclose(torch_fn(torch.from_numpy(x)).numpy(), np_fn(x), atol=3e-7, rtol=2.5e-7)
+    eps = float(np.finfo(np.float32).eps)
+    np.testing.assert_allclose(torch_fn(torch.from_numpy(x)).numpy(), np_fn(x), atol=8 * eps, rtol=8 * eps)
 
 
 def test_no_clamping_unless_asked():
