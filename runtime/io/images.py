@@ -13,12 +13,9 @@ Reading (:func:`read_image`): any format OpenImageIO reads (PNG 8/16-bit, JPEG, 
 
 Writing (:func:`write_image`): PNG (8/16-bit), OpenEXR (half/float) or TIFF (8/16/32-bit), atomically
 (:func:`svbrdf.runtime.io.files.atomic_write`), never over an existing file unless ``force=True``. PNG files are
-compressed with :data:`PNG_OPTIONS` (the "up" filter on every row, zlib's Huffman-only strategy): measured on the
-maps of a 1024 px photo, 1.8x faster to write than zlib level 1 with the same filter for 16-bit maps (1.3x for the
-8-bit base colour) and files 2 % smaller in all (the normal map 8 % smaller, the AO 9 % larger), and level 1 was
-5.8x faster than libpng's default (level 6, adaptive filters); see CHANGELOG.md, 2026-11-28. A map whose first
-strip of rows is one value (the preview's specular) is written with :data:`PNG_UNIFORM_OPTIONS` instead. OpenImageIO releases the GIL while it encodes, so files can be written from
-several threads.
+encoded by :func:`svbrdf.runtime.io.png.write_png` (the "up" filter and ISA-L's deflate, 2.6x less CPU than
+OpenImageIO's writer with the system zlib for files of about the same size), the others by OpenImageIO; both leave
+the GIL while they encode, so files can be written from several threads.
 
 OpenImageIO never raises on a bad file; every call here is checked and turned into an
 :class:`~svbrdf.runtime.errors.ImageError` with a one-line message ``"<path>: <problem>"``.
@@ -40,6 +37,7 @@ import OpenImageIO as oiio
 from ..core.colour import linear_to_srgb, srgb_to_linear
 from ..errors import ImageError, exists_message
 from .files import atomic_write
+from .png import write_png
 from ..core.filters import all_finite, block_mean
 
 PathLike = Union[str, os.PathLike]
@@ -53,15 +51,6 @@ _WRITE_TYPES = {
     ".tiff": {8: oiio.UINT8, 16: oiio.UINT16, 32: oiio.FLOAT},
 }
 WRITE_EXTENSIONS = tuple(_WRITE_TYPES)
-#: OpenImageIO attributes of every PNG written: libpng's PNG_FILTER_UP (0x20) on every row and zlib's Z_HUFFMAN_ONLY
-#: strategy (no match search: the rows' differences are entropy-coded; the level then only sizes zlib's buffers).
-#: ``{}`` gives libpng's defaults (level 6, adaptive filters, default strategy).
-PNG_OPTIONS = {"png:compressionLevel": 1, "png:filter": 0x20, "compression": "huffman"}
-#: The attributes of a PNG whose first strip of rows (:data:`QUANTISE_STRIP_BYTES`) holds one pixel value, such as the
-#: preview's specular map (one level per photo): no filter and zlib's default strategy at level 1, whose matches
-#: collapse the repeated pixels that the Huffman-only strategy would code one byte at a time (a 4096 px 16-bit RGB
-#: constant map 0.77 -> 0.16 s, 12.7 -> 0.5 MB). Only the bytes differ, never the pixels.
-PNG_UNIFORM_OPTIONS = {"png:compressionLevel": 1, "png:filter": 0x08}
 
 
 class ImageWarning(UserWarning):
@@ -410,7 +399,6 @@ def write_image(
     force: bool = False,
     colour_space: Optional[str] = None,
     transform: Optional[Callable[[np.ndarray], np.ndarray]] = None,
-    png_options: Optional[dict] = None,
 ) -> Path:
     """Write a float image atomically as PNG, OpenEXR or TIFF (format from the extension).
 
@@ -429,9 +417,6 @@ def write_image(
         transform: a conversion applied to each strip of rows ((h, W, C) float32 -> the same shape) before the
             file's own encoding, so that it takes no full-size copy of ``arr`` (the writers clip and encode each
             map this way); NaN/Inf are checked on ``arr``.
-        png_options: OpenImageIO attributes of a PNG instead of :data:`PNG_OPTIONS` (or :data:`PNG_UNIFORM_OPTIONS`),
-            made for fast writing of maps: ``{}`` gives libpng's defaults, the smallest files of flat images such as
-            plots (a benchmark's plot: 200 KB with :data:`PNG_OPTIONS`, 22 KB with the defaults).
 
     Returns:
         The written path.
@@ -470,12 +455,15 @@ def write_image(
     # full-size copy of it is made (the 16-bit codes of an 8192 px normal map are 384 MB)
     strips = None if (is_float and transform is None) else _strips(a, None if is_float else bits, srgb_encode,
                                                                    transform)
-    first = next(strips) if strips is not None else None
-    if ext == ".png":
-        if png_options is None:
-            png_options = PNG_UNIFORM_OPTIONS if bool(np.all(first[1] == first[1][:1, :1])) else PNG_OPTIONS
-        for key, value in png_options.items():
-            spec.attribute(key, value)
+    if ext == ".png":  # our encoder (:mod:`.png`); OpenImageIO writes the other formats
+        tag = colour_space or ("sRGB" if srgb_encode else None)
+        with atomic_write(path, force=force, error=ImageError) as tmp:
+            try:
+                with open(tmp, "wb") as file:
+                    write_png(file, (s for _, s in strips), w, h, c, bits, tag)
+            except OSError as exc:
+                raise ImageError(f"{path}: write failed ({exc.strerror or exc})") from None
+        return path
     with atomic_write(path, force=force, error=ImageError) as tmp:  # keeps the extension: OIIO picks the format
         out = oiio.ImageOutput.create(str(tmp))
         if out is None:
@@ -484,7 +472,7 @@ def write_image(
         if ok and strips is None:
             ok = out.write_image(np.ascontiguousarray(a))
         elif ok:
-            for y0, strip in itertools.chain([first], strips):
+            for y0, strip in strips:
                 ok = out.write_scanlines(y0, y0 + strip.shape[0], 0, np.ascontiguousarray(strip))
                 if not ok:
                     break
@@ -495,5 +483,4 @@ def write_image(
     return path
 
 
-__all__ = ["ImageWarning", "read_image", "read_strips", "write_image", "image_info", "WRITE_EXTENSIONS", "PNG_OPTIONS",
-           "PNG_UNIFORM_OPTIONS"]
+__all__ = ["ImageWarning", "read_image", "read_strips", "write_image", "image_info", "WRITE_EXTENSIONS"]

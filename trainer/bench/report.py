@@ -687,7 +687,7 @@ def plot_pareto(series: Sequence[Mapping[str, Any]], path: Path, *, titles: Tupl
         _marker(buf, lx, ly, leg["marker"], leg["rgb"])
         if text:
             A.render_text(buf, lx + 12, ly + 5, leg["label"], 13, "", ink)
-    write_image(path, buf.get_pixels(oiio.FLOAT), bits=8, force=force, png_options={})  # flat: libpng's defaults
+    write_image(path, buf.get_pixels(oiio.FLOAT), bits=8, force=force)
     for leg in legend:
         del leg["rgb"]
     return legend, "" if text else "(No font available to OpenImageIO here: the plot has no text; read the " \
