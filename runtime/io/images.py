@@ -37,7 +37,7 @@ import OpenImageIO as oiio
 from ..core.colour import linear_to_srgb, srgb_to_linear
 from ..errors import ImageError, exists_message
 from .files import atomic_write
-from .png import write_png
+from .png import COLOUR_CHUNKS, write_png
 from ..core.filters import all_finite, block_mean
 
 PathLike = Union[str, os.PathLike]
@@ -424,7 +424,8 @@ def write_image(
     Raises:
         ImageError: target exists (and not ``force``), unsupported extension, missing folder, bad array
             (shape, NaN/Inf), or OpenImageIO failed to write. No partial file is ever left behind.
-        ValueError: ``bits`` not valid for the format, or ``srgb_encode`` with a float format.
+        ValueError: ``bits`` not valid for the format, ``srgb_encode`` with a float format, or a PNG's
+            ``colour_space`` other than ``"linear"``, ``"sRGB"`` or None.
     """
     path = Path(path)
     if path.exists() and not force:
@@ -438,6 +439,8 @@ def write_image(
     is_float = pixel_type in (oiio.HALF, oiio.FLOAT)
     if srgb_encode and is_float:
         raise ValueError(f"srgb_encode is for integer formats; {ext} with bits={bits} stores linear floats")
+    if ext == ".png" and colour_space not in COLOUR_CHUNKS:
+        raise ValueError(f"a PNG's colour_space is 'linear', 'sRGB' or None, got {colour_space!r}")
     if path.is_dir():
         raise ImageError(f"{path}: is a directory")
     if not path.parent.is_dir():
@@ -446,11 +449,6 @@ def write_image(
     a = _as_hwc(path, arr)
     h, w, c = a.shape
 
-    spec = oiio.ImageSpec(w, h, c, pixel_type)
-    if c == 4:  # without this OpenImageIO treats alpha as associated and un-premultiplies the colour on write
-        spec.attribute("oiio:UnassociatedAlpha", 1)
-    if not is_float:
-        spec.attribute("oiio:ColorSpace", colour_space or ("sRGB" if srgb_encode else "Raw"))
     # quantised (or transformed) and written strip by strip: the caller's array is never modified and no
     # full-size copy of it is made (the 16-bit codes of an 8192 px normal map are 384 MB)
     strips = None if (is_float and transform is None) else _strips(a, None if is_float else bits, srgb_encode,
@@ -464,6 +462,11 @@ def write_image(
             except OSError as exc:
                 raise ImageError(f"{path}: write failed ({exc.strerror or exc})") from None
         return path
+    spec = oiio.ImageSpec(w, h, c, pixel_type)
+    if c == 4:  # without this OpenImageIO treats alpha as associated and un-premultiplies the colour on write
+        spec.attribute("oiio:UnassociatedAlpha", 1)
+    if not is_float:
+        spec.attribute("oiio:ColorSpace", colour_space or ("sRGB" if srgb_encode else "Raw"))
     with atomic_write(path, force=force, error=ImageError) as tmp:  # keeps the extension: OIIO picks the format
         out = oiio.ImageOutput.create(str(tmp))
         if out is None:

@@ -316,6 +316,8 @@ def test_write_argument_errors(tmp_path, img):
         write_image(tmp_path / "a.exr", img, bits=8)
     with pytest.raises(ValueError, match="srgb_encode"):
         write_image(tmp_path / "a.exr", img, srgb_encode=True)
+    with pytest.raises(ValueError, match="colour_space"):
+        write_image(tmp_path / "a.png", img, colour_space="ACEScg")
     assert list(tmp_path.iterdir()) == []
 
 
