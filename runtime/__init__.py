@@ -1,4 +1,4 @@
-"""svbrdf.runtime: the light side of the toolkit (numpy + onnxruntime + OpenImageIO, never torch).
+"""svbrdf.runtime: the light side of the toolkit (numpy + onnxruntime + OpenImageIO + isal, never torch).
 
 Public API::
 

@@ -8,7 +8,7 @@
 # ../shared), its console into $OUT/NAME.txt; all lines start at once (a fine-tune at 256 px leaves most of the GPU
 # idle: it waits on kernel launches) and each is killed at LIMIT_S seconds from the script's start (default 560,
 # inside the device tool's 600 s; give the runs --time-budget below it so they end with a recorded point). The bench
-# needs kornia and OpenImageIO, which the device lacks: carry their wheels in .whl/ (gpu_env.sh installs them).
+# needs kornia, OpenImageIO and isal, which the device lacks: carry their wheels in .whl/ (gpu_env.sh installs them).
 # Blank lines and lines starting with # are skipped. What comes back is one archive, $OUT/runs.tar.gz (every run's
 # folder and console; the device tool returns at most 8 files from $OUT, and a first call's 6 runs x 4 outputs lost
 # everything but one plot), and $OUT/console.txt. Exit status: the number of runs that failed.
@@ -20,7 +20,7 @@ LIMIT_S="${LIMIT_S:-560}"
 mkdir -p "$OUT"
 say() { echo "gpu_bench: $*" | tee -a "$OUT/console.txt"; }
 source trainer/tools/gpu_env.sh || exit 1
-"$PYTHON" -c "import torch, kornia, OpenImageIO; print('gpu_bench: torch', torch.__version__, 'cuda', torch.cuda.is_available())" \
+"$PYTHON" -c "import torch, kornia, OpenImageIO, isal; print('gpu_bench: torch', torch.__version__, 'cuda', torch.cuda.is_available())" \
     2>&1 | tee -a "$OUT/console.txt"
 pids=() names=()
 set -f  # a job line's --cases globs reach the bench unexpanded

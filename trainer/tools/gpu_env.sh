@@ -1,6 +1,6 @@
 # Sourced by the device scripts (gpu_prior.sh, gpu_bench.sh) from the repository root: makes `svbrdf.*` importable
 # without pip on a bare GPU machine (a folder of links: the device has no network and no build of the package) and
-# installs the wheels of a carried `.whl/` folder first (kornia, OpenImageIO: the device lacks them; the prior needs
+# installs the wheels of a carried `.whl/` folder first (kornia, OpenImageIO, isal: the device lacks them; the prior needs
 # neither; WHEELS names another folder, e.g. an empty one to install none). Sets PYTHONPATH and PYTHONUNBUFFERED;
 # calls `say` (defined by the caller) on failure and returns 1.
 _gpu_site="$(mktemp -d)"
