@@ -24,7 +24,6 @@ OpenImageIO never raises on a bad file; every call here is checked and turned in
 from __future__ import annotations
 
 import functools
-import itertools
 import os
 import warnings
 from concurrent.futures import ThreadPoolExecutor
@@ -423,7 +422,8 @@ def write_image(
 
     Raises:
         ImageError: target exists (and not ``force``), unsupported extension, missing folder, bad array
-            (shape, NaN/Inf), or OpenImageIO failed to write. No partial file is ever left behind.
+            (shape, NaN/Inf), or the write failed (OpenImageIO's error, or the system's for a PNG). No partial
+            file is ever left behind.
         ValueError: ``bits`` not valid for the format, ``srgb_encode`` with a float format, or a PNG's
             ``colour_space`` other than ``"linear"``, ``"sRGB"`` or None.
     """
