@@ -158,50 +158,59 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
         ``(p, q)``: two (H, W) float32 arrays, dimensionless (rise over run, run = one pixel step).
     """
     n = _check_normal(normal, zero)
-    max_slope = _positive(max_slope, "max_slope")
-    if zero == "unit":
-        from .maps import normalize_normals  # (maps imports this module)
+    inv_max = np.float32(1.0 / _positive(max_slope, "max_slope"))
     h, w = n.shape[:2]
     p = np.empty((h, w), np.float32)
     q = np.empty((h, w), np.float32)
-    inv_max = np.float32(1.0 / max_slope)
+    counts = _strips(lambda r0, r1: _slope_rows(n, r0, r1, zero, inv_max, p[r0:r1], q[r0:r1]), h, _STRIP, h * w)
+    _raise_degenerate(counts, zero)
+    return p, q
 
-    def strip_slopes(r0: int, r1: int) -> Tuple[int, Optional[Tuple[int, int]]]:  # rows r0:r1; (degenerate, first)
-        degenerate, first = 0, None
-        strip = normalize_normals(n[r0:r1]) if zero == "unit" else n[r0:r1]
-        nx, ny, nz = strip[..., 0], strip[..., 1], strip[..., 2]
-        d = nx * nx
-        d += ny * ny
-        np.sqrt(d, out=d)
-        tilt = d  # |n_xy|, kept below for the degenerate check
-        d = tilt * inv_max
-        np.maximum(d, nz, out=d)  # >= |n_xy| / max_slope: the slope's magnitude is at most max_slope
-        small = d < np.float32(MIN_NORMAL_LENGTH)
-        if small.any():
-            bad = small & (tilt < np.float32(MIN_NORMAL_LENGTH)) & (nz < np.float32(MIN_NORMAL_LENGTH))
-            if bad.any():
-                degenerate += int(bad.sum())
-                if first is None:
-                    i, j = np.argwhere(bad)[0]
-                    first = (r0 + int(i), int(j))
-            # below MIN_NORMAL_LENGTH but not degenerate: tiny, well-defined normals; keep d > 0
-            d[small] = np.where(bad[small], np.float32(1.0), np.maximum(d[small], np.float32(1e-30)))
-        np.reciprocal(d, out=d)
-        d *= np.float32(-1.0)
-        np.multiply(nx, d, out=p[r0:r1])
-        np.multiply(ny, d, out=q[r0:r1])
-        if small.any() and degenerate:
-            p[r0:r1][bad] = 0.0
-            q[r0:r1][bad] = 0.0
-        return degenerate, first
 
-    counts = _strips(strip_slopes, h, _STRIP, h * w)
+def _slope_rows(n: np.ndarray, r0: int, r1: int, zero: str, inv_max: np.float32, p: np.ndarray,
+                q: np.ndarray) -> Tuple[int, Optional[Tuple[int, int]]]:
+    """The slopes of :func:`normal_slopes` of the rows ``r0:r1`` of ``n`` written into ``p`` and ``q`` ((r1 - r0, W)
+    float32 each); returns ``(degenerate count, (row, column) of the first or None)``."""
+    degenerate, first = 0, None
+    if zero == "unit":
+        from .maps import normalize_normals  # (maps imports this module)
+
+        strip = normalize_normals(n[r0:r1])
+    else:
+        strip = n[r0:r1]
+    nx, ny, nz = strip[..., 0], strip[..., 1], strip[..., 2]
+    d = nx * nx
+    d += ny * ny
+    np.sqrt(d, out=d)
+    tilt = d  # |n_xy|, kept below for the degenerate check
+    d = tilt * inv_max
+    np.maximum(d, nz, out=d)  # >= |n_xy| / max_slope: the slope's magnitude is at most max_slope
+    small = d < np.float32(MIN_NORMAL_LENGTH)
+    if small.any():
+        bad = small & (tilt < np.float32(MIN_NORMAL_LENGTH)) & (nz < np.float32(MIN_NORMAL_LENGTH))
+        if bad.any():
+            degenerate += int(bad.sum())
+            i, j = np.argwhere(bad)[0]
+            first = (r0 + int(i), int(j))
+        # below MIN_NORMAL_LENGTH but not degenerate: tiny, well-defined normals; keep d > 0
+        d[small] = np.where(bad[small], np.float32(1.0), np.maximum(d[small], np.float32(1e-30)))
+    np.reciprocal(d, out=d)
+    d *= np.float32(-1.0)
+    np.multiply(nx, d, out=p)
+    np.multiply(ny, d, out=q)
+    if degenerate:
+        p[bad] = 0.0
+        q[bad] = 0.0
+    return degenerate, first
+
+
+def _raise_degenerate(counts: list, zero: str) -> None:
+    """The one-line error of :func:`normal_slopes` for degenerate normals (``counts``: :func:`_slope_rows`' results)."""
     found = [f for _, f in counts if f is not None]
     degenerate, first = sum(c for c, _ in counts), (found[0] if found else None)
     if degenerate and zero == "error":
         raise SvbrdfError(f"normal map: {degenerate} zero-length normal(s) (first at row {first[0]}, column "
                           f"{first[1]}); pass zero='flat' to treat them as flat")
-    return p, q
 
 
 def _pair_slopes(p: np.ndarray, q: np.ndarray, tileable: bool) -> Tuple[np.ndarray, np.ndarray]:
@@ -322,38 +331,49 @@ def _laplacian_eigen(n: int, periodic: bool, rfft: bool = False) -> np.ndarray:
     return (2.0 - 2.0 * np.cos(np.pi * np.arange(n) / n)).astype(np.float32)
 
 
-def _divergence(p: np.ndarray, q: np.ndarray, tileable: bool) -> np.ndarray:
-    """``D^T g`` of the pair slopes ``g`` (:func:`_pair_slopes`), without forming them: at each pixel the pair
-    arriving minus the pair leaving, ``(p[j-1] - p[j+1]) / 2 + (q[i+1] - q[i-1]) / 2``; with Neumann borders
-    (not tileable) a missing pair counts 0, i.e. ``p[-1] = -p[0]``, ``p[W] = -p[W-1]`` (same for q). (H, W)
-    float32."""
-    h, w = p.shape
+def _slope_divergence(n: np.ndarray, inv_max: np.float32, zero: str, tileable: bool) -> np.ndarray:
+    """``D^T g`` of the pair slopes ``g`` (:func:`_pair_slopes`) of the normals ``n`` (checked (H, W, 3)), without
+    forming them: at each pixel the pair arriving minus the pair leaving, ``(p[j-1] - p[j+1]) / 2 + (q[i+1] -
+    q[i-1]) / 2``; with Neumann borders (not tileable) a missing pair counts 0, i.e. ``p[-1] = -p[0]``, ``p[W] =
+    -p[W-1]`` (same for q). (H, W) float32. The slopes are made strip by strip (:func:`_slope_rows`, each strip with
+    the q of the row above and below it): no (H, W) slope map is held (512 MB at 8192 px). Raises
+    :func:`normal_slopes`' error for degenerate normals."""
+    h, w = n.shape[:2]
     rhs = np.empty((h, w), np.float32)
-    if w > 1:
-        np.subtract(p[:, :-2], p[:, 2:], out=rhs[:, 1:-1])
-        if tileable:
-            np.subtract(p[:, -1], p[:, 1], out=rhs[:, 0])
-            np.subtract(p[:, -2], p[:, 0], out=rhs[:, -1])
+
+    def neighbour_q(i: int) -> np.ndarray:  # q of row i (-1 or h: across the border), (1, W)
+        row = np.empty((1, w), np.float32)
+        src = i % h if tileable else min(max(i, 0), h - 1)
+        _slope_rows(n, src, src + 1, zero, inv_max, np.empty((1, w), np.float32), row)
+        if not tileable and i in (-1, h):
+            row *= np.float32(-1.0)
+        return row
+
+    def strip(r0: int, r1: int) -> Tuple[int, Optional[Tuple[int, int]]]:
+        p = np.empty((r1 - r0, w), np.float32)
+        q = np.empty((r1 - r0 + 2, w), np.float32)  # rows r0 - 1 .. r1
+        found = _slope_rows(n, r0, r1, zero, inv_max, p, q[1:-1])
+        out = rhs[r0:r1]
+        if w > 1:
+            np.subtract(p[:, :-2], p[:, 2:], out=out[:, 1:-1])
+            if tileable:
+                np.subtract(p[:, -1], p[:, 1], out=out[:, 0])
+                np.subtract(p[:, -2], p[:, 0], out=out[:, -1])
+            else:
+                np.add(p[:, 0], p[:, 1], out=out[:, 0])
+                out[:, 0] *= np.float32(-1.0)
+                np.add(p[:, -2], p[:, -1], out=out[:, -1])
         else:
-            np.add(p[:, 0], p[:, 1], out=rhs[:, 0])
-            rhs[:, 0] *= np.float32(-1.0)
-            np.add(p[:, -2], p[:, -1], out=rhs[:, -1])
-    else:
-        rhs[:] = 0.0
-    if h > 1:
-        rhs[1:-1] += q[2:]
-        rhs[1:-1] -= q[:-2]
-        if tileable:
-            rhs[0] += q[1]
-            rhs[0] -= q[-1]
-            rhs[-1] += q[0]
-            rhs[-1] -= q[-2]
-        else:
-            rhs[0] += q[1]
-            rhs[0] += q[0]
-            rhs[-1] -= q[-1]
-            rhs[-1] -= q[-2]
-    rhs *= np.float32(0.5)
+            out[:] = 0.0
+        if h > 1:
+            q[0] = neighbour_q(r0 - 1)
+            q[-1] = neighbour_q(r1)
+            out += q[2:]
+            out -= q[:-2]
+        out *= np.float32(0.5)
+        return found
+
+    _raise_degenerate(_strips(strip, h, _STRIP, h * w), zero)
     return rhs
 
 
@@ -387,7 +407,8 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
       solved by a DCT-II (computed with real FFTs of the same size, no padding). A mean slope is kept.
 
     The slopes' curl-free part is matched exactly; their curl (which no height has) is what remains.
-    Cost: the input plus about six (H, W) float32 arrays at the peak; four real-FFT passes over the map
+    Cost: the input plus two (H, W) float32 arrays at the peak (the right-hand side, made from the normals strip by
+    strip, and one transform pass's output); four real-FFT passes over the map
     (about 0.4-0.6 s of one core at 4096 x 4096, measured with numpy 2.4; see :mod:`svbrdf.runtime.core.relief`).
 
     Args:
@@ -407,10 +428,9 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
     Raises:
         SvbrdfError: wrong shape or dtype, NaN/inf, zero-length normals (with ``zero="error"``).
     """
-    p, q = normal_slopes(normal, max_slope=max_slope, zero=zero)
-    h, w = p.shape
-    rhs = _divergence(p, q, tileable)
-    del p, q
+    n = _check_normal(normal, zero)
+    h, w = n.shape[:2]
+    rhs = _slope_divergence(n, np.float32(1.0 / _positive(max_slope, "max_slope")), zero, tileable)
     if tileable:
         # numpy 2.4's unscaled FFT directions are several times slower than the scaled ones: both transforms
         # are scaled here (1 / (H W) each way) and the eigenvalues divided by H W to compensate
@@ -450,8 +470,13 @@ def normalise(height) -> Tuple[np.ndarray, float]:
         ``scale`` the height black-to-white spans, in units of the map's width (record it in the sidecar).
         A flat height gives all 0.5 and scale 0.
     """
-    arr = _check_height(height)
-    centred = arr - np.float32(arr.mean(dtype=np.float64))
+    return _normalise(_check_height(height))
+
+
+def _normalise(arr: np.ndarray, out: Optional[np.ndarray] = None) -> Tuple[np.ndarray, float]:
+    """:func:`normalise` of a checked float32 height, into ``out`` when given (``out=arr``: in place, no second
+    (H, W) array: 256 MB at 8192 px)."""
+    centred = np.subtract(arr, np.float32(arr.mean(dtype=np.float64)), out=out)
     scale = _scale_of(centred)
     if scale <= 0.0:
         return np.full(arr.shape, 0.5, np.float32), 0.0
@@ -554,8 +579,23 @@ def _downsample(a: np.ndarray, tileable: bool) -> np.ndarray:
 
 def _upsample(a: np.ndarray, shape: Tuple[int, int], tileable: bool) -> np.ndarray:
     """2x bilinear upsampling (pixel centres at half-pixel offsets: ``out[2i] = 3/4 a[i] + 1/4 a[i-1]``,
-    ``out[2i+1] = 3/4 a[i] + 1/4 a[i+1]``, the border continued by wrap or by edge), cropped to ``shape``."""
-    return _upsample_axis(_upsample_axis(a, 1, tileable), 0, tileable)[: shape[0], : shape[1]]
+    ``out[2i+1] = 3/4 a[i] + 1/4 a[i+1]``, the border continued by wrap or by edge), cropped to ``shape``.
+
+    Along the columns, then the rows, in blocks of :data:`_UPSAMPLE_BLOCK` input rows (each with its neighbour rows):
+    no column-upsampled copy of the whole map is held (128 MB for the 8192 px AO), the same values."""
+    n0 = a.shape[0]
+    out = np.empty((min(shape[0], 2 * n0), min(shape[1], 2 * a.shape[1])), np.float32)
+    for i0 in range(0, n0, _UPSAMPLE_BLOCK):
+        i1 = min(n0, i0 + _UPSAMPLE_BLOCK)
+        rows = np.arange(i0 - 1, i1 + 1)  # the block and a neighbour row each side, continued by wrap or by edge
+        rows = rows % n0 if tileable else np.clip(rows, 0, n0 - 1)
+        cols = _upsample_axis(a[rows], 1, tileable)[:, : out.shape[1]]
+        quarter = cols * np.float32(0.25)
+        three = cols[1:-1] * np.float32(0.75)
+        for parity, neighbour in ((0, quarter[:-2]), (1, quarter[2:])):
+            dst = out[2 * i0 + parity: 2 * i1: 2]
+            np.add(three[: len(dst)], neighbour[: len(dst)], out=dst)
+    return out
 
 
 #: Lines (of the other axis) :func:`_upsample_axis` treats at a time: its temporaries stay small (the same values).
@@ -847,5 +887,5 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
         raise SvbrdfError(f"relief maps: unknown or no names {unknown!r}; valid names: {', '.join(RELIEF_NAMES)}")
     height, _ = height_from_normals(normal, tileable=tileable, zero=zero)
     ao = ambient_occlusion(height, tileable=tileable, strength=ao_strength) if "ao" in names else None
-    h01, scale = normalise(height)
+    h01, scale = _normalise(height, out=height)  # the height itself is not kept
     return Relief(h01 if "height" in names else None, scale, ao, bool(tileable), ao_strength)

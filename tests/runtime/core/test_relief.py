@@ -331,3 +331,47 @@ def test_ao_strength_is_the_ao_of_the_scaled_height():
     for bad in (0.0, -1.0, float("nan"), "deep"):
         with pytest.raises(SvbrdfError, match="strength"):
             ambient_occlusion(h, strength=bad)
+
+
+@pytest.mark.parametrize("tileable", [False, True])
+def test_the_poisson_right_hand_side_is_the_transposed_difference_of_the_pair_slopes(tileable):
+    """The height's right-hand side, made strip by strip from the normals, is D^T g of the pair slopes (the pairs
+    arriving at a pixel minus those leaving it; no pair across an open border), computed here from whole maps."""
+    from svbrdf.runtime.core import relief
+
+    rng = np.random.default_rng(12)
+    n = rng.normal(size=(37, 23, 3)).astype(np.float32)
+    n[..., 2] = np.abs(n[..., 2]) + 0.3
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    gx, gy = (g.astype(np.float64) for g in relief._pair_slopes(*normal_slopes(n), tileable))
+    if tileable:  # the pair leaving (i, j) is gx[i, j]; the one arriving, gx[i, j - 1] (wrapped)
+        want = np.roll(gx, 1, axis=1) - gx + np.roll(gy, 1, axis=0) - gy
+    else:
+        zx, zy = np.zeros((37, 1)), np.zeros((1, 23))
+        want = (np.hstack([zx, gx]) - np.hstack([gx, zx])) + (np.vstack([zy, gy]) - np.vstack([gy, zy]))
+    got = relief._slope_divergence(n, np.float32(1.0 / relief.MAX_SLOPE), "error", tileable)
+    np.testing.assert_allclose(got, want, atol=2e-6)
+
+
+@pytest.mark.parametrize("tileable", [False, True])
+def test_strip_and_block_sizes_give_the_same_relief(monkeypatch, tileable):
+    """The rows per strip of the slopes (each strip with its neighbour rows' slopes) and of the AO's upsampling do
+    not change a bit of the relief, and a zero-length normal is reported at the same place."""
+    from svbrdf.runtime.core import relief
+
+    rng = np.random.default_rng(13)
+    n = rng.normal(size=(61, 45, 3)).astype(np.float32)
+    n[..., 2] = np.abs(n[..., 2]) + 0.5
+    n /= np.linalg.norm(n, axis=-1, keepdims=True)
+    out = []
+    for strip, block in ((32, 256), (1, 1), (5, 3)):
+        monkeypatch.setattr(relief, "_STRIP", strip)
+        monkeypatch.setattr(relief, "_UPSAMPLE_BLOCK", block)
+        r = relief.relief_maps(n, tileable=tileable)
+        out.append((r.height, relief.ambient_occlusion(r.height, tileable=tileable, max_size=16), r.scale))
+        bad = n.copy()
+        bad[7, 9] = bad[60, 0] = 0.0
+        with pytest.raises(SvbrdfError, match=r"2 zero-length normal\(s\) \(first at row 7, column 9\)"):
+            relief.height_from_normals(bad, tileable=tileable)
+    for other in out[1:]:
+        assert all(np.array_equal(a, b) for a, b in zip(out[0][:2], other[:2])) and out[0][2] == other[2]
