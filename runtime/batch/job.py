@@ -8,6 +8,7 @@ It gets the photo's bytes and the options, runs the per-photo pipeline
 
 from __future__ import annotations
 
+import functools
 import shutil
 import tempfile
 import time
@@ -115,7 +116,9 @@ def run_job(job: Job) -> Dict[str, Any]:
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             maps, relit, detail = process_photo(photo, options, session, config, refine,
-                                                name=Path(job.source).name)
+                                                name=Path(job.source).name, later=True)  # relief beside the writes
+            if callable(relit):  # rendered once: for the set's files, then for the thumbnail
+                relit = functools.cache(relit)
             maps.meta["source"] = job.source
         with warnings.catch_warnings():  # the photo again, for the scores: its warnings were said above
             warnings.simplefilter("ignore")
@@ -129,7 +132,8 @@ def run_job(job: Job) -> Dict[str, Any]:
         from ..io.images import write_image
         from ..outputs.contact_sheet import strip
 
-        write_image(tmp / "thumb.png", strip(image, maps, relit), bits=8, colour_space="sRGB")
+        write_image(tmp / "thumb.png", strip(image, maps, relit() if callable(relit) else relit), bits=8,
+                    colour_space="sRGB")
         return {"name": job.name, "status": "done", "files": {p.name: p.read_bytes() for p in sorted(out.iterdir())},
                 "thumb": (tmp / "thumb.png").read_bytes(), "scores": scores, "size": list(maps.shape),
                 "detail": detail, "warnings": [clean(str(w.message)) for w in caught],

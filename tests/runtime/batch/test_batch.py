@@ -366,3 +366,22 @@ def test_every_set_gets_height_and_ao_and_a_library_from_before_them_is_redone_w
         assert sidecar["relief"]["maps"] == ["height", "ao"] and sidecar["relief"]["height_scale"] >= 0
     code, _, err = _run(capsys, *argv)  # and now they are done
     assert code == 0 and "2 already done" in err
+
+
+def test_a_batch_set_has_the_images_of_svbrdf_preview(tiny_model, tmp_path, capsys):
+    """The batch's per-photo path is the preview's (the relief and the relit panel made while the maps are written):
+    every image of a set, byte for byte; the thumbnail shows that relit panel."""
+    from svbrdf.runtime.cli.preview import main as preview
+    from svbrdf.runtime.io.images import read_image
+
+    (photo,) = _photos(tmp_path / "in", 1, size=(70, 90))
+    lib, single = tmp_path / "lib", tmp_path / "single"
+    code, _, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1")
+    assert code == 0, err
+    assert preview([str(photo), "-o", str(single), "--model", str(tiny_model)]) == 0
+    images = sorted(p.name for p in single.glob("*.png"))
+    assert {"p00_height.png", "p00_ao.png", "p00_relit.png"} <= set(images)
+    for name in images:
+        assert (lib / "p00" / name).read_bytes() == (single / name).read_bytes(), name
+    thumb = read_image(lib / "thumbs" / "p00.png", raw=True)
+    assert thumb.shape[1] == 6 * thumb.shape[0] and float(thumb[:, -thumb.shape[0]:].std()) > 0.01  # a relit view
