@@ -158,13 +158,18 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
         ``(p, q)``: two (H, W) float32 arrays, dimensionless (rise over run, run = one pixel step).
     """
     n = _check_normal(normal, zero)
-    inv_max = np.float32(1.0 / _positive(max_slope, "max_slope"))
+    inv_max = _inverse_max_slope(max_slope)
     h, w = n.shape[:2]
     p = np.empty((h, w), np.float32)
     q = np.empty((h, w), np.float32)
     counts = _strips(lambda r0, r1: _slope_rows(n, r0, r1, zero, inv_max, p[r0:r1], q[r0:r1]), h, _STRIP, h * w)
     _raise_degenerate(counts, zero)
     return p, q
+
+
+def _inverse_max_slope(max_slope) -> np.float32:
+    """``1 / max_slope`` as the slope clamp uses it (``max_slope`` checked > 0)."""
+    return np.float32(1.0 / _positive(max_slope, "max_slope"))
 
 
 def _slope_rows(n: np.ndarray, r0: int, r1: int, zero: str, inv_max: np.float32, p: np.ndarray,
@@ -430,7 +435,7 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
     """
     n = _check_normal(normal, zero)
     h, w = n.shape[:2]
-    rhs = _slope_divergence(n, np.float32(1.0 / _positive(max_slope, "max_slope")), zero, tileable)
+    rhs = _slope_divergence(n, _inverse_max_slope(max_slope), zero, tileable)
     if tileable:
         # numpy 2.4's unscaled FFT directions are several times slower than the scaled ones: both transforms
         # are scaled here (1 / (H W) each way) and the eigenvalues divided by H W to compensate
@@ -590,6 +595,7 @@ def _upsample(a: np.ndarray, shape: Tuple[int, int], tileable: bool) -> np.ndarr
         rows = np.arange(i0 - 1, i1 + 1)  # the block and a neighbour row each side, continued by wrap or by edge
         rows = rows % n0 if tileable else np.clip(rows, 0, n0 - 1)
         cols = _upsample_axis(a[rows], 1, tileable)[:, : out.shape[1]]
+        # along the rows as _upsample_axis, the neighbour rows standing in for its padding (no copy of the block)
         quarter = cols * np.float32(0.25)
         three = cols[1:-1] * np.float32(0.75)
         for parity, neighbour in ((0, quarter[:-2]), (1, quarter[2:])):
