@@ -60,6 +60,34 @@ def test_normal_bound_runs_on_a_tiny_input(tmp_path):
     assert set(doc["rows"][0]["angle"]) == {"0.0", "0.5", "1.0", "1.5", "2.0", "3.0", "4.0", "6.0"}
 
 
+def test_network_size_probe_runs_on_a_tiny_input(tmp_path):
+    data = tmp_path / "data"
+    _des19_set(data / "Des19" / "1_tiny.png")
+    out = tmp_path / "out.json"
+    env = {**os.environ, "DATA": str(data), "SIZE": str(N), "SPLIT": "all", "CASES": "*", "OMP_NUM_THREADS": "1"}
+    r = subprocess.run([sys.executable, str(LAB / "network_size_probe.py"), str(MODEL), str(out), "32,64"],
+                       cwd=tmp_path, env=env, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stderr[-2000:]
+    doc = json.loads(out.read_text())
+    assert [row["size"] for row in doc["rows"]] == ["shipped", 32, 64]
+    assert all(np.isfinite(row[k]) for row in doc["rows"] for k in ("burn_in", "detail_diffuse", "gt_detail_diffuse"))
+    assert [m["size"] for m in doc["summary"]] == ["shipped", 32, 64] and "| all | synthetic | 32 | 1 |" in r.stdout
+
+
+def test_the_network_size_probes_detail_ratio():
+    """About 1 for a stationary texture, well below 1 where the texture under the highlight is flattened."""
+    import importlib.util
+
+    spec = importlib.util.spec_from_file_location("network_size_probe", LAB / "network_size_probe.py")
+    probe = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(probe)
+    field = np.random.default_rng(2).random((256, 256)) * 0.5
+    assert 0.9 < probe.detail_ratio(field, (128, 128), 256) < 1.1
+    d = np.hypot(*np.mgrid[0:256, 0:256] + 0.5 - 128) / 256
+    hazy = np.where(d < 0.2, 0.25 + 0.2 * (field - 0.25), field)
+    assert 0.15 < probe.detail_ratio(hazy, (128, 128), 256) < 0.3
+
+
 def test_the_readme_table_of_a_results_json(tmp_path):
     rec = dict(case="a", kind="synthetic", seconds=1.0, rerender_rmse=0.1, grazing_rmse=0.2, diffuse_rmse=0.3,
                specular_rmse=0.4, roughness_rmse=0.5, normal_angle_deg=9.123, burn_in=0.6)
