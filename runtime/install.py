@@ -7,6 +7,8 @@ before it imports anything heavy. ``svbrdf-train``, ``svbrdf-export`` and ``svbr
 from __future__ import annotations
 
 import json
+import os
+import sys
 from pathlib import Path
 from typing import Optional
 from urllib.parse import unquote, urlparse
@@ -23,14 +25,16 @@ def install_command(extra: str = "train", package_dir: Optional[Path] = None) ->
         package_dir: the folder of ``svbrdf.runtime`` (default: this module's); for tests.
 
     Returns:
-        ``pip install -e "<checkout>[extra]"`` when the package runs from a source checkout (an editable install),
-        ``pip install "<checkout or wheel>[extra]"`` when it was installed from a local folder or wheel file that
-        still exists (pip's ``direct_url.json``), else ``pip install "svbrdf[extra]"``.
+        ``PIP install -e "<checkout>[extra]"`` when the package runs from a source checkout (an editable install),
+        ``PIP install "<checkout or wheel>[extra]"`` when it was installed from a local folder or wheel file that
+        still exists (pip's ``direct_url.json``), else ``PIP install "svbrdf[extra]"``; ``PIP`` is
+        :func:`pip_command`.
     """
     here = Path(package_dir) if package_dir is not None else Path(__file__).resolve().parent
     root = here.parent
+    pip = pip_command()
     if (root / "pyproject.toml").is_file():  # runtime/ of a checkout: the package is the checkout itself
-        return f'pip install -e "{root}[{extra}]"'
+        return f'{pip} install -e "{root}[{extra}]"'
     for info in sorted(here.parent.parent.glob("svbrdf-*.dist-info")):  # site-packages/svbrdf/runtime
         try:
             origin = json.loads((info / "direct_url.json").read_text(encoding="utf-8"))
@@ -40,8 +44,27 @@ def install_command(extra: str = "train", package_dir: Optional[Path] = None) ->
         source = Path(unquote(url.path)) if url.scheme == "file" else None
         if source is not None and source.exists():
             editable = "-e " if origin.get("dir_info", {}).get("editable") else ""
-            return f'pip install {editable}"{source}[{extra}]"'
-    return f'pip install "svbrdf[{extra}]"'
+            return f'{pip} install {editable}"{source}[{extra}]"'
+    return f'{pip} install "svbrdf[{extra}]"'
+
+
+def pip_command(python: Optional[str] = None, cwd: Optional[Path] = None) -> str:
+    """The pip that installs into the environment running ``python`` (default this interpreter).
+
+    In a virtual environment, its ``bin/pip`` (``Scripts/pip.exe`` on Windows) as a path relative to ``cwd``
+    (default the current folder) when it lies below it (``.venv/bin/pip``), else absolute; outside one, or when
+    the venv has no pip, ``pip``.
+    """
+    exe = Path(python or sys.executable)
+    in_venv = python is not None or sys.prefix != sys.base_prefix
+    pip = exe.with_name("pip.exe" if exe.suffix == ".exe" else "pip")
+    if not in_venv or not pip.is_file():
+        return "pip"
+    here = Path(cwd) if cwd is not None else Path.cwd()
+    try:
+        return str(Path(os.path.relpath(pip, here))) if pip.resolve().is_relative_to(here.resolve()) else str(pip)
+    except ValueError:  # another drive
+        return str(pip)
 
 
 def missing_train_module(exc: BaseException) -> Optional[str]:
@@ -57,4 +80,4 @@ def train_hint(what: str, module: str = "torch") -> str:
     return f'{what} needs {module} (the "train" extra), not installed here: {install_command("train")}'
 
 
-__all__ = ["TRAIN_MODULES", "install_command", "missing_train_module", "train_hint"]
+__all__ = ["TRAIN_MODULES", "install_command", "missing_train_module", "pip_command", "train_hint"]

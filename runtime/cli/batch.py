@@ -4,7 +4,7 @@ A thin command over :func:`svbrdf.runtime.batch.run_batch`; the per-photo option
 (:func:`svbrdf.runtime.cli.options.add_texture_options`, a :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`), ``--tileable`` (maps that repeat without a seam) and ``--view``
 (``LIBRARY/<name>/<name>_view.html``, the set relit in the browser, linked from the contact sheet) included. Exit
 codes: 0 every photo done (now or before), 1 a photo failed or was refused (one line ``svbrdf-batch: error: ...``
-each; the others are done), 2 a usage error (``--view`` without all four maps and ``--target generic`` included;
+each; the others are done), 2 a usage error (``--view`` without all four maps included;
 nothing is written), ``--refine`` without torch or ``--ray`` without Ray, 130 interrupted (what finished is kept;
 run the command again to go on).
 """

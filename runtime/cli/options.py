@@ -110,7 +110,7 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
     p.add_argument("--view", action="store_true",
                    help="also write <name>_view.html: the maps relit in the browser with the project's renderer, "
                         "one tile and repeated, with relief (parallax from the height) and ambient (occluded by "
-                        "the AO) controls (--target generic, all four maps)")
+                        "the AO) controls (all four maps; with any --target)")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
     p.add_argument("--refine", action="store_true",
                    help="fine-tune the model's training checkpoint on each photo with torch before predicting")
@@ -141,8 +141,8 @@ def check_options(args) -> Optional[str]:
     if args.maps != MAP_NAMES and args.target != "generic":
         return (f"--maps needs --target generic: the {args.target} preset converts all four maps "
                 f"({', '.join(MAP_NAMES)})")
-    if getattr(args, "view", False) and (args.maps != MAP_NAMES or args.target != "generic"):
-        return "--view needs all four maps and --target generic (it relights the project's own texture set)"
+    if getattr(args, "view", False) and args.maps != MAP_NAMES:
+        return "--view needs all four maps (it relights them)"
     return None
 
 

@@ -630,8 +630,14 @@ def write_maps(maps: Maps, relit: Union[None, np.ndarray, Callable[[], np.ndarra
 
         if relief is not None:
             maps = relief(maps)
-        return write_target(maps, out_dir, name, options.target, force=options.force, extra_meta=extra_meta,
-                            relit=relit() if callable(relit) else relit)
+        paths = write_target(maps, out_dir, name, options.target, force=options.force, extra_meta=extra_meta,
+                             relit=relit() if callable(relit) else relit)
+        if options.view:  # the page relights the maps themselves, whatever layout the target's files have
+            from ..outputs.viewer import VIEWER_FILE, write_maps_viewer
+
+            paths["viewer"] = write_maps_viewer(maps, out_dir / VIEWER_FILE.format(name=name), name=name,
+                                                force=options.force)
+        return paths
     paths = write_texture_set(maps, out_dir, name, normal=options.normal, fmt=options.format,
                               force=options.force, extra_meta=extra_meta, relit=relit, relief=relief)
     if options.view:

@@ -72,7 +72,8 @@ ROLES = ("basecolor", "normal", "roughness", "specular")
 #: The relief roles the page shows when the set has them.
 RELIEF_ROLES = ("height", "ao")
 
-__all__ = ["VIEWER_FILE", "VIEWER_SIZE", "TILED_REPEATS", "read_texture_set", "viewer_html", "write_viewer"]
+__all__ = ["VIEWER_FILE", "VIEWER_SIZE", "TILED_REPEATS", "read_texture_set", "viewer_html", "write_viewer",
+           "write_maps_viewer"]
 
 
 def _sidecar(path: Path) -> dict:
@@ -122,16 +123,9 @@ def read_texture_set(sidecar_path) -> Tuple[Maps, RenderConfig]:
     Raises:
         ImageError: not a generic sidecar with all four maps, or a file that cannot be read.
     """
-    from ..core.colour import srgb_to_linear
-
     meta = _sidecar(Path(sidecar_path))
     stored, config, convention = _stored(Path(sidecar_path), meta)
-    normal = decode_normal(stored["normal"][..., :3])
-    if convention == "dx":
-        normal = normal_dx_to_gl(normal)
-    maps = Maps(diffuse=srgb_to_linear(stored["basecolor"][..., :3]), specular=stored["specular"][..., :1],
-                roughness=stored["roughness"][..., :1], normal=normal, render_config=config)
-    return maps, config
+    return _decoded(stored, convention, config), config
 
 
 def _pack(arr: np.ndarray, bits: int) -> str:
@@ -201,6 +195,19 @@ def _default_exposure(maps: Maps, config: RenderConfig) -> float:
     return 1.0 / p99 if p99 > 0 else 1.0
 
 
+def _tileable_note(tiled) -> str:
+    return (f"tileable maps ({tiled.get('method')})" if isinstance(tiled, dict)
+            else "these maps were not made tileable (svbrdf-preview --tileable): the repeats show seams")
+
+
+def _write_page(page: str, out: Path, force: bool) -> Path:
+    from ..io.files import atomic_write
+
+    with atomic_write(out, force=force, error=ImageError) as tmp:
+        tmp.write_text(page, encoding="utf-8")
+    return out
+
+
 def write_viewer(sidecar_path, out: Optional[Path] = None, *, force: bool = False,
                  size: Optional[int] = VIEWER_SIZE) -> Path:
     """Write the viewer page of the texture set described by ``sidecar_path`` (module docstring).
@@ -217,8 +224,6 @@ def write_viewer(sidecar_path, out: Optional[Path] = None, *, force: bool = Fals
     Raises:
         ImageError: not such a sidecar, a file cannot be read, or the page exists and not ``force``.
     """
-    from ..io.files import atomic_write
-
     sidecar_path = Path(sidecar_path)
     meta = _sidecar(sidecar_path)
     stored, config, convention = _stored(sidecar_path, meta)
@@ -226,22 +231,63 @@ def write_viewer(sidecar_path, out: Optional[Path] = None, *, force: bool = Fals
         stored = _downsized(stored, size)
     maps, _ = read_texture_set(sidecar_path)
     if size is not None and max(maps.shape) > size:
-        from ..core.colour import srgb_to_linear
-
-        normal = decode_normal(stored["normal"][..., :3])
-        maps = Maps(diffuse=srgb_to_linear(stored["basecolor"][..., :3]), specular=stored["specular"][..., :1],
-                    roughness=stored["roughness"][..., :1],
-                    normal=normal_dx_to_gl(normal) if convention == "dx" else normal)
-    tiled = (meta.get("meta") or {}).get("tileable")
-    note = (f"tileable maps ({tiled.get('method')})" if isinstance(tiled, dict)
-            else "these maps were not made tileable (svbrdf-preview --tileable): the repeats show seams")
+        maps = _decoded(stored, convention)
     relief = meta.get("relief") if isinstance(meta.get("relief"), dict) else {}
     page = viewer_html(stored, config, str(meta.get("name") or sidecar_path.stem), convention,
-                       _default_exposure(maps, config), note, float(relief.get("height_scale") or 0.0))
+                       _default_exposure(maps, config), _tileable_note((meta.get("meta") or {}).get("tileable")),
+                       float(relief.get("height_scale") or 0.0))
     out = Path(out) if out is not None else sidecar_path.parent / VIEWER_FILE.format(name=sidecar_path.stem)
-    with atomic_write(out, force=force, error=ImageError) as tmp:
-        tmp.write_text(page, encoding="utf-8")
-    return out
+    return _write_page(page, out, force)
+
+
+def _decoded(stored: dict, convention: str = "opengl", config: Optional[RenderConfig] = None) -> Maps:
+    """The :class:`Maps` of stored values (as :func:`read_texture_set` decodes the files)."""
+    from ..core.colour import srgb_to_linear
+
+    normal = decode_normal(stored["normal"][..., :3])
+    return Maps(diffuse=srgb_to_linear(stored["basecolor"][..., :3]), specular=stored["specular"][..., :1],
+                roughness=stored["roughness"][..., :1], normal=normal_dx_to_gl(normal) if convention == "dx" else normal,
+                render_config=config)
+
+
+def write_maps_viewer(maps: Maps, out: Path, *, name: str, config: Optional[RenderConfig] = None,
+                      force: bool = False, size: Optional[int] = VIEWER_SIZE) -> Path:
+    """Write the viewer page of ``maps`` in memory, whatever layout their files were written in (a ``--target``
+    set): the same page :func:`write_viewer` makes of the project's own files, from the values those files would
+    store (base colour sRGB-encoded, normals ``(n + 1) / 2`` in OpenGL's convention, roughness and specular
+    clipped to their ranges; the relief maps when ``maps.relief`` has them).
+
+    Args:
+        maps: all four maps (and optionally their relief).
+        out: the page's path.
+        name: the set's name (page title).
+        config: the render settings (default ``maps.render_config``, else the renderer's default).
+        force: overwrite an existing page.
+        size: long side of the embedded maps (larger sets are downsized; ``None``: as they are).
+
+    Raises:
+        ImageError: the page exists and not ``force``, or it cannot be written.
+        ValueError: a map is missing.
+    """
+    from ..core.colour import linear_to_srgb
+    from ..core.maps import MAP_RANGES, encode_normal, normalize_normals
+
+    maps.require(what="the viewer")
+    config = config or maps.render_config or RenderConfig()
+    stored = {"basecolor": np.clip(linear_to_srgb(np.clip(maps.diffuse, *MAP_RANGES["diffuse"])), 0.0, 1.0),
+              "normal": encode_normal(normalize_normals(np.clip(maps.normal, *MAP_RANGES["normal"]))),
+              "roughness": np.clip(maps.roughness, *MAP_RANGES["roughness"]),
+              "specular": np.clip(maps.specular, *MAP_RANGES["specular"])}
+    height_scale = 0.0
+    if maps.relief is not None:
+        height_scale = float(maps.relief.scale)
+        stored.update({role: getattr(maps.relief, role)[..., None] for role in maps.relief.names})
+    stored = {role: np.asarray(a, np.float32) for role, a in stored.items()}
+    if size is not None:
+        stored = _downsized(stored, size)
+    page = viewer_html(stored, config, name, "opengl", _default_exposure(_decoded(stored), config),
+                       _tileable_note(maps.meta.get("tileable")), height_scale)
+    return _write_page(page, Path(out), force)
 
 
 _VERTEX = """#version 300 es

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from svbrdf.runtime.install import TRAIN_MODULES, install_command, missing_train_module, train_hint
+from svbrdf.runtime.install import TRAIN_MODULES, install_command, missing_train_module, pip_command, train_hint
 
 REPO = Path(__file__).resolve().parents[2]
 
@@ -44,14 +44,27 @@ def test_refine_without_torch_is_one_line_and_exit_2(tmp_path):
 
 def test_this_installation_gets_its_own_command():
     # The suite runs from a source checkout: with an editable install the package is this tree (pip install -e);
-    # CI installs the checkout as a regular package (pip install ".[train,dev]"), whose record names the folder.
+    # the README's and CI's regular install (pip install ".[train,dev]", into a venv inside or outside the
+    # checkout) puts a copy in site-packages, whose record names the folder it came from.
     import svbrdf.runtime
 
-    if Path(svbrdf.runtime.__file__).resolve().is_relative_to(REPO):
-        assert install_command() == f'pip install -e "{REPO}[train]"'
-        assert install_command("dev") == f'pip install -e "{REPO}[dev]"'
+    pip = pip_command()
+    if Path(svbrdf.runtime.__file__).resolve().parent == REPO / "runtime":
+        assert install_command() == f'{pip} install -e "{REPO}[train]"'
+        assert install_command("dev") == f'{pip} install -e "{REPO}[dev]"'
     else:
-        assert install_command() in (f'pip install "{REPO}[train]"', 'pip install "svbrdf[train]"')
+        assert install_command() in (f'{pip} install "{REPO}[train]"', f'{pip} install "svbrdf[train]"')
+
+
+def test_the_pip_is_the_venvs_own(tmp_path, monkeypatch):
+    venv = tmp_path / "proj" / ".venv"
+    (venv / "bin").mkdir(parents=True)
+    (venv / "bin" / "pip").write_text("")
+    python = str(venv / "bin" / "python")
+    assert pip_command(python, cwd=tmp_path / "proj") == ".venv/bin/pip"  # the README's venv, from the checkout
+    assert pip_command(python, cwd=tmp_path / "elsewhere") == str(venv / "bin" / "pip")
+    (venv / "bin" / "pip").unlink()
+    assert pip_command(python, cwd=tmp_path / "proj") == "pip"
 
 
 def _site_packages(tmp_path, direct_url):
@@ -69,18 +82,18 @@ def test_installed_from_a_folder_or_a_wheel_names_it(tmp_path):
     checkout = tmp_path / "my checkout"
     checkout.mkdir()
     pkg = _site_packages(tmp_path, {"url": checkout.as_uri(), "dir_info": {}})  # pip install .
-    assert install_command(package_dir=pkg) == f'pip install "{checkout}[train]"'
+    assert install_command(package_dir=pkg) == f'{pip_command()} install "{checkout}[train]"'
 
     wheel = tmp_path / "svbrdf-0.1.0-py3-none-any.whl"
     wheel.write_bytes(b"")
     pkg = _site_packages(tmp_path / "w", {"url": wheel.as_uri(), "archive_info": {}})  # pip install x.whl
-    assert install_command(package_dir=pkg) == f'pip install "{wheel}[train]"'
+    assert install_command(package_dir=pkg) == f'{pip_command()} install "{wheel}[train]"'
 
 
 def test_an_index_install_or_a_vanished_source_names_the_package(tmp_path):
-    assert install_command(package_dir=_site_packages(tmp_path / "a", None)) == 'pip install "svbrdf[train]"'
+    assert install_command(package_dir=_site_packages(tmp_path / "a", None)) == f'{pip_command()} install "svbrdf[train]"'
     gone = {"url": (tmp_path / "deleted").as_uri(), "dir_info": {}}
-    assert install_command(package_dir=_site_packages(tmp_path / "b", gone)) == 'pip install "svbrdf[train]"'
+    assert install_command(package_dir=_site_packages(tmp_path / "b", gone)) == f'{pip_command()} install "svbrdf[train]"'
 
 
 def test_missing_train_module_only_for_the_extra():

@@ -171,16 +171,25 @@ def test_usage_errors_exit_2(capsys):
     assert code == 2 and "-o/--out" in err
 
 
-def test_view_needs_all_maps_and_the_generic_target_and_writes_nothing(tiny_model, tmp_path, capsys):
+def test_view_needs_all_maps_and_writes_nothing(tiny_model, tmp_path, capsys):
     _photos(tmp_path / "in", 1)
     lib = tmp_path / "lib"
-    for extra in (["--maps", "normal"], ["--target", "gltf"]):
-        code, out, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--view", *extra)
-        assert code == 2 and out == "" and "Traceback" not in err
-        assert "usage: svbrdf-batch" in err
-        assert [line for line in err.splitlines() if line.startswith(ERR)] == [
-            f"{ERR}--view needs all four maps and --target generic (it relights the project's own texture set)"]
-        assert not lib.exists()
+    code, out, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--view", "--maps", "normal")
+    assert code == 2 and out == "" and "Traceback" not in err
+    assert "usage: svbrdf-batch" in err
+    assert [line for line in err.splitlines() if line.startswith(ERR)] == [
+        f"{ERR}--view needs all four maps (it relights them)"]
+    assert not lib.exists()
+
+
+def test_view_with_a_target_writes_both(tiny_model, tmp_path, capsys):
+    photo = _photos(tmp_path / "in", 1)[0]
+    lib = tmp_path / "lib"
+    code, _, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--view", "--target", "gltf",
+                        "--workers", "1")
+    assert code == 0, err
+    files = sorted(p.name for p in (lib / photo.stem).iterdir())
+    assert f"{photo.stem}_view.html" in files and f"{photo.stem}.gltf" in files, files
 
 
 def test_tileable_and_view_reach_every_set_and_the_index(tiny_model, tmp_path, capsys):

@@ -11,6 +11,7 @@ back and in the screenshots; the tolerance is the issue's 2/255. The README's pi
 import base64
 import json
 import warnings
+import zlib
 from pathlib import Path
 
 import numpy as np
@@ -93,12 +94,35 @@ def test_preview_writes_the_page_and_refuses_to_overwrite_it(example_set, capsys
     assert page.stat().st_mtime_ns == before
 
 
-def test_view_needs_the_generic_set(tmp_path, capsys):
+def test_view_needs_all_four_maps(tmp_path, capsys):
     from svbrdf.runtime.cli.preview import main
 
     assert main([str(EXAMPLE), "-o", str(tmp_path), "--view", "--maps", "normal"]) == 2
     err = capsys.readouterr().err
     assert "--view needs all four maps" in err and "Traceback" not in err
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("target", ["gltf", "ambientcg"])
+def test_view_with_a_target_relights_the_same_maps(example_set, tmp_path, target):
+    """``--tileable --view --target T`` writes T's set and a page of the same maps as the generic set's page."""
+    from svbrdf.runtime.cli.preview import main
+    from svbrdf.runtime.outputs.targets import target_files
+
+    assert main([str(EXAMPLE), "-o", str(tmp_path), "--tileable", "--view", "--target", target, "-q"]) == 0
+    names = set(target_files("carved_wood", target, relit=True, relief=("height", "ao")).values())
+    assert names | {"carved_wood_view.html"} == {p.name for p in tmp_path.iterdir()}
+    page, generic = ((folder / "carved_wood_view.html").read_text(encoding="utf-8")
+                     for folder in (tmp_path, example_set.parent))
+    data = [json.loads(p.split("var D = ", 1)[1].split(";\n", 1)[0]) for p in (page, generic)]
+    assert data[0].keys() == data[1].keys() and data[0]["width"] == data[1]["width"]
+    for role in ("basecolor", "roughness", "specular", "height_map", "ao_map"):  # the same maps, encoded alike
+        assert np.abs(_unpacked(data[0][role], role) - _unpacked(data[1][role], role)).max() <= 1, role
+
+
+def _unpacked(text: str, role: str) -> np.ndarray:
+    codes = np.frombuffer(zlib.decompress(base64.b64decode(text)), "<u1" if role == "basecolor" else "<u2")
+    return codes.astype(np.int64)
 
 
 def test_write_viewer_rejects_what_is_not_a_generic_set(tmp_path):
