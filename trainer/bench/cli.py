@@ -138,7 +138,9 @@ def run_benchmark(
         raise SvbrdfError("--renderer mitsuba needs Mitsuba 3 (pip install mitsuba)")
     data = Path(data)
     if not data.exists():
-        raise SvbrdfError(f"data folder {data} does not exist (pass --data DIR)")
+        raise SvbrdfError(f"data folder {data} does not exist: pass --data DIR, a folder of ground-truth map sets "
+                          f"(Des18, Des19, Xuejiao layouts: every measure) or of flash photos (e.g. --data "
+                          f"runtime/examples: the label-free measures, burn-in and the re-render under the flash)")
     if torch_available() and any(METHODS[m].uses_presets for m in methods):
         from svbrdf.trainer.config import TRAIN_PRESETS
 
