@@ -465,11 +465,86 @@ a { color: #aaa; }
 
   function fail(msg) { document.getElementById("err").textContent = msg; rejectReady(new Error(msg)); }
 
-  async function unpack(b64, bits) {
+  // The maps are zlib streams (RFC 1950/1951), inflated here synchronously so that the page has drawn before its
+  // load event: a browser's plain screenshot (chromium --headless --screenshot) shows the relit views.
+  var LBASE = [3, 4, 5, 6, 7, 8, 9, 10, 11, 13, 15, 17, 19, 23, 27, 31, 35, 43, 51, 59, 67, 83, 99, 115, 131, 163,
+               195, 227, 258];
+  var LEXTRA = [0, 0, 0, 0, 0, 0, 0, 0, 1, 1, 1, 1, 2, 2, 2, 2, 3, 3, 3, 3, 4, 4, 4, 4, 5, 5, 5, 5, 0];
+  var DBASE = [1, 2, 3, 4, 5, 7, 9, 13, 17, 25, 33, 49, 65, 97, 129, 193, 257, 385, 513, 769, 1025, 1537, 2049,
+               3073, 4097, 6145, 8193, 12289, 16385, 24577];
+  var DEXTRA = [0, 0, 0, 0, 1, 1, 2, 2, 3, 3, 4, 4, 5, 5, 6, 6, 7, 7, 8, 8, 9, 9, 10, 10, 11, 11, 12, 12, 13, 13];
+  var CLORDER = [16, 17, 18, 0, 8, 7, 9, 6, 10, 5, 11, 4, 12, 3, 13, 2, 14, 1, 15];
+
+  function inflate(src, size) {
+    var out = new Uint8Array(size), n = 0, pos = 2, acc = 0, cnt = 0;  // past the 2-byte zlib header
+    function fill(k) { while (cnt < k) { acc |= (pos < src.length ? src[pos] : 0) << cnt; pos++; cnt += 8; } }
+    function take(k) { fill(k); var v = acc & ((1 << k) - 1); acc >>>= k; cnt -= k; return v; }
+    function code(lengths) {  // canonical Huffman code -> lookup on the next `max` bits (LSB first): sym << 4 | len
+      var max = 1, count = new Uint16Array(16), next = new Uint16Array(16), i, len, c;
+      for (i = 0; i < lengths.length; i++) { count[lengths[i]]++; if (lengths[i] > max) max = lengths[i]; }
+      count[0] = 0;
+      for (c = 0, len = 1; len < 16; len++) { c = (c + count[len - 1]) << 1; next[len] = c; }
+      var t = new Int32Array(1 << max);
+      for (i = 0; i < lengths.length; i++) {
+        len = lengths[i];
+        if (!len) continue;
+        var k = next[len]++, rev = 0;
+        for (var b = 0; b < len; b++) { rev = (rev << 1) | (k & 1); k >>= 1; }
+        for (var j = rev; j < t.length; j += 1 << len) t[j] = (i << 4) | len;
+      }
+      return {t: t, max: max};
+    }
+    function symbol(h) {
+      fill(h.max);
+      var e = h.t[acc & ((1 << h.max) - 1)];
+      if (!(e & 15)) throw new Error("corrupt map data");
+      acc >>>= e & 15; cnt -= e & 15;
+      return e >> 4;
+    }
+    var fixedLit = new Uint8Array(288), fixedDist = new Uint8Array(30).fill(5);
+    fixedLit.fill(8, 0, 144); fixedLit.fill(9, 144, 256); fixedLit.fill(7, 256, 280); fixedLit.fill(8, 280, 288);
+    var last = 0;
+    while (!last) {
+      last = take(1);
+      var type = take(2), lit, dist;
+      if (type === 0) {  // stored: byte-aligned LEN, NLEN, then LEN bytes
+        pos -= cnt >> 3; acc = 0; cnt = 0;
+        var len = src[pos] | (src[pos + 1] << 8);
+        out.set(src.subarray(pos + 4, pos + 4 + len), n); n += len; pos += 4 + len;
+        continue;
+      }
+      if (type === 1) { lit = code(fixedLit); dist = code(fixedDist); }
+      else if (type === 2) {
+        var hlit = take(5) + 257, hdist = take(5) + 1, hclen = take(4) + 4, cl = new Uint8Array(19), i;
+        for (i = 0; i < hclen; i++) cl[CLORDER[i]] = take(3);
+        var clc = code(cl), lengths = new Uint8Array(hlit + hdist);
+        for (i = 0; i < hlit + hdist;) {
+          var s = symbol(clc), rep = 0, val = 0;
+          if (s < 16) { lengths[i++] = s; continue; }
+          if (s === 16) { val = lengths[i - 1]; rep = 3 + take(2); }
+          else if (s === 17) rep = 3 + take(3);
+          else rep = 11 + take(7);
+          while (rep--) lengths[i++] = val;
+        }
+        lit = code(lengths.subarray(0, hlit)); dist = code(lengths.subarray(hlit));
+      } else throw new Error("corrupt map data");
+      for (;;) {
+        var sym = symbol(lit);
+        if (sym < 256) { out[n++] = sym; continue; }
+        if (sym === 256) break;
+        sym -= 257;
+        var length = LBASE[sym] + take(LEXTRA[sym]), ds = symbol(dist), back = DBASE[ds] + take(DEXTRA[ds]);
+        for (var m = 0; m < length; m++, n++) out[n] = out[n - back];
+      }
+    }
+    if (n !== size) throw new Error("corrupt map data (" + n + " bytes, expected " + size + ")");
+    return out;
+  }
+
+  function unpack(b64, bits, channels) {
     var bin = atob(b64), bytes = new Uint8Array(bin.length);
     for (var i = 0; i < bin.length; i++) bytes[i] = bin.charCodeAt(i);
-    var stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("deflate"));
-    var buf = await new Response(stream).arrayBuffer();
+    var buf = inflate(bytes, W * H * channels * (bits / 8)).buffer;
     return bits === 8 ? new Uint8Array(buf) : new Uint16Array(buf);
   }
 
@@ -567,10 +642,9 @@ a { color: #aaa; }
 
   function lin2srgb(c) { return c <= 0.0031308 ? 12.92 * c : 1.055 * Math.pow(c, 1 / 2.4) - 0.055; }
 
-  async function start() {
-    if (typeof DecompressionStream === "undefined") throw new Error("this browser cannot decompress the maps");
-    var base = await unpack(D.basecolor, 8), nrm = await unpack(D.normal, 16);
-    var rough = await unpack(D.roughness, 16), spec = await unpack(D.specular, 16);
+  function start() {
+    var base = unpack(D.basecolor, 8, 3), nrm = unpack(D.normal, 16, 3);
+    var rough = unpack(D.roughness, 16, 1), spec = unpack(D.specular, 16, 1);
     var t0 = new Float32Array(4 * W * H), t1 = new Float32Array(4 * W * H);
     for (var i = 0; i < W * H; i++) {
       t0[4 * i] = base[3 * i] / 255; t0[4 * i + 1] = base[3 * i + 1] / 255; t0[4 * i + 2] = base[3 * i + 2] / 255;
@@ -585,7 +659,7 @@ a { color: #aaa; }
     showMap("m_specular", function (i) { var g = Math.round(255 * lin2srgb(spec[i] / 65535)); return [g, g, g, 255]; });
     var t2 = null;
     if (R) {
-      var hgt = R.height ? await unpack(D.height_map, 16) : null, occ = R.ao ? await unpack(D.ao_map, 16) : null;
+      var hgt = R.height ? unpack(D.height_map, 16, 1) : null, occ = R.ao ? unpack(D.ao_map, 16, 1) : null;
       t2 = new Float32Array(4 * W * H);
       for (var i = 0; i < W * H; i++) {
         t2[4 * i] = hgt ? hgt[i] / 65535 : 0.5; t2[4 * i + 1] = occ ? occ[i] / 65535 : 1; t2[4 * i + 3] = 1;
@@ -658,7 +732,7 @@ a { color: #aaa; }
       return btoa(s);
     }
   };
-  start().then(function () { resolveReady(true); }, function (e) { fail("viewer: " + e.message); });
+  try { start(); resolveReady(true); } catch (e) { fail("viewer: " + e.message); }  // drawn before the load event
 })();
 </script>
 </body></html>

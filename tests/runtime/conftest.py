@@ -72,6 +72,15 @@ def _start_browser(kind, profile, **kwargs):
         pytest.skip(f"{exe} did not start headless ({exc})")
 
 
+@pytest.fixture
+def chromium_path():
+    """The path of headless Chromium's executable (for a plain command line), or skip."""
+    exe = _browser_module().find_browser("chromium")
+    if exe is None:
+        pytest.skip("no chromium found; e.g. apt-get install chromium")
+    return exe
+
+
 @pytest.fixture(scope="module", params=["chromium", "firefox"])
 def browser(request, tmp_path_factory):
     """Each headless browser in turn, one page (a test using it runs once per browser; each skips on its own, also

@@ -12,8 +12,9 @@ Two drivers with the same small interface (``open(url)``, ``evaluate(expression)
   Mesa 22.3 on Debian 12: without the pref WebGL 2 fails with "AllowWebgl2:false", without the variable with
   "Exhausted GL driver options".
 
-``firefox --headless --screenshot`` alone is not enough for pages that draw after an asynchronous start (the
-viewer decompresses its maps first): it captures at the load event, before anything is drawn.
+A browser's plain screenshot (``chromium --headless --screenshot``, ``firefox --headless --screenshot``) captures
+at the load event; the viewer draws before it (its maps are inflated synchronously), so such a screenshot shows the
+relit views. These drivers are for reading pixels and driving the page.
 
 No driver package and no browser download: the executables are looked up on ``$PATH`` (:func:`find_browser`).
 """

@@ -366,3 +366,19 @@ def test_a_set_without_relief_has_no_relief_controls(browser, tmp_path):
     assert browser.evaluate("window.svbrdfViewer.relief") is None
     for ctl in ("reliefctl", "ambientctl", "c_height", "c_ao"):
         assert browser.evaluate(f"getComputedStyle(document.getElementById('{ctl}')).display") == "none", ctl
+
+
+def test_a_plain_browser_screenshot_shows_the_relit_views(example_set, chromium_path, tmp_path):
+    """``chromium --headless --screenshot page.html`` (captured at the load event, no time budget) shows the
+    relit views: the page inflates its maps and draws before the load event."""
+    import subprocess
+
+    exe = chromium_path
+    page = example_set.parent / "carved_wood_view.html"
+    shot = tmp_path / "plain.png"
+    subprocess.run([exe, "--headless", "--no-sandbox", "--use-angle=swiftshader", "--enable-unsafe-swiftshader",
+                    "--hide-scrollbars", f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1400,1000",
+                    f"--screenshot={shot}", page.resolve().as_uri()], capture_output=True, timeout=120, check=True)
+    pixels = _read_png(shot.read_bytes(), tmp_path)
+    tiled = pixels[80:620, 20:620]  # the 3 x 3 relit view, top left of the page
+    assert tiled.mean() > 30 and tiled.std() > 15, (tiled.mean(), tiled.std())
