@@ -23,14 +23,18 @@ from svbrdf.trainer.stage import make_trainer
 QUALITIES = ("fixed", "auto")
 
 
-def refine_config(init: Mapping[str, Any], quality: str = "fixed", iters: Optional[int] = None) -> TrainConfig:
+def refine_config(init: Mapping[str, Any], quality: str = "fixed", iters: Optional[int] = None,
+                  fov_deg: Optional[float] = None) -> TrainConfig:
     """The fine-tune settings of ``refine``: the checkpoint's preset (or its recorded settings when this version
-    does not know the preset), ``quality``, and ``iters`` fine-tune iterations when given."""
+    does not know the preset), ``quality``, ``iters`` fine-tune iterations and the renderer's field of view
+    ``fov_deg`` (the photo's camera) when given."""
     preset = init["train_config"].get("preset")
     cfg = (resolve(preset) if preset in TRAIN_PRESETS else TrainConfig.from_dict(init["train_config"])).to_dict()
     cfg["quality"] = quality
     if iters:
         cfg["iters_finetune"] = iters
+    if fov_deg is not None:
+        cfg["render"]["fov_deg"] = float(fov_deg)
     return TrainConfig.from_dict(cfg)
 
 
@@ -58,7 +62,8 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
         name: the photo's name in the run's records.
         callback: ``callback(trainer, record)`` after every iteration (:data:`svbrdf.trainer.train.Callback`).
         preview: the instant preview of ``photo`` (:func:`svbrdf.runtime.inference.pipeline.estimate`), for the skip rule.
-        render_config: renderer settings of the skip rule's re-render (needed with ``preview``).
+        render_config: the photo's renderer settings: the skip rule's re-render (needed with ``preview``) and the
+            fine-tune's renderer takes its field of view (the photo's camera); None: the checkpoint's.
 
     Returns:
         :class:`~svbrdf.runtime.core.maps.Maps` with ``meta["refine"]``: ``{"checkpoint", "iterations",
@@ -81,7 +86,8 @@ def refine(photo: np.ndarray, init: Union[Checkpoint, Callable[[], Checkpoint]],
         init = init()
     ckpt = ckpt_io.load_checkpoint(init) if not isinstance(init, Mapping) else init
     tensor = train.photo_to_tensor(photo)
-    trainer = make_trainer(tensor, "finetune", refine_config(ckpt, quality, iters), init=ckpt, threads=threads,
+    fov = render_config.fov_deg if render_config is not None else None
+    trainer = make_trainer(tensor, "finetune", refine_config(ckpt, quality, iters, fov), init=ckpt, threads=threads,
                            photo_info=train.tensor_photo_info(tensor, name), callback=callback)
     trainer.run()
     meta = {"refine": {"checkpoint": str(init) if not isinstance(init, Mapping) else "checkpoint",

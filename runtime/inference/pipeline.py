@@ -416,7 +416,8 @@ class PhotoOptions:
     Attributes:
         model: ONNX model path (None: ``$SVBRDF_MODEL``, else the packaged model).
         threads: CPU threads (None: every core).
-        fov: camera field of view across the photo width, degrees, for the relit panel (None: the model's).
+        fov: camera field of view across the photo width, degrees (None: each photo's EXIF record, else the model's;
+            :func:`photo_camera`).
         normal: normal map convention of ``target`` generic: ``"opengl"`` (green up) or ``"dx"``.
         format: normal/roughness/specular/height/ao files of ``target`` generic: ``"png"`` (16-bit) or ``"exr"``
             (float).
@@ -559,6 +560,8 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
 
     if config is None:
         config = options.render_config(session)
+    camera = photo_camera(photo, options.fov, config.fov_deg)
+    config = config.replace(fov_deg=camera["fov_deg"])
     if options.refine:
         if refine is None:
             raise ValueError("options.refine needs the refine function (svbrdf.runtime.inference.refine.load_refine)")
@@ -581,6 +584,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config
+    maps.meta["camera"] = camera
     if options.tileable:
         from ..post.tileable import make_tileable
 
@@ -602,6 +606,21 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
             maps = _with_relief(maps, options)
     relit = relit_job.result() if relit_job is not None else None
     return maps, relit, detail
+
+
+def photo_camera(photo: Path, fov: Optional[float], default: float) -> dict:
+    """The camera of ``photo`` for every physical step (the relit panel, the viewer, the refine's renderer):
+    ``{"fov_deg", "fov_source", "how"}``, the field of view across the photo's width from ``fov`` (``"option"``),
+    else the file's EXIF record (``"exif"``, :func:`svbrdf.runtime.io.exif.exif_camera`), else ``default`` (the
+    model's, ``"default"``). An absurd EXIF record is a warning and the default."""
+    if fov is not None:
+        return {"fov_deg": float(fov), "fov_source": "option", "how": "--fov"}
+    from ..io.exif import exif_camera
+
+    exif = exif_camera(photo)
+    if exif is not None:
+        return {"fov_deg": round(exif.fov_deg, 3), "fov_source": "exif", "how": exif.how}
+    return {"fov_deg": float(default), "fov_source": "default", "how": "the model's training camera (no EXIF focal length)"}
 
 
 def _with_relief(maps: Maps, options: PhotoOptions) -> Maps:

@@ -342,8 +342,10 @@ def _sidecar(maps: Maps, name: str, plan: Layout, config: RenderConfig, extra_me
         "brdf": _brdf_description(config),
         "normal_convention": {"name": plan.normal, "axes": _NORMAL_AXES[plan.normal]},
         "files": {role: {"file": f.file, **f.info} for role, f in files.items()},
-        "meta": {**maps.meta, **(extra_meta or {})},
+        "meta": {k: v for k, v in {**maps.meta, **(extra_meta or {})}.items() if k != "camera"},
     }
+    if "camera" in maps.meta:  # the photo's camera (fov_deg, fov_source): brdf.render_config has the same fov_deg
+        sidecar["camera"] = maps.meta["camera"]
     if maps.relief is not None:
         sidecar["relief"] = maps.relief.info()
     if plan.target is not None:

@@ -72,3 +72,12 @@ def test_refine_config_uses_this_versions_preset_or_the_recorded_settings():
     assert cfg.quality == "auto" and cfg.iters_finetune == 5
     unknown = {**recorded, "preset": "retired"}
     assert refine_config({"train_config": unknown}).lr == 1e-3
+
+
+def test_the_fine_tune_renders_with_the_photos_camera(tiny_ckpt):
+    photo, _ = _photo_and_preview()
+    seen = []
+    refine(photo, tiny_ckpt, iters=1, threads=1, render_config=ZHAO.replace(fov_deg=23.0),
+           callback=lambda trainer, rec: seen.append((trainer.config.render["fov_deg"], trainer.geometry.config.fov_deg)))
+    assert seen == [(23.0, 23.0)]
+    assert refine_config({"train_config": resolve("tiny").to_dict()}, fov_deg=31.0).render["fov_deg"] == 31.0

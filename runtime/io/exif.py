@@ -1,0 +1,127 @@
+"""The camera's field of view from a photo's EXIF record (OpenImageIO's ``Exif:*`` attributes).
+
+The field of view is across the photo's **width as displayed** (EXIF ``Orientation`` applied), the renderer's
+``fov_deg`` (:class:`~svbrdf.runtime.core.render_config.RenderConfig`). From, in this order:
+
+1. ``FocalLengthIn35mmFilm`` ``f35``: the lens a 36 x 24 mm frame would need for the same diagonal field of view
+   (CIPA DC-008), so the width spans ``43.27 mm * W / sqrt(W^2 + H^2)`` of that frame and
+   ``fov = 2 atan(width_mm / (2 f35))``;
+2. ``FocalLength`` ``f`` with ``FocalPlaneXResolution`` and ``FocalPlaneResolutionUnit`` (pixels per inch, cm or
+   mm on the sensor) and the recorded ``PixelXDimension``: the sensor's width ``PixelXDimension / resolution``.
+
+A photo whose pixel size differs from the size EXIF records (``PixelXDimension`` x ``PixelYDimension``) was
+downsized (the same aspect ratio within 1 %: the same field of view) or cropped (another aspect ratio: taken as a
+crop that kept the whole height, or the whole width when it is the wider, at any scale; ``tan(fov / 2)`` scaled by
+the share of the width kept, with a warning). A crop to the same aspect ratio cannot be told from a downsizing.
+A focal length of 0, a negative one or a field of view outside :data:`FOV_RANGE` is a warning and no answer.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Optional, Tuple, Union
+
+from .images import ImageWarning
+
+#: The diagonal of the 36 x 24 mm frame that 35 mm-equivalent focal lengths refer to, mm.
+FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
+#: Fields of view (degrees, across the width) taken as plausible for a photo of a material; outside: absurd.
+FOV_RANGE: Tuple[float, float] = (5.0, 120.0)
+#: ``FocalPlaneResolutionUnit``: millimetres per unit.
+_UNIT_MM = {2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
+
+
+@dataclass(frozen=True)
+class ExifCamera:
+    """What a photo's EXIF says of its camera.
+
+    Attributes:
+        fov_deg: field of view across the photo's displayed width, degrees.
+        how: which fields gave it, e.g. ``"FocalLengthIn35mmFilm 26 mm"``; ``"; cropped ..."`` appended for a crop.
+    """
+
+    fov_deg: float
+    how: str
+
+
+def _attr(spec, name: str) -> Optional[float]:
+    value = spec.getattribute(name)
+    if value is None:
+        return None
+    if isinstance(value, (tuple, list)):  # a rational read as (num, den)
+        value = value[0] / value[1] if len(value) == 2 and value[1] else None
+    try:
+        return float(value)
+    except (TypeError, ValueError):
+        return None
+
+
+def exif_camera(path: Union[str, Path], size: Optional[Tuple[int, int]] = None) -> Optional[ExifCamera]:
+    """The field of view that ``path``'s EXIF record gives (module docstring), or None.
+
+    Args:
+        path: an image file.
+        size: ``(height, width)`` of the photo as processed (displayed orientation; any downsizing), default the
+            file's own.
+
+    Returns:
+        :class:`ExifCamera`, or None when the file has no usable record. An absurd record (a focal length of 0 or
+        below, a field of view outside :data:`FOV_RANGE`) is an :class:`ImageWarning` naming the file and None.
+    """
+    import OpenImageIO as oiio
+
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        oiio.geterror()
+        return None
+    try:
+        spec = inp.spec()
+    finally:
+        inp.close()
+    turned = spec.get_int_attribute("Orientation", 1) in (5, 6, 7, 8)
+    stored = (spec.height, spec.width)
+    rec_w, rec_h = _attr(spec, "Exif:PixelXDimension"), _attr(spec, "Exif:PixelYDimension")
+    if not (rec_w and rec_h and rec_w > 0 and rec_h > 0):
+        rec_w, rec_h = float(stored[1]), float(stored[0])
+    f35, f = _attr(spec, "Exif:FocalLengthIn35mmFilm"), _attr(spec, "Exif:FocalLength")
+    if f35 is None and f is None:
+        return None
+    # the recorded frame as displayed: width across, and its diagonal
+    shown_w, shown_h = (rec_h, rec_w) if turned else (rec_w, rec_h)
+    if f35 is not None:
+        if f35 <= 0:
+            return _absurd(path, f"FocalLengthIn35mmFilm {f35:g}")
+        width_mm = FULL_FRAME_DIAGONAL_MM * shown_w / math.hypot(shown_w, shown_h)
+        fov, how = 2.0 * math.degrees(math.atan(width_mm / (2.0 * f35))), f"FocalLengthIn35mmFilm {f35:g} mm"
+    else:
+        res, unit = _attr(spec, "Exif:FocalPlaneXResolution"), spec.get_int_attribute("Exif:FocalPlaneResolutionUnit", 2)
+        if f <= 0:
+            return _absurd(path, f"FocalLength {f:g}")
+        if not res or res <= 0 or unit not in _UNIT_MM:
+            return None  # a focal length without the sensor's size says nothing of the field of view
+        sensor_x_mm = rec_w / res * _UNIT_MM[unit]  # along the stored rows
+        sensor_y_mm = sensor_x_mm * rec_h / rec_w
+        width_mm = sensor_y_mm if turned else sensor_x_mm
+        fov, how = 2.0 * math.degrees(math.atan(width_mm / (2.0 * f))), f"FocalLength {f:g} mm, sensor {width_mm:.2f} mm wide"
+    h, w = size if size is not None else ((stored[1], stored[0]) if turned else stored)
+    if abs((w / h) / (shown_w / shown_h) - 1.0) > 0.01:  # another aspect ratio: a crop of the whole height (or width)
+        kept = min(1.0, (w / h) * shown_h / shown_w)
+        fov = 2.0 * math.degrees(math.atan(math.tan(math.radians(fov) / 2.0) * kept))
+        how += f"; {w}x{h} px of a {shown_w:.0f}x{shown_h:.0f} frame, taken as a crop of {kept:.0%} of its width"
+        warnings.warn(ImageWarning(f"{path}: {w}x{h} px of a {shown_w:.0f}x{shown_h:.0f} frame (EXIF): the field of "
+                                   f"view assumes a crop of {kept:.0%} of its width ({fov:.1f} deg)"), stacklevel=2)
+    if not FOV_RANGE[0] <= fov <= FOV_RANGE[1]:
+        return _absurd(path, f"{how}: a field of view of {fov:.1f} deg")
+    return ExifCamera(fov, how)
+
+
+def _absurd(path, what: str) -> None:
+    warnings.warn(ImageWarning(f"{path}: EXIF {what} is not a plausible camera (field of view outside "
+                               f"{FOV_RANGE[0]:g}-{FOV_RANGE[1]:g} deg); ignored"), stacklevel=3)
+    return None
+
+
+__all__ = ["ExifCamera", "FOV_RANGE", "FULL_FRAME_DIAGONAL_MM", "exif_camera"]
