@@ -18,12 +18,15 @@ OpenImageIO's writer with the system zlib for files of about the same size), the
 the GIL while they encode, so files can be written from several threads.
 
 OpenImageIO never raises on a bad file; every call here is checked and turned into an
-:class:`~svbrdf.runtime.errors.ImageError` with a one-line message ``"<path>: <problem>"``.
+:class:`~svbrdf.runtime.errors.ImageError` with a one-line message ``"<path>: <problem>"``. A read that returns pixels
+is checked too: a problem the reader reported while decoding refuses the file (a truncated or corrupt JPEG decodes,
+grey where the data is missing, with only a libjpeg warning).
 """
 
 from __future__ import annotations
 
 import functools
+import mmap
 import os
 import warnings
 from concurrent.futures import ThreadPoolExecutor
@@ -61,6 +64,11 @@ def _one_line(msg: str) -> str:
     return lines[0] if lines else "unknown error"
 
 
+def _without_path(msg: str, path: Path) -> str:
+    """``msg`` without the `` ("<path>")`` libjpeg's messages end with (the error names the file first)."""
+    return msg.removesuffix(f' ("{path}")')
+
+
 def _open(path: Path) -> "oiio.ImageInput":
     """Open ``path`` for reading with unassociated alpha; raise ImageError with a classified reason."""
     if not path.exists():
@@ -71,12 +79,19 @@ def _open(path: Path) -> "oiio.ImageInput":
         raise ImageError(f"{path}: empty file (0 bytes)")
     cfg = oiio.ImageSpec()
     cfg.attribute("oiio:UnassociatedAlpha", 1)  # PNG alpha would otherwise premultiply the colour
+    oiio.geterror()  # this thread's earlier errors are not this file's
     inp = oiio.ImageInput.open(str(path), cfg)
     if inp is None:
         err = oiio.geterror()
         if "could not find a format reader" in err:
             raise ImageError(f"{path}: unsupported or unrecognised image format")
-        raise ImageError(f"{path}: unreadable or corrupt image ({_one_line(err)})")
+        raise ImageError(f"{path}: unreadable or corrupt image ({_without_path(_one_line(err), path)})")
+    oiio.geterror()  # what other formats' readers said while the file was probed
+    try:  # a progressive JPEG is decoded on opening: its damage is reported here
+        _check(path, inp)
+    except ImageError:
+        inp.close()
+        raise
     return inp
 
 
@@ -87,6 +102,9 @@ def image_info(path: PathLike) -> dict:
         dict with ``width``, ``height`` (as stored, before orientation), ``channels``, ``channel_names``,
         ``format`` (OpenImageIO format name, e.g. "png", "openexr"), ``dtype`` (e.g. "uint8", "half"),
         ``is_float`` and ``orientation`` (EXIF 1..8).
+
+    Raises:
+        ImageError: missing, empty, unsupported or unreadable file; a damaged progressive JPEG (decoded on opening).
     """
     path = Path(path)
     inp = _open(path)
@@ -224,8 +242,47 @@ def _dims(path: Path, spec: "oiio.ImageSpec") -> Tuple[int, int, int]:
     return h, w, nch
 
 
-def _unreadable(path: Path, inp: "oiio.ImageInput") -> ImageError:
-    return ImageError(f"{path}: unreadable, corrupt or truncated image ({_one_line(inp.geterror())})")
+#: libjpeg warnings about a JPEG's header, not its pixels: such a file is read. libjpeg reports only its first
+#: warning, so the file must also have an end-of-image marker after its last scan (:func:`_jpeg_ends`).
+_HEADER_NOTES = ("unknown JFIF revision number", "Unknown Adobe color transform code",
+                 "Invalid SOS parameters for sequential JPEG")
+
+
+def _is_note(problem: str) -> bool:
+    return any(note in problem for note in _HEADER_NOTES)
+
+
+def _reported(path: Path, inp: "oiio.ImageInput") -> list:
+    """The problems ``inp``'s reader reported (on ``inp`` and in OpenImageIO's global error, both per thread) since
+    they were last asked for, one line each (:func:`_without_path`); clears them."""
+    text = f"{inp.geterror()}\n{oiio.geterror()}"
+    return [_without_path(ln.strip(), path) for ln in text.splitlines() if ln.strip()]
+
+
+def _unreadable(path: Path, inp: "oiio.ImageInput", problems: Optional[list] = None) -> ImageError:
+    """The one-line error of a file its reader could not decode completely (``problems``: :func:`_reported`)."""
+    problems = _reported(path, inp) if problems is None else problems
+    bad = [p for p in problems if not _is_note(p)] or problems or ["unknown error"]
+    return ImageError(f"{path}: unreadable, corrupt or truncated image ({bad[0]})")
+
+
+def _check(path: Path, inp: "oiio.ImageInput") -> None:
+    """Raise :func:`_unreadable` when ``inp``'s reader reported a problem in this thread since the last check, other
+    than a :data:`_HEADER_NOTES` one of a JPEG that ends (:func:`_jpeg_ends`). Call it after every read that
+    returned pixels, in the thread that read."""
+    problems = _reported(path, inp)
+    if not problems:
+        return
+    if not all(map(_is_note, problems)):
+        raise _unreadable(path, inp, problems)
+    if not _jpeg_ends(path):
+        raise _unreadable(path, inp, ["no end-of-image marker after the last scan"])
+
+
+def _jpeg_ends(path: Path) -> bool:
+    """Whether a JPEG file has an end-of-image marker (FF D9) after its last start-of-scan one (FF DA)."""
+    with open(path, "rb") as f, mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ) as data:
+        return data.find(b"\xff\xd9", max(0, data.rfind(b"\xff\xda"))) >= 0
 
 
 def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = None) -> np.ndarray:
@@ -263,6 +320,7 @@ def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = N
             arr = inp.read_image(0, 0, 0, nch, decode.read_type)
             if arr is None:
                 raise _unreadable(path, inp)
+            _check(path, inp)
             arr = decode(np.asarray(arr).reshape(h, w, nch))
         else:  # strips of k * m rows, each reduced to m rows of k x k block means
             m = max(1, STRIP_BYTES // (k * w * nch * 4))
@@ -272,6 +330,7 @@ def read_image(path: PathLike, *, raw: bool = False, max_size: Optional[int] = N
                 rows = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, decode.read_type)
                 if rows is None:
                     raise _unreadable(path, inp)
+                _check(path, inp)
                 strips.append(block_mean(decode(np.asarray(rows).reshape(y1 - y0, w, nch)), k,
                                              partial=True))
             arr = np.concatenate(strips, axis=0)
@@ -323,6 +382,7 @@ def read_strips(path: PathLike, rows: int) -> Iterator[Tuple[int, np.ndarray]]:
             px = inp.read_scanlines(0, 0, y0, y1, 0, 0, nch, decode.read_type)
             if px is None:
                 raise _unreadable(path, inp)
+            _check(path, inp)  # in this (the decoding) thread: OpenImageIO's errors are per thread
             return np.asarray(px).reshape(y1 - y0, w, nch)
 
         with ThreadPoolExecutor(1) as pool:  # leaving it (a caller that stops early too) waits for the decoding

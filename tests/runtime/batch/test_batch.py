@@ -395,3 +395,25 @@ def test_a_batch_set_has_the_images_of_svbrdf_preview(tiny_model, tmp_path, caps
         assert (lib / "p00" / name).read_bytes() == (single / name).read_bytes(), name
     thumb = read_image(lib / "thumbs" / "p00.png", raw=True)
     assert thumb.shape[1] == 6 * thumb.shape[0] and float(thumb[:, -thumb.shape[0]:].std()) > 0.01  # a relit view
+
+
+def test_a_truncated_jpeg_is_recorded_as_failed_and_the_photo_beside_it_is_done(tiny_model, tmp_path, capsys):
+    """A JPEG cut short (libjpeg only warns about it) fails with one line naming it; the good photo beside it is
+    done."""
+    import OpenImageIO as oiio
+
+    (good,) = _photos(tmp_path / "in", 1)
+    buf = oiio.ImageBuf(oiio.ImageSpec(96, 80, 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), np.random.default_rng(9).uniform(0.1, 0.6, (80, 96, 3)).astype(np.float32))
+    whole = tmp_path / "whole.jpg"
+    assert buf.write(str(whole)), buf.geterror()
+    cut = tmp_path / "in" / "cut.jpg"
+    cut.write_bytes(whole.read_bytes()[: whole.stat().st_size // 2])
+    lib = tmp_path / "lib"
+    code, _, err = _run(capsys, tmp_path / "in", "-o", lib, "--model", tiny_model, "--workers", "1")
+    assert code == 1
+    assert err.count(ERR) == 1 and f"{cut}: unreadable, corrupt or truncated image" in err and "Traceback" not in err
+    records = _manifest(lib)
+    assert {n: r["status"] for n, r in records.items()} == {"cut": "failed", good.stem: "done"}
+    assert records["cut"]["error"].startswith(f"{cut}: unreadable, corrupt or truncated image (")
+    assert _complete(lib, good.stem) and not (lib / "cut").exists()

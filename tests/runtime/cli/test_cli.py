@@ -449,3 +449,27 @@ def test_network_size_picks_the_path_and_is_recorded(tiny_model, tmp_path, capsy
         assert meta["size"] == [64, 96] and meta.get("network_size") == network
         assert read_image(out / "p_roughness.png").shape[:2] == (64, 96)
         assert ("upsample" in meta["timings"]) == (network is not None)
+
+
+@pytest.mark.parametrize("network_size", ["full", "64"])  # the photo read whole; read strip by strip (guided path)
+def test_a_truncated_jpeg_is_one_error_line_exit_1_and_nothing_written(tiny_model, tmp_path, capsys, network_size):
+    """libjpeg only warns about a JPEG cut short (and decodes grey where its data is missing): the photo is refused
+    with one line naming it, exit 1, no file in the output folder; the whole JPEG is processed."""
+    import OpenImageIO as oiio
+
+    rng = np.random.default_rng(7)
+    buf = oiio.ImageBuf(oiio.ImageSpec(320, 240, 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), rng.uniform(0.1, 0.6, (240, 320, 3)).astype(np.float32))
+    good = tmp_path / "good.jpg"
+    assert buf.write(str(good)), buf.geterror()
+    bad = tmp_path / "cut.jpg"
+    bad.write_bytes(good.read_bytes()[: good.stat().st_size * 2 // 5])
+    code, out, err = _run(capsys, bad, "-o", tmp_path / "out", "--model", tiny_model, "--network-size", network_size,
+                          "--threads", "1")
+    assert code == 1 and out == ""
+    assert err.count("\n") == 1 and err.startswith(f"{ERR}{bad}: unreadable, corrupt or truncated image ("), err
+    assert not (tmp_path / "out").exists() or not any((tmp_path / "out").iterdir())
+    code, _, err = _run(capsys, good, "-o", tmp_path / "out", "--model", tiny_model, "--network-size", network_size,
+                        "--threads", "1", "-q")
+    assert code == 0, err
+    assert (tmp_path / "out" / "good_basecolor.png").is_file()

@@ -174,6 +174,94 @@ def test_corrupt_file(tmp_path, name):
     assert "\n" not in str(exc.value)
 
 
+def _photo_file(path, **attrs):
+    """A textured 512 x 384 photo written by OpenImageIO (8-bit, or half for EXR) with ``attrs``; returns its
+    bytes."""
+    yy, xx = np.mgrid[0:384, 0:512].astype(np.float32)
+    noise = np.random.default_rng(5).random((384, 512), dtype=np.float32)
+    arr = np.stack([0.5 + 0.5 * np.sin(xx / 7), 0.5 + 0.5 * np.cos(yy / 5), noise], axis=-1)
+    _write_oiio(path, arr, oiio.HALF if path.suffix == ".exr" else oiio.UINT8, **attrs)
+    return path.read_bytes()
+
+
+def _markers(data, code):
+    return [i for i in range(len(data) - 1) if data[i] == 0xFF and data[i + 1] == code]
+
+
+def _cut(fraction):
+    return lambda data: data[: int(len(data) * fraction)]
+
+
+def _first_scan_cut(data):  # a progressive JPEG cut half-way through its first scan
+    first, second = _markers(data, 0xDA)[:2]
+    return data[: (first + second) // 2]
+
+
+def _overwrite(data, at, new):
+    return data[:at] + new + data[at + len(new):]
+
+
+#: name -> (file made by :func:`_photo_file`, attributes, how the file is damaged)
+DAMAGED = {
+    "jpeg-cut-at-35%": ("p.jpg", {}, _cut(0.35)),
+    "jpeg-cut-at-80%": ("p.jpg", {}, _cut(0.8)),
+    "jpeg-stray-marker-mid-scan": ("p.jpg", {}, lambda d: _overwrite(d, len(d) // 2, b"\xff\xd0\x12\x34")),
+    "jpeg-broken-sos": ("p.jpg", {}, lambda d: _overwrite(d, _markers(d, 0xDA)[0] + 1, b"\x00")),
+    "jpeg-broken-dht": ("p.jpg", {}, lambda d: _overwrite(d, _markers(d, 0xC4)[0] + 1, b"\x00")),
+    "progressive-cut-in-first-scan": ("p.jpg", {"jpeg:progressive": 1}, _first_scan_cut),
+    "progressive-cut-at-50%": ("p.jpg", {"jpeg:progressive": 1}, _cut(0.5)),
+    "progressive-stray-marker-mid-scan": ("p.jpg", {"jpeg:progressive": 1},
+                                          lambda d: _overwrite(d, len(d) // 2, b"\xff\xd0\x12\x34")),
+    "progressive-broken-sos": ("p.jpg", {"jpeg:progressive": 1},
+                               lambda d: _overwrite(d, _markers(d, 0xDA)[0] + 1, b"\x00")),
+    "progressive-broken-dht": ("p.jpg", {"jpeg:progressive": 1},
+                               lambda d: _overwrite(d, _markers(d, 0xC4)[0] + 1, b"\x00")),
+    "png-cut-at-50%": ("p.png", {}, _cut(0.5)),
+    "tiff-cut-at-50%": ("p.tif", {}, _cut(0.5)),
+    "exr-cut-at-50%": ("p.exr", {}, _cut(0.5)),
+}
+#: the ways a file's pixels are read: whole, in reduced strips (max_size: 2 x 2 blocks) and by read_strips
+READERS = {
+    "whole": read_image,
+    "reduced-strips": lambda path: read_image(path, max_size=256),
+    "read_strips": lambda path: [s for _, s in imageio.read_strips(path, 50)],
+}
+
+
+@pytest.mark.filterwarnings("ignore::svbrdf.runtime.io.images.ImageWarning")  # downsized
+@pytest.mark.parametrize("reader", sorted(READERS))
+@pytest.mark.parametrize("damage", list(DAMAGED))
+def test_damaged_files_are_refused_by_every_reader(tmp_path, damage, reader):
+    """A file the reader cannot decode completely (truncated, or a broken JPEG marker or scan) is refused with one
+    line naming it, whichever way its pixels are read; the undamaged file reads."""
+    name, attrs, damaged = DAMAGED[damage]
+    good = tmp_path / name
+    data = _photo_file(good, **attrs)
+    READERS[reader](good)
+    bad = tmp_path / f"bad{good.suffix}"
+    bad.write_bytes(damaged(data))
+    with pytest.raises(ImageError, match=rf"bad{good.suffix}: unreadable(, | or )corrupt") as exc:
+        READERS[reader](bad)
+    assert "\n" not in str(exc.value) and str(bad) in str(exc.value)
+
+
+@pytest.mark.filterwarnings("ignore::svbrdf.runtime.io.images.ImageWarning")  # downsized
+def test_a_jpeg_warning_that_is_not_damage_reads_but_cannot_hide_a_truncation(tmp_path):
+    """libjpeg reports only its first warning: an unknown JFIF revision (a header note, the pixels are whole) is read,
+    and the same file truncated is still refused (no end-of-image marker after its last scan)."""
+    data = _photo_file(tmp_path / "p.jpg")
+    at = data.index(b"JFIF\x00") + 5
+    odd = tmp_path / "jfif2.jpg"
+    odd.write_bytes(_overwrite(data, at, b"\x02"))
+    np.testing.assert_array_equal(read_image(odd), read_image(tmp_path / "p.jpg"))
+    assert len(list(imageio.read_strips(odd, 50))) == 8
+    cut = tmp_path / "jfif2-cut.jpg"
+    cut.write_bytes(odd.read_bytes()[: len(data) // 2])
+    for reader in READERS.values():
+        with pytest.raises(ImageError, match="jfif2-cut.jpg: unreadable, corrupt or truncated image"):
+            reader(cut)
+
+
 def test_non_image_file(tmp_path):
     path = tmp_path / "notes.txt"
     path.write_text("not an image\n")
