@@ -76,8 +76,9 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
     p.add_argument("--model", metavar="PATH", help="ONNX model (default: $SVBRDF_MODEL, else the packaged model)")
     p.add_argument("--threads", metavar="N", type=_positive, help="CPU threads (default: all cores)")
     p.add_argument("--fov", metavar="DEG", type=float,
-                   help="camera field of view across the photo width, for the relit preview "
-                        "(default: the model's training value)")
+                   help="camera field of view across the photo width, for the relit panel, the viewer and the "
+                        "refine's renderer (default: from the photo's EXIF focal length, else the model's training "
+                        "value; the sidecar's camera says which)")
     p.add_argument("--normal", type=normal_convention, choices=SUPPORTED_NORMAL_CONVENTIONS, default="opengl",
                    help="normal map convention: opengl (or gl) = green up; dx = DirectX, green down (default: opengl)")
     p.add_argument("--format", choices=("png", "exr"), default="png",
