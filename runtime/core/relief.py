@@ -4,7 +4,9 @@ Two maps artists expect next to the SVBRDF (issue 55), computed from the normal 
 normal map (the network's, a refined one, an imported one):
 
 * :func:`height_from_normals`: the height field whose slopes are the normal map's, by a least-squares Poisson
-  solve (periodic by FFT for tileable maps; otherwise Neumann boundaries by a DCT, nothing wraps);
+  solve (periodic by FFT for tileable maps; otherwise Neumann boundaries by a DCT, nothing wraps), without the
+  relief broader than the map that the normals barely show (a tilt, the dome of the flash's faint radial tilt:
+  :data:`LOW_CUT`, :data:`BROAD_SHARE`);
   :func:`normalise` turns it into the written map (white = high, mid-grey = the mean level) and its scale.
 * :func:`ambient_occlusion`: horizon-based, cosine-weighted ambient occlusion of that height field
   (1 = open), on a pyramid so that the cost stays bounded at 4K.
@@ -46,9 +48,9 @@ import numpy as np
 from ..errors import SvbrdfError
 from .filters import all_finite
 
-__all__ = ["MAX_SLOPE", "MIN_NORMAL_LENGTH", "AO_RADIUS", "AO_DIRECTIONS", "AO_MAX_SIZE", "height_from_normals",
-           "normalise", "denormalise", "ambient_occlusion", "slope_correlation", "normal_slopes", "RELIEF_NAMES",
-           "Relief", "relief_maps", "AO_STRENGTH"]
+__all__ = ["MAX_SLOPE", "MIN_NORMAL_LENGTH", "LOW_CUT", "LOW_ORDER", "BROAD_SHARE", "BROAD_FLOOR", "AO_RADIUS",
+           "AO_DIRECTIONS", "AO_MAX_SIZE", "height_from_normals", "normalise", "denormalise", "ambient_occlusion",
+           "slope_correlation", "normal_slopes", "RELIEF_NAMES", "Relief", "relief_maps", "AO_STRENGTH"]
 
 #: Steepest slope a normal is integrated with (rise over run; 10 = a tilt of 84.3 deg); steeper normals, and
 #: normals with z <= 0, are clamped to this tilt in their own azimuth.
@@ -61,6 +63,23 @@ AO_RADIUS = 1.0 / 16.0
 AO_DIRECTIONS = (4, 8)
 #: The AO is computed on a grid of at most this many pixels a side (the pyramid level that fits), then upsampled.
 AO_MAX_SIZE = 2048
+#: Cut-off of the height's high-pass, in cycles across the map (:func:`height_from_normals`): a material's relief
+#: repeats within the photo; what is broader (the dome the flash's faint radial tilt integrates to, drift) is not
+#: its relief. Weight ``rho^6 / (rho^6 + 1.5^6)`` of a component of ``rho`` cycles: 0.08 at 1, 0.85 at 2, 0.985 at 3.
+#: Chosen on the tune part of the shared data (docs/data-split.md; issue 67), the preview's normals at 512 px: with 1
+#: the worst photo's height kept a correlation of 0.43 with the distance to the flash (0.09 with 1.5); with 2 the
+#: largest true stones (brick_uneven_stones, 1-2 cycles) kept a slope correlation of 0.94 (0.98 with 1.5).
+LOW_CUT = 1.5
+#: Order of that high-pass: the weight is ``rho^(2 LOW_ORDER) / (rho^(2 LOW_ORDER) + LOW_CUT^(2 LOW_ORDER))``.
+LOW_ORDER = 3
+#: Broad relief the normals show is the material's: it is taken out in full while its slopes carry at most 2 % of
+#: the slope energy of the height plus a floor (it is then the integral of a faint bias: 0.01 % to 1 % on the tune
+#: part's photos), kept from 5 % (a lone pit, a stone as large as the map: 4 % for the largest true stones), in
+#: proportion between.
+BROAD_SHARE = (0.02, 0.05)
+#: The floor: the energy of an RMS slope of 0.02 (1.1 deg) over the map is added to the height's, so that a map holding
+#: little but a faint broad tilt (a smooth glossy surface and the flash's dome: RMS slope 0.001) is still flat.
+BROAD_FLOOR = 0.02
 #: Rows processed at a time by the per-pixel loops (keeps the temporaries in cache; any value gives the same result).
 _STRIP = 32
 #: Threads of the relief's large passes: the height's DCTs (each thread a slice of rows or columns), the slopes and
@@ -125,6 +144,17 @@ def _check_scale(scale) -> float:
     if not np.isfinite(s) or s < 0:
         raise SvbrdfError(f"height scale: expected a finite number >= 0, got {s}")
     return s
+
+
+def _low_cut(value) -> float:
+    """``low_cut`` as a float >= 0 and finite (cycles across the map); SvbrdfError otherwise."""
+    try:
+        cut = float(value)
+    except (TypeError, ValueError):
+        raise SvbrdfError(f"low_cut: expected a number, got {value!r}") from None
+    if not (np.isfinite(cut) and cut >= 0):
+        raise SvbrdfError(f"low_cut: expected a number >= 0 (cycles across the map), got {cut}")
+    return cut
 
 
 def _positive(value, name: str, unit: str = "") -> float:
@@ -382,9 +412,11 @@ def _slope_divergence(n: np.ndarray, inv_max: np.float32, zero: str, tileable: b
     return rhs
 
 
-def _divide_by_eigenvalues(spec: np.ndarray, ly: np.ndarray, lx: np.ndarray, factor: float = 1.0) -> None:
+def _divide_by_eigenvalues(spec: np.ndarray, ly: np.ndarray, lx: np.ndarray, factor: float = 1.0,
+                           cuts: Optional[Tuple[np.ndarray, np.ndarray]] = None, taken: float = 0.0) -> None:
     """``spec[i, j] /= (ly[i] + lx[j]) * factor`` in place, in row blocks (no (H, W) temporary); the constant
-    term (the mean level, eigenvalue 0) is set to 0."""
+    term (the mean level, eigenvalue 0) is set to 0. With ``cuts`` (:func:`_cut_axes`) each term is also weighted by
+    ``1 - taken * s`` (``s`` its low-pass share, :func:`_low_share`): the high-pass of :func:`height_from_normals`."""
     ly = (ly * factor).astype(spec.real.dtype)
     lx = (lx * factor).astype(spec.real.dtype)
     for r0 in range(0, spec.shape[0], 256):
@@ -392,13 +424,116 @@ def _divide_by_eigenvalues(spec: np.ndarray, ly: np.ndarray, lx: np.ndarray, fac
         lam = ly[r0:r1, None] + lx[None, :]
         if r0 == 0:
             lam[0, 0] = 1.0
+        if cuts is not None and taken > 0:  # lam / (1 - taken s)
+            share = _low_share(cuts, r0, r1)
+            share *= spec.real.dtype.type(-taken)
+            share += spec.real.dtype.type(1.0)
+            if r0 == 0:
+                share[0, 0] = 1.0
+            lam /= share
         spec[r0:r1] /= lam
     spec[0, 0] = 0.0
 
 
+def _cut_axes(cy: np.ndarray, cx: np.ndarray, low_cut: float) -> Tuple[np.ndarray, np.ndarray]:
+    """``(cy / low_cut)^2`` and ``(cx / low_cut)^2`` (float32): the terms' cycles across the map's height and width,
+    relative to the cut-off, for :func:`_low_share`."""
+    return np.square(cy / low_cut).astype(np.float32), np.square(cx / low_cut).astype(np.float32)
+
+
+def _low_share(cuts: Tuple[np.ndarray, np.ndarray], r0: int, r1: int) -> np.ndarray:
+    """The low-pass share ``1 / (1 + (rho / low_cut)^(2 m))`` (``m`` = :data:`LOW_ORDER`) of the terms of rows
+    ``r0:r1``, (r1 - r0, W) float32; 1 at the constant term."""
+    share = cuts[0][r0:r1, None] + cuts[1][None, :]
+    with np.errstate(over="ignore"):  # (a tiny low_cut: inf, whose inverse 0 is the limit)
+        share **= LOW_ORDER
+    share += np.float32(1.0)
+    np.reciprocal(share, out=share)
+    return share
+
+
+def _broad_energy(spec: np.ndarray, ly: np.ndarray, lx: np.ndarray, cuts: Tuple[np.ndarray, np.ndarray],
+                  wy: np.ndarray, wx: np.ndarray) -> Tuple[float, float]:
+    """Slope energies ``h^T L h`` of the solution of ``spec`` (a transformed right-hand side, before
+    :func:`_divide_by_eigenvalues`) and of its low-pass part: ``sum w |spec|^2 / lam`` and ``sum w s^2 |spec|^2 /
+    lam`` over the non-constant terms (``s`` :func:`_low_share`, ``w = wy[i] wx[j]`` the terms' inverse basis
+    norms), float64 sums over row blocks."""
+    total = low = 0.0
+    for r0 in range(0, spec.shape[0], 256):
+        r1 = min(spec.shape[0], r0 + 256)
+        lam = ly[r0:r1, None] + lx[None, :]
+        if r0 == 0:
+            lam[0, 0] = np.inf
+        part = np.square(np.abs(spec[r0:r1])) if np.iscomplexobj(spec) else np.square(spec[r0:r1])
+        part /= lam
+        part *= wy[r0:r1, None].astype(np.float32)
+        part *= wx[None, :].astype(np.float32)
+        total += float(part.sum(dtype=np.float64))
+        part *= np.square(_low_share(cuts, r0, r1))
+        low += float(part.sum(dtype=np.float64))
+    return total, low
+
+
+def _taken(broad: float, total: float, pixels: int) -> float:
+    """The share of the broad relief taken out (:data:`BROAD_SHARE`): 1 while its slope energy ``broad`` is at most
+    ``BROAD_SHARE[0]`` of ``total + pixels BROAD_FLOOR^2``, 0 from ``BROAD_SHARE[1]``, linear between."""
+    den = total + pixels * BROAD_FLOOR ** 2
+    ratio = broad / den if den > 0 else 0.0
+    lo, hi = BROAD_SHARE
+    return float(min(1.0, max(0.0, (hi - ratio) / (hi - lo))))
+
+
+def _neumann_laplacian_1d(u: np.ndarray) -> np.ndarray:
+    """``D^T D u`` of a 1-D vector on a path graph (Neumann ends): ``2 u[k] - u[k - 1] - u[k + 1]``, ``u[0] -
+    u[1]`` and ``u[n - 1] - u[n - 2]`` at the ends (float64)."""
+    out = np.zeros_like(u)
+    if u.size > 1:
+        d = np.diff(u)  # the pair differences D u
+        out[:-1] -= d
+        out[1:] += d
+    return out
+
+
+def _fit_quadratic(rhs: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, float]:
+    """The quadratic height ``Q`` (``x, y, x^2, x y, y^2``, pixel units) whose pair slopes ``D Q`` fit ``g`` best in
+    least squares, from ``rhs = D^T g`` (:func:`_slope_divergence`, not tileable): the normal equations need only
+    ``sum f_k rhs`` (``= (D f_k) . g``) and the basis's own products. Each ``f_k = a_k(row) b_k(column)`` is
+    separable, so ``Q = A B^T`` and ``L Q = sum_k c_k ((L a_k) b_k^T + a_k (L b_k)^T) = U V^T``.
+
+    Returns:
+        ``(A, B, U, V, energy)``: (H, K), (W, K), (H, 2K), (W, 2K) float64 factors (the coefficients folded into
+        ``A`` and ``U``) and ``energy = |D Q|^2``, the fit's slope energy (pixel units)."""
+    h, w = rhs.shape
+    y = (np.arange(h) - (h - 1) / 2.0) / max(h, w)
+    x = (np.arange(w) - (w - 1) / 2.0) / max(h, w)
+    one_y, one_x = np.ones(h), np.ones(w)
+    rows = np.stack([one_y, y, one_y, y, y * y], axis=1)  # a_k
+    cols = np.stack([x, one_x, x * x, x, one_x], axis=1)  # b_k
+    lrows = np.stack([_neumann_laplacian_1d(a) for a in rows.T], axis=1)
+    lcols = np.stack([_neumann_laplacian_1d(b) for b in cols.T], axis=1)
+    gram = (rows.T @ lrows) * (cols.T @ cols) + (rows.T @ rows) * (cols.T @ lcols)  # (D f_k) . (D f_l)
+    proj = np.zeros(rows.shape[1])
+    cols32 = cols.astype(np.float32)
+    for r0 in range(0, h, 256):
+        part = (rhs[r0:r0 + 256] @ cols32).astype(np.float64)  # (rows, K): each row's sum of rhs b_k
+        proj += np.einsum("rk,rk->k", rows[r0:r0 + 256], part)
+    coef = np.linalg.lstsq(gram, proj, rcond=1e-10)[0]
+    return (rows * coef, cols, np.concatenate([lrows * coef, rows * coef], axis=1),
+            np.concatenate([cols, lcols], axis=1), float(coef @ gram @ coef))
+
+
+def _add_outer(arr: np.ndarray, u: np.ndarray, v: np.ndarray, scale: float) -> None:
+    """``arr += scale * u v^T`` in place ((H, W) float32; u (H, K), v (W, K)), a block of rows at a time."""
+    uu = (u * scale).astype(np.float32)
+    vt = v.T.astype(np.float32)
+    for r0 in range(0, arr.shape[0], 256):
+        arr[r0:r0 + 256] += uu[r0:r0 + 256] @ vt
+
+
 def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MAX_SLOPE,
-                        zero: str = "error") -> Tuple[np.ndarray, float]:
-    """The height field whose slopes are the normal map's, in the least-squares sense.
+                        zero: str = "error", low_cut: Optional[float] = None) -> Tuple[np.ndarray, float]:
+    """The height field of a material whose slopes are the normal map's: least squares, without what is broader
+    than the map.
 
     Minimises ``sum over neighbour pairs (h[b] - h[a] - g_ab)^2``, where ``g_ab`` is the mean of the two
     pixels' slopes along the pair (``p = -nx / nz`` to the right, ``-q = ny / nz`` down the image, pixel units;
@@ -409,11 +544,27 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
       Laplacian, solved by a real FFT. A periodic height cannot tilt, so the map's mean slope is dropped (its
       non-zero mean, if any, is the only part of the slopes that cannot be matched).
     * ``tileable=False``: interior pairs only, nothing is asked across the border (Neumann boundaries);
-      solved by a DCT-II (computed with real FFTs of the same size, no padding). A mean slope is kept.
+      solved by a DCT-II (computed with real FFTs of the same size, no padding).
 
-    The slopes' curl-free part is matched exactly; their curl (which no height has) is what remains.
-    Cost: the input plus two (H, W) float32 arrays at the peak (the right-hand side, made from the normals strip by
-    strip, and one transform pass's output); four real-FFT passes over the map
+    Broad relief (``low_cut`` > 0, the default :data:`LOW_CUT`): a flat material's height has no structure broader
+    than the map. A faint tilt of the normals that grows with the distance to the flash, integrated over the
+    map, is a dome (or a bowl) many times taller than the texture; a slight bias is a tilt. So, not tileable,
+    the quadratic height ``Q`` (``x, y, x^2, x y, y^2``) whose slopes fit ``g`` best is taken out first (``g - D Q``
+    is integrated: no tilt, bowl or dome, wherever its centre); then, either way, each eigen-component of
+    ``rho`` cycles across the map (``rho^2 = cy^2 + cx^2``, cy across its height, cx across its width; DCT index
+    k: k / 2 cycles, FFT index k: |k|) is
+    weighted by ``rho^(2 m) / (rho^(2 m) + low_cut^(2 m))``, ``m`` = :data:`LOW_ORDER` (a high-pass in the same
+    solve: no extra pass). Only broad relief the normals barely show is taken out: with ``E_b`` the slope energy
+    (``|D h|^2``) of ``Q`` plus the low-passed rest, ``E`` that of the whole height and ``N`` the pixel count, the
+    share ``t`` taken out is 1 while ``E_b / (E + N BROAD_FLOOR^2) <= BROAD_SHARE[0]``, 0 from ``BROAD_SHARE[1]``,
+    linear between (the height is ``(1 - t) Q + `` the rest weighted ``1 - t (1 - weight)``): a lone pit or a stone
+    as large as the map keeps its shape. ``low_cut=0``: the plain least-squares height (a mean slope kept when not
+    tileable).
+
+    With ``low_cut=0`` the slopes' curl-free part is matched exactly; their curl (which no height has) is what
+    remains. Cost: the input plus two (H, W) float32 arrays at the peak (the right-hand side, made from the normals
+    strip by strip, and one transform pass's output; the quadratic's fit and the weights go in row blocks); four
+    real-FFT passes over the map
     (about 0.4-0.6 s of one core at 4096 x 4096, measured with numpy 2.4; see :mod:`svbrdf.runtime.core.relief`).
 
     Args:
@@ -424,6 +575,7 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
         max_slope: steepest slope integrated (:data:`MAX_SLOPE`); steeper normals and z <= 0 are clamped.
         zero: degenerate (zero-length) normals: ``"error"`` (default), ``"flat"`` (documented repair:
             treated as (0, 0, 1)); see :func:`normal_slopes`.
+        low_cut: the high-pass's cut-off in cycles across the map (>= 0; None: :data:`LOW_CUT`; 0: none).
 
     Returns:
         ``(height, scale)``: ``height`` (H, W) float32, linear data, **in units of the map's width**, mean 0
@@ -431,30 +583,59 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
         written map (see :func:`normalise`). A flat normal map gives zeros and scale 0.
 
     Raises:
-        SvbrdfError: wrong shape or dtype, NaN/inf, zero-length normals (with ``zero="error"``).
+        SvbrdfError: wrong shape or dtype, NaN/inf, zero-length normals (with ``zero="error"``), a bad ``low_cut``.
     """
+    height, _ = _integrate(normal, tileable, max_slope, zero, low_cut)
+    return height, _scale_of(height)
+
+
+def _integrate(normal, tileable: bool, max_slope: float, zero: str,
+               low_cut: Optional[float]) -> Tuple[np.ndarray, float]:
+    """:func:`height_from_normals`' height and the share of the broad relief taken out (in [0, 1]; 0 without
+    ``low_cut``)."""
     n = _check_normal(normal, zero)
+    low_cut = _low_cut(LOW_CUT if low_cut is None else low_cut)
     h, w = n.shape[:2]
     rhs = _slope_divergence(n, _inverse_max_slope(max_slope), zero, tileable)
+    quad, taken = None, 0.0
+    if low_cut > 0 and not tileable:
+        quad = _fit_quadratic(rhs)
+        _add_outer(rhs, quad[2], quad[3], -1.0)  # g - D Q integrated; Q added back below for what is kept
     if tileable:
         # numpy 2.4's unscaled FFT directions are several times slower than the scaled ones: both transforms
         # are scaled here (1 / (H W) each way) and the eigenvalues divided by H W to compensate
         spec = np.fft.rfft2(rhs, norm="forward")
         del rhs
-        _divide_by_eigenvalues(spec, _laplacian_eigen(h, True), _laplacian_eigen(w, True, rfft=True),
-                               1.0 / (h * w))
+        ly, lx = _laplacian_eigen(h, True), _laplacian_eigen(w, True, rfft=True)
+        cuts = _cut_axes(np.abs(np.fft.fftfreq(h) * h), np.fft.rfftfreq(w) * w, low_cut) if low_cut > 0 else None
+        if cuts is not None:  # an rfft column stands for itself and its mirror, but the first and the Nyquist one
+            wx = np.full(lx.shape, 2.0)
+            wx[0] = 1.0
+            if w % 2 == 0:
+                wx[-1] = 1.0
+            total, low = _broad_energy(spec, ly, lx, cuts, np.ones(h), wx)  # of the spectrum scaled 1 / (H W)
+            taken = _taken(low * (h * w), total * (h * w), h * w)
+        _divide_by_eigenvalues(spec, ly, lx, 1.0 / (h * w), cuts, taken)
         hpx = np.fft.irfft2(spec, s=(h, w)).astype(np.float32, copy=False)
     else:
         spec = _sliced(_dct2, rhs, 1)
         del rhs  # each pass's input freed as soon as it is transformed (the peak at 8192 px)
         spec = _sliced(_dct2, spec, 0)
-        _divide_by_eigenvalues(spec, _laplacian_eigen(h, False), _laplacian_eigen(w, False))
+        ly, lx = _laplacian_eigen(h, False), _laplacian_eigen(w, False)
+        cuts = _cut_axes(np.arange(h) / 2.0, np.arange(w) / 2.0, low_cut) if low_cut > 0 else None
+        if cuts is not None:  # the DCT-II's basis norms: n / 2, n for the constant
+            wy = np.where(np.arange(h) == 0, 1.0 / h, 2.0 / h)
+            wx = np.where(np.arange(w) == 0, 1.0 / w, 2.0 / w)
+            total, low = _broad_energy(spec, ly, lx, cuts, wy, wx)
+            taken = _taken(quad[4] + low, quad[4] + total, h * w)
+        _divide_by_eigenvalues(spec, ly, lx, 1.0, cuts, taken)
         spec = _sliced(_idct2, spec, 0)
         hpx = _sliced(_idct2, spec, 1)
+        if quad is not None and taken < 1.0:
+            _add_outer(hpx, quad[0], quad[1], 1.0 - taken)
     del spec
     hpx -= np.float32(hpx.mean(dtype=np.float64))  # exact 0 mean after float32 rounding
-    height = hpx / np.float32(w)
-    return height, _scale_of(height)
+    return hpx / np.float32(w), taken
 
 
 def _scale_of(height: np.ndarray) -> float:
@@ -818,6 +999,9 @@ class Relief:
             ``None`` when not asked for.
         tileable: the height was integrated across the wrap and the AO sees across it.
         ao_strength: the AO is that of ``ao_strength x`` the height (1 = the depth the normal map implies).
+        low_cut: the height's high-pass cut-off, cycles across the map (:func:`height_from_normals`; 0 = none).
+        broad_taken: the share of the broad relief taken out of the height, in [0, 1] (1: all of it, a bias the
+            normals barely show; 0: none, relief the normals show; :data:`BROAD_SHARE`).
     """
 
     height: Optional[np.ndarray]
@@ -825,6 +1009,8 @@ class Relief:
     ao: Optional[np.ndarray]
     tileable: bool = False
     ao_strength: float = 1.0
+    low_cut: float = 0.0
+    broad_taken: float = 0.0
 
     @property
     def names(self) -> Tuple[str, ...]:
@@ -843,9 +1029,15 @@ class Relief:
                "height_scale_unit": "map widths (the height black to white spans; 0 = flat)",
                "height": {"method": "least-squares integration of the normal map's slopes (Poisson solve, "
                                     + ("periodic FFT across the wrap)" if self.tileable else
-                                       "DCT, Neumann boundaries)"),
+                                       "DCT, Neumann boundaries)")
+                                    + (f"; relief broader than the map taken out where the normals barely "
+                                       f"show it (the slopes' best quadratic height when not tileable, then a "
+                                       f"high-pass of cut-off {self.low_cut:g} cycles across the map, order "
+                                       f"{LOW_ORDER}; broad_taken: the share taken out)" if self.low_cut > 0 else ""),
                           "encoding": "h = (value - 0.5) * height_scale; white = high, 0.5 = mean level",
-                          "max_slope": MAX_SLOPE},
+                          "max_slope": MAX_SLOPE, "low_cut": self.low_cut,
+                          "low_cut_unit": "cycles across the map (0 = none)",
+                          "broad_taken": self.broad_taken},
                "tileable": self.tileable}
         if self.ao is not None:
             out["ao"] = {"method": "horizon-based, cosine-weighted, of the height x strength; 1 = open",
@@ -859,7 +1051,7 @@ class Relief:
 
 
 def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str = "error",
-                ao_strength: float = AO_STRENGTH) -> Relief:
+                ao_strength: float = AO_STRENGTH, low_cut: Optional[float] = None) -> Relief:
     """The height map and ambient occlusion of a normal map, as written next to the texture set.
 
     Args:
@@ -872,6 +1064,8 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
             normals as written, made unit first (:func:`normal_slopes`).
         ao_strength: the AO is that of ``ao_strength x`` the height (> 0; 1 = the depth the normal map implies;
             default :data:`AO_STRENGTH`, the measured flatness of the model's normal maps).
+        low_cut: the height's relief broader than the map taken out (:func:`height_from_normals`; None:
+            :data:`LOW_CUT`; 0: the plain least-squares height).
 
     Returns:
         A :class:`Relief`: ``height`` (H, W) in [0, 1] (:func:`normalise`), ``scale`` (map widths, the normal map's
@@ -891,7 +1085,8 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
     unknown = [n for n in names if n not in RELIEF_NAMES]
     if unknown or not names:
         raise SvbrdfError(f"relief maps: unknown or no names {unknown!r}; valid names: {', '.join(RELIEF_NAMES)}")
-    height, _ = height_from_normals(normal, tileable=tileable, zero=zero)
+    low_cut = _low_cut(LOW_CUT if low_cut is None else low_cut)
+    height, taken = _integrate(normal, bool(tileable), MAX_SLOPE, zero, low_cut)
     ao = ambient_occlusion(height, tileable=tileable, strength=ao_strength) if "ao" in names else None
     h01, scale = _normalise(height, out=height)  # the height itself is not kept
-    return Relief(h01 if "height" in names else None, scale, ao, bool(tileable), ao_strength)
+    return Relief(h01 if "height" in names else None, scale, ao, bool(tileable), ao_strength, low_cut, taken)

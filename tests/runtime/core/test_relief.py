@@ -57,7 +57,7 @@ def _corr(a, b):
 def test_periodic_sines_recovered_up_to_a_constant(tileable):
     hp, n = _sines()
     w = hp.shape[1]
-    height, scale = height_from_normals(n, tileable=tileable)
+    height, scale = height_from_normals(n, tileable=tileable, low_cut=0)  # the plain integration (1-2 cycles here)
     assert height.dtype == np.float32 and height.shape == hp.shape
     assert abs(float(height.mean())) < 1e-7  # mean level removed
     err_px = np.abs(height * w - (hp - hp.mean())).max()
@@ -73,13 +73,13 @@ def test_periodic_sines_recovered_up_to_a_constant(tileable):
 def test_non_periodic_bump_on_a_tilted_plane():
     hp, n = _bump()
     w = hp.shape[1]
-    height, _ = height_from_normals(n)  # Neumann: the tilt is kept, nothing wraps
+    height, _ = height_from_normals(n, low_cut=0)  # Neumann: the tilt is kept, nothing wraps
     err_px = np.abs(height * w - (hp - hp.mean())).max()
     assert err_px < 0.05, err_px  # range ~14 px
     c = slope_correlation(height, n)
     assert min(c["x"], c["y"]) > 0.999
     # a periodic solve of the same map has to drop the tilt and bend the bump: visibly worse, but still integrates
-    periodic, _ = height_from_normals(n, tileable=True)
+    periodic, _ = height_from_normals(n, tileable=True, low_cut=0)
     assert np.abs(periodic * w - (hp - hp.mean())).max() > 10 * err_px
 
 
@@ -217,8 +217,11 @@ def test_tiny_maps(shape, tileable):
     if shape[1] == 1:  # a 1-pixel-wide map: only vertical slopes exist
         i = np.arange(shape[0], dtype=np.float64)
         n1 = _normals(np.zeros((shape[0], 1)), 0.3 * np.ones((shape[0], 1)))  # h_px = 0.3 i: a ramp down
-        h1, _ = height_from_normals(n1)
+        h1, _ = height_from_normals(n1, low_cut=0)
         assert np.allclose(h1[:, 0] * 1, 0.3 * (i - i.mean()), atol=1e-5)
+        assert np.allclose(height_from_normals(n1)[0], h1, atol=1e-5)  # a tilt the normals show: kept
+        faint = _normals(np.zeros((shape[0], 1)), 0.003 * np.ones((shape[0], 1)))  # a faint bias: taken out
+        assert np.abs(height_from_normals(faint)[0]).max() < 1e-7
 
 
 # ------------------------------------------------------------------------------------------------ AO
@@ -375,3 +378,98 @@ def test_strip_and_block_sizes_give_the_same_relief(monkeypatch, tileable):
             relief.height_from_normals(bad, tileable=tileable)
     for other in out[1:]:
         assert all(np.array_equal(a, b) for a, b in zip(out[0][:2], other[:2])) and out[0][2] == other[2]
+
+
+# ------------------------------------------------------------------------------------ broad relief (issue 67)
+
+def _flash_dome(h=96, w=128, centre=(38.0, 75.0), texture=True, seed=3, tilt=0.006):
+    """Normals of a flat material photographed under a flash: a stationary texture (periodic blurred noise, RMS slope
+    0.04, as the network's normals) plus the faint radial tilt the flash leaves (a Gaussian dome 0.35 W wide,
+    steepest slope ``tilt``, off-centre); returns the normals, the texture's height (pixel units) and the distance
+    of each pixel to the centre."""
+    i, j = np.mgrid[0:h, 0:w].astype(np.float64)
+    tex = _blur(np.random.default_rng(seed).normal(size=(h, w)), 2.0) * 0.6 if texture else np.zeros((h, w))
+    s = 0.35 * w
+    dome = tilt * s * np.sqrt(np.e) * np.exp(-((i + 0.5 - centre[0]) ** 2 + (j + 0.5 - centre[1]) ** 2) / (2 * s * s))
+    gr, gc = np.gradient(tex + dome)
+    r = np.hypot(i + 0.5 - centre[0], j + 0.5 - centre[1])
+    return _normals(gc, gr), tex, r
+
+
+def test_a_flat_material_under_a_flash_gets_no_dome():
+    """The old height was the dome (bright at the flash, dark at the rim); a material's height keeps the texture and
+    nothing centred on the flash."""
+    from svbrdf.runtime.core.relief import relief_maps
+
+    n, tex, r = _flash_dome()
+    height, _ = height_from_normals(n)
+    assert abs(_corr(height, r)) < 0.1, _corr(height, r)
+    assert _corr(height, tex) > 0.9, _corr(height, tex)
+    written = relief_maps(n, maps="height")
+    assert abs(_corr(written.height, r)) < 0.1 and written.low_cut == 1.5
+    info = written.info()["height"]
+    assert info["low_cut"] == 1.5 and info["broad_taken"] == 1.0 and "broader than the map" in info["method"]
+    plain, _ = height_from_normals(n, low_cut=0)  # the plain least-squares height: the dome dominates it
+    assert _corr(plain, r) < -0.6 and _corr(plain, tex) < 0.7, (_corr(plain, r), _corr(plain, tex))
+    # nothing but the faint tilt (a smooth glossy surface): flat, not a dome
+    bare, _, r = _flash_dome(texture=False, tilt=0.002)
+    flat = height_from_normals(bare)[0]
+    assert flat.std() < 0.15 * height_from_normals(bare, low_cut=0)[0].std()  # what is left: a rim at the border
+
+
+def test_genuine_relief_keeps_its_slopes():
+    """Relief the normals show is kept: a field of bumps and pits loses only its broadest part (its slopes agree
+    with the normals as before); relief broader than that, which the normals clearly show (sines of 1 to 2 cycles,
+    a lone pit on a small map), is kept as the plain integration's."""
+    from svbrdf.runtime.core.relief import relief_maps
+
+    rng = np.random.default_rng(8)
+    hp = _blur(rng.normal(size=(128, 160)), 4.0) * 60  # many bumps, a few px deep
+    gr, gc = np.gradient(hp)
+    n = _normals(gc, gr)
+    height, _ = height_from_normals(n)
+    c = slope_correlation(height, n)
+    assert min(c["x"], c["y"]) > 0.99, c
+    assert _corr(height, hp) > 0.95
+    for hp, n in (_sines(), _bump()):
+        plain, scale = height_from_normals(n, low_cut=0)
+        np.testing.assert_allclose(height_from_normals(n)[0], plain, atol=1e-4 * scale)
+        assert relief_maps(n, maps="height").broad_taken == 0.0
+
+
+@pytest.mark.parametrize("tileable", [False, True])
+def test_broad_relief_is_taken_out_across_the_wrap_too(tileable):
+    """Tileable: the high-pass is periodic, the height still joins across the wrap (its slopes there agree with the
+    normals'), and a broad periodic swell is gone."""
+    h, w = 96, 128
+    i, j = np.mgrid[0:h, 0:w].astype(np.float64)
+    tex = _blur(np.random.default_rng(4).normal(size=(h, w)), 2.0) * 0.6
+    swell = 0.15 * np.cos(2 * np.pi * j / w + 0.5)  # 1 cycle across, slope 0.007 at most
+    hp = tex + swell
+    gc = (np.roll(hp, -1, 1) - np.roll(hp, 1, 1)) / 2
+    gr = (np.roll(hp, -1, 0) - np.roll(hp, 1, 0)) / 2
+    n = _normals(gc, gr)
+    height, _ = height_from_normals(n, tileable=tileable)
+    assert abs(_corr(height, swell)) < 0.15 and _corr(height, tex) > 0.9
+    if tileable:
+        c = slope_correlation(height, n, tileable=True)
+        assert min(c["wrap_x"], c["wrap_y"]) > 0.95, c
+        hpx = height * w
+        seam = np.abs(hpx[:, 0] - hpx[:, -1]).mean(), np.abs(hpx[0] - hpx[-1]).mean()
+        inner = np.abs(np.diff(hpx, axis=1)).mean(), np.abs(np.diff(hpx, axis=0)).mean()
+        assert seam[0] < 1.5 * inner[0] and seam[1] < 1.5 * inner[1], (seam, inner)
+
+
+def test_low_cut_is_checked_and_zero_is_the_plain_integration():
+    from svbrdf.runtime.core.relief import relief_maps
+
+    n, _, _ = _flash_dome(32, 40)
+    for bad in (-1, float("nan"), "x"):
+        with pytest.raises(SvbrdfError, match="low_cut"):
+            height_from_normals(n, low_cut=bad)
+        with pytest.raises(SvbrdfError, match="low_cut"):
+            relief_maps(n, low_cut=bad)
+    plain = relief_maps(n, low_cut=0)
+    h01, scale = normalise(height_from_normals(n, low_cut=0)[0])
+    assert plain.low_cut == 0.0 and plain.scale == scale and np.array_equal(plain.height, h01)
+    assert "broader" not in plain.info()["height"]["method"]
