@@ -57,6 +57,7 @@ SHORT = {
     "svbrdf-preview PHOTO --tileable --view --target gltf": (
         [], ["out/carved_wood.gltf", "out/carved_wood_view.html"]),
     "svbrdf-batch photos/ -o library/": (["--workers", "1"], ["library/library.json", "library/index.html"]),
+    "svbrdf-blender addon -o DIR": ([], ["DIR/svbrdf_material.zip"]),
     "svbrdf-train prior --out runs/prior": (
         ["--iters", "2", "--batch", "2", "--size", "32", "--photo-size", "64", "--eval-every", "0",
          "--checkpoint-every", "2", "--quiet"], ["runs/prior/checkpoint.pt"]),

@@ -19,7 +19,9 @@ KHR spec-gloss [SG]          (smoothness ``1 - r`` in Unity)                    
 MaterialX standard_surface   ``((ior - 1)/(ior + 1))^2``, base under an albedo-     :func:`f0_to_ior`,
 [MTLX]                       scaled specular layer (about ``1 - F0``)               :func:`to_weighted_base`
 glTF core metal-rough,       ``lerp(0.04, base, metallic)``,                        :func:`specgloss_to_metalrough`
-Unreal, Blender [GLTF]       ``c_diff = base (1 - 0.04)(1 - metallic)``
+Unreal [GLTF]                ``c_diff = base (1 - 0.04)(1 - metallic)``
+Blender Principled BSDF      ``0.08 Specular``; diffuse ``(1 - metallic) base``,    :func:`to_principled_base`,
+(2.8-3.x) [BL]               not weighted by the Fresnel term                       :func:`to_principled_specular`
 ===========================  =====================================================  ============================
 
 The ``1 - F`` weighting of those models is evaluated here at normal incidence (``F = F0``), which is exact
@@ -43,6 +45,12 @@ Sources:
 * [MTLX] MaterialX ``libraries/bxdf/standard_surface.mtlx`` (``dielectric_bsdf`` with ``specular_IOR``) and the
   Fresnel reflectance at normal incidence ``F0 = ((n - 1) / (n + 1))^2``.
 * [GLTF] glTF 2.0 specification, Appendix B (``alpha = roughness^2``, ``f0 = lerp(0.04, baseColor, metallic)``).
+* [BL] Blender 3.4 manual, *Principled BSDF* (Specular is the facing reflectivity over the 0-8 % range, i.e.
+  ``Specular = F0 / 0.08``; Roughness squared into the GGX alpha; distribution GGX or Multiscatter GGX). Checked in
+  Cycles 3.4 itself (``tests/runtime/outputs/test_blender.py``, ``docs/targets.md`` *Blender*): a set written with
+  these conversions renders as :func:`svbrdf.runtime.core.render.render` renders our maps (sRGB RMSE 0.0004-0.004),
+  the diffuse lobe is ``base / pi`` not weighted by the Fresnel term, the Fresnel term blends F0 to 1; what is
+  left (Smith G, Burley's diffuse factor, Cycles' shadow-terminator term) no parameter can absorb.
 
 All arrays are linear, channel-last numpy; scalars broadcast.
 """
@@ -219,8 +227,65 @@ def roughness_to_smoothness(roughness: np.ndarray) -> np.ndarray:
 smoothness_to_roughness = roughness_to_smoothness
 
 
+#: F0 per unit of the Principled BSDF's ``Specular`` input (Blender 2.8-3.x; 4.x: ``Specular IOR Level`` at IOR 1.5):
+#: ``F0 = 0.08 Specular``, so the default 0.5 is the 4 % of a dielectric of index 1.5 [BL].
+PRINCIPLED_F0_PER_SPECULAR = 0.08
+
+
+def to_principled_base(diffuse: np.ndarray, specular: np.ndarray, config: RenderConfig = ZHAO) -> np.ndarray:
+    """Base colour of Blender's Principled BSDF (Metallic 0) for our maps: ``rho_d w_d``.
+
+    The Principled BSDF of Blender 2.8-3.x adds its diffuse lobe ``base / pi`` (times a Disney retro-reflection
+    factor that is 1 at normal incidence) to the specular lobe without weighting it by the Fresnel term, as our
+    Zhao convention does; so the base colour is our diffuse albedo itself (Zhao) or ``rho_d (1 - rho_s)``
+    (Deschaintre, ``diffuse_conservation``). Inverse: :func:`from_principled_base`.
+
+    Args:
+        diffuse: rho_d (H, W, 3), linear in [0, 1].
+        specular: rho_s (H, W, 1), linear in [0, 1].
+        config: renderer settings of the maps (``diffuse_conservation`` selects ``w_d``).
+
+    Returns:
+        (H, W, 3) float32 linear base colour in [0, 1] (write it sRGB-encoded).
+    """
+    base = np.asarray(diffuse, dtype=np.float32) * diffuse_weight(specular, config)
+    return np.clip(base, 0.0, 1.0).astype(np.float32)
+
+
+def from_principled_base(base: np.ndarray, specular: np.ndarray, config: RenderConfig = ZHAO) -> np.ndarray:
+    """Inverse of :func:`to_principled_base`: ``rho_d = base / w_d`` (0 where ``w_d`` is 0). Shapes as there."""
+    w = diffuse_weight(specular, config)
+    return np.where(w > _EPS, np.asarray(base, dtype=np.float32) / np.maximum(w, _EPS), 0.0).astype(np.float32)
+
+
+def to_principled_specular(specular: np.ndarray) -> Tuple[float, np.ndarray]:
+    """Our rho_s as the Principled BSDF's ``Specular`` input, ``rho_s / 0.08``, stored as a texture and a scale.
+
+    A texture holds values in [0, 1] but ``Specular`` goes past 1 for F0 above 0.08 (Cycles takes any value: F0 =
+    0.08 Specular, up to 1 at 12.5). So the texture is ``Specular / scale`` with ``scale = max(1, max Specular)``:
+    a set whose F0 stays at or below 0.08 (most dielectrics) has ``scale = 1`` and its texture *is* the input
+    (Node Wrangler's *Principled Setup* wires it as is); above, the material multiplies the texture by ``scale``.
+
+    Args:
+        specular: rho_s (H, W, 1) or any shape, linear in [0, 1].
+
+    Returns:
+        ``(scale, texture)``: the float ``scale >= 1`` and the float32 texture in [0, 1], same shape; the input is
+        ``scale * texture`` (:func:`from_principled_specular`).
+    """
+    value = np.clip(np.asarray(specular, dtype=np.float32), 0.0, 1.0) / np.float32(PRINCIPLED_F0_PER_SPECULAR)
+    scale = max(1.0, float(value.max()) if value.size else 1.0)
+    return scale, (value / np.float32(scale)).astype(np.float32)
+
+
+def from_principled_specular(texture: np.ndarray, scale: float = 1.0) -> np.ndarray:
+    """F0 of the Principled BSDF whose ``Specular`` input is ``scale * texture``: ``0.08 scale texture`` (float32)."""
+    return (np.asarray(texture, dtype=np.float32) * np.float32(scale * PRINCIPLED_F0_PER_SPECULAR)).astype(np.float32)
+
+
 __all__ = [
     "DIELECTRIC_F0", "diffuse_weight", "to_weighted_base", "from_weighted_base", "f0_to_ior", "ior_to_f0",
     "to_khr_specular", "from_khr_specular", "perceived_brightness", "specgloss_to_metalrough",
-    "metalrough_to_specgloss", "roughness_to_smoothness", "smoothness_to_roughness",
+    "metalrough_to_specgloss", "roughness_to_smoothness", "smoothness_to_roughness", "PRINCIPLED_F0_PER_SPECULAR",
+    "to_principled_base", "from_principled_base", "to_principled_specular", "from_principled_specular",
 ]

@@ -8,8 +8,9 @@ every file, and the material document written next to the textures (layouts and 
 * ``gltf``: ``<n>_basecolor``, ``_normal``, ``_orm`` (R 1, G roughness, B metallic), ``_specularcolor``,
   ``_metalrough_basecolor``; 8-bit (web); ``<n>.gltf`` (unit quad, KHR_materials_specular) and
   ``<n>_metalrough.gltf`` (core metal-rough fallback, Khronos conversion);
-* ``blender``: ``<n>_diff``, ``_nor_gl``, ``_rough``, ``_metal`` (Poly Haven names, Node Wrangler tags;
-  metal-rough); 16-bit;
+* ``blender``: ``<n>_diff``, ``_nor_gl``, ``_rough``, ``_spec`` (Poly Haven names, Node Wrangler tags): the
+  inputs of Blender's Principled BSDF (base colour, Roughness, ``Specular = F0 / 0.08``, Metallic 0), what the
+  add-on (``svbrdf.runtime.outputs.blender``) loads; 16-bit;
 * ``unreal``: ``<n>_BaseColor``, ``_Normal`` (DirectX), ``_OcclusionRoughnessMetallic``; 16-bit;
 * ``unity``: ``<n>_Albedo``, ``_Normal``, ``_SpecularSmoothness`` (RGB F0, A = 1 - roughness; specular
   setup); 16-bit;
@@ -53,6 +54,8 @@ from .conversions import (
     roughness_to_smoothness,
     specgloss_to_metalrough,
     to_khr_specular,
+    to_principled_base,
+    to_principled_specular,
     to_weighted_base,
 )
 from ..core.maps import Maps, encode_normal, normal_gl_to_dx
@@ -129,12 +132,18 @@ PRESETS: Mapping[str, TargetPreset] = {
         relief_notes=("ambient occlusion in the ORM texture's red channel, referenced as occlusionTexture "
                       "(glTF has no displacement; the generic target writes the height)",)),
     "blender": TargetPreset(
-        "blender", "Blender (Node Wrangler names, metal-rough via the Khronos conversion), 16-bit PNG",
+        "blender", "Blender's Principled BSDF (Node Wrangler names): base colour, roughness, Specular = F0 / 0.08, "
+                   "OpenGL normal, 16-bit PNG",
         "opengl", 16,
         {"basecolor": "{name}_diff.png", "normal": "{name}_nor_gl.png", "roughness": "{name}_rough.png",
-         "metallic": "{name}_metal.png"},
-        ("Shader editor: select the Principled BSDF, Node Wrangler > Add Principled Setup (Ctrl+Shift+T), pick "
-         "the four files; roughness, metallic and normal are set to Non-Color by Node Wrangler",
+         "specular": "{name}_spec.png"},
+        ("svbrdf add-on (svbrdf-blender addon): Material from texture set, pick <name>.json; or Shader editor: "
+         "select the Principled BSDF, Node Wrangler > Add Principled Setup (Ctrl+Shift+T), pick the four files "
+         "(roughness, spec and normal are set to Non-Color by Node Wrangler)",
+         "Specular = principled_specular_scale x <name>_spec.png (the sidecar's files.specular; when the scale is "
+         "not 1, put a Math Multiply node by it between the texture and Specular); Metallic 0, Specular Tint 0",
+         "Principled BSDF distribution GGX (Multiscatter GGX adds energy our model has not); Blender 2.8-3.x: the "
+         "base colour is the diffuse albedo; Blender 4.x: Specular IOR Level takes the same value at IOR 1.5",
          "Normal Map node in Tangent Space (OpenGL convention, Blender's own)"),
         relief_files={"height": ("height", "{name}_disp.png"), "ao": ("ao", "{name}_ao.png")},
         relief_notes=("<name>_disp.png: Displacement node (Non-Color) into Material Output > Displacement, "
@@ -247,6 +256,7 @@ def _occlusion(m: Maps) -> Optional[np.ndarray]:
 
 
 _WEIGHTED_BASE = "base colour = diffuse * w_d / (1 - specular) (diffuse lobe weighted by 1 - F0)"
+_PRINCIPLED_BASE = "Principled base colour = diffuse * w_d (its diffuse lobe is not weighted by the Fresnel term)"
 _KHRONOS_MR = ("metal-rough by the Khronos spec-gloss conversion of (diffuse * w_d / (1 - specular), "
                "specular); roughness unchanged")
 
@@ -293,25 +303,40 @@ def _plan_gltf(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> 
 
 
 def _plan_metal_rough(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
+    """Unreal's metal-rough set: base colour, normal, ORM (the Khronos conversion)."""
     m = maps.clipped()
     f = target_files(name, p.name)
     base, metallic = specgloss_to_metalrough(to_weighted_base(m.diffuse, m.specular, config), m.specular)
     info = {"basecolor": _describe("metal-rough base colour (Khronos conversion)", "sRGB", 8, 3),
             "normal": _normal_file(p)}
-    if p.name == "unreal":
-        files = _generic_files(p, name, f, info, diffuse=base, normal=m.normal)
-        ao = _occlusion(m)
-        orm = np.concatenate([np.ones_like(m.roughness) if ao is None else ao, m.roughness, metallic], axis=-1)
-        files["orm"] = TextureFile(f["orm"], _describe(("R = ambient occlusion (1, none estimated)" if ao is None
-                                                        else "R = ambient occlusion (1 = open)")
-                                                       + ", G = roughness, B = metallic", "data", p.data_bits, 3),
-                                   orm, p.data_bits)
-    else:
-        info["roughness"] = _describe("roughness (alpha = roughness^2)", "data", p.data_bits, 1)
-        files = _generic_files(p, name, f, info, diffuse=base, normal=m.normal, roughness=m.roughness)
-        files["metallic"] = TextureFile(f["metallic"], _describe("metallic (Khronos conversion)", "data",
-                                                                 p.data_bits, 1), metallic, p.data_bits)
+    files = _generic_files(p, name, f, info, diffuse=base, normal=m.normal)
+    ao = _occlusion(m)
+    orm = np.concatenate([np.ones_like(m.roughness) if ao is None else ao, m.roughness, metallic], axis=-1)
+    files["orm"] = TextureFile(f["orm"], _describe(("R = ambient occlusion (1, none estimated)" if ao is None
+                                                    else "R = ambient occlusion (1 = open)")
+                                                   + ", G = roughness, B = metallic", "data", p.data_bits, 3),
+                               orm, p.data_bits)
     return _layout(p, files, _KHRONOS_MR, m, name)
+
+
+def _plan_principled(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
+    """Blender's Principled BSDF inputs: base colour ``rho_d w_d``, ``Specular / scale`` with the scale in the
+    sidecar, roughness and OpenGL normal (:func:`~.conversions.to_principled_base`,
+    :func:`~.conversions.to_principled_specular`)."""
+    m = maps.clipped()
+    f = target_files(name, p.name)
+    base = to_principled_base(m.diffuse, m.specular, config)
+    scale, spec_tex = to_principled_specular(m.specular)
+    files = _generic_files(p, name, f, {
+        "basecolor": _describe(_PRINCIPLED_BASE, "sRGB", 8, 3),
+        "normal": _normal_file(p),
+        "roughness": _describe("Principled Roughness = roughness (alpha = roughness^2)", "data", p.data_bits, 1),
+    }, diffuse=base, roughness=m.roughness, normal=m.normal)
+    files["specular"] = TextureFile(f["specular"], _describe(
+        "Principled Specular / principled_specular_scale (F0 = 0.08 x principled_specular_scale x value)", "data",
+        p.data_bits, 1, principled_specular_scale=scale), spec_tex, p.data_bits)
+    return _layout(p, files, f"{_PRINCIPLED_BASE}; Specular = F0 / 0.08 = principled_specular_scale x the spec "
+                             f"file (scale {scale:.6g}); roughness and normal unchanged; Metallic 0", m, name)
 
 
 def _plan_unity(maps: Maps, config: RenderConfig, p: TargetPreset, name: str) -> Layout:
@@ -375,7 +400,7 @@ def _plan_specular_workflow(maps: Maps, config: RenderConfig, p: TargetPreset, n
 
 #: Target -> layout builder ``(maps, config, preset, name) -> Layout``.
 _PLANS: Mapping[str, Builder] = {
-    "generic": _plan_generic, "gltf": _plan_gltf, "blender": _plan_metal_rough, "unreal": _plan_metal_rough,
+    "generic": _plan_generic, "gltf": _plan_gltf, "blender": _plan_principled, "unreal": _plan_metal_rough,
     "unity": _plan_unity, "usd": _plan_specular_workflow, "mtlx": _plan_specular_workflow,
     "ambientcg": _plan_specular_workflow}
 

@@ -205,7 +205,7 @@ def test_gltf_files(tmp_path, maps):
     assert fallback["materials"][0]["pbrMetallicRoughness"]["metallicFactor"] == 1.0
 
 
-@pytest.mark.parametrize("target", ["blender", "unreal"])
+@pytest.mark.parametrize("target", ["unreal"])
 def test_metal_rough_targets(tmp_path, maps, target):
     p = write_target(maps, tmp_path, "m", target)
     base, metal = cv.specgloss_to_metalrough(cv.to_weighted_base(maps.diffuse, maps.specular, ZHAO), maps.specular)
