@@ -31,7 +31,9 @@ Pipeline of :func:`estimate`:
    nearly grey base colour for every material (docs/benchmarks/prior/README.md, "Colour");
 6. remove the smooth radial trend around the photo's flash highlight from the base colour, specular and roughness
    (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, :attr:`PostProcess.flash_trend`; first the highlight fill, :attr:`PostProcess.highlight_fill`): what the network left of the
-   highlight and the fall-off (docs/benchmarks/accuracy/README.md, "Now");
+   highlight and the fall-off (docs/benchmarks/accuracy/README.md, "Now"); the base colour's trend as one
+   brightness gain for its three channels (its hue kept), then its coarse colours made the photo's
+   (:func:`svbrdf.runtime.post.photo_colour.local_colour`);
 7. make the specular one level, its median (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`,
    :attr:`PostProcess.uniform_specular`): its spatial variation is noise by measurement.
 """

@@ -6,18 +6,24 @@ brighter or darker base colour under the flash, a specular or roughness that dip
 highlight leaves) is not the material: it is the light, baked in, and it shows when the maps are relit from
 elsewhere (the burn-in score of :mod:`svbrdf.runtime.quality.burn_in` measures it).
 
-:func:`remove_flash_trend` projects it out. Each scalar field ``g`` of the base colour (per channel), specular and
-roughness is fitted by least squares with a constant and the radial bumps
+:func:`remove_flash_trend` projects it out. Each scalar field ``g`` (the base colour's luminance, the mean of its
+channels; the specular; the roughness) is fitted by least squares with a constant and the radial bumps
 
 .. math::
 
     b_k(x) = \\exp\\left(-\\frac{1}{2} \\left(\\frac{|x - c|}{\\sigma_k W}\\right)^2\\right),
     \\quad \\sigma_k \\in \\texttt{TREND_WIDTHS}
 
-around the highlight centre ``c`` (``W`` = image width), and the fitted bumps, centred to zero mean, are
-subtracted: the map keeps its mean and everything that is not round about the flash (a stationary texture
-projects onto a few smooth radial functions with a weight near zero, so it is hardly changed). The normal map is
-left as it is (its burn-in, the tilt of a bulge, is small in every measurement: docs/benchmarks/accuracy/).
+around the highlight centre ``c`` (``W`` = image width). From the specular and the roughness the fitted bumps,
+centred to zero mean, are subtracted. The base colour is divided by its fitted luminance field ``f`` and multiplied
+by its mean ``m``: one gain ``m / f`` per pixel, the same for the three channels (:func:`luminance_gain`), so the
+trend goes and every pixel keeps its hue and saturation (a fit subtracted per channel takes a dark channel to 0
+where a bump is as large as its level: a maroon blotch on brown wood, teal in its dark grooves). Every map keeps
+its mean and everything that is not round about the flash (a stationary texture projects onto a few smooth radial
+functions with a weight near zero, so it is hardly changed). Given the photo, the base colour then loses the coarse
+colour casts the photo does not show (:func:`svbrdf.runtime.post.photo_colour.local_colour`: the network's tint
+under the flash or on one side; after the highlight fill, whose copy it sees). The normal map is left as it is
+(its burn-in, the tilt of a bulge, is small in every measurement: docs/benchmarks/accuracy/).
 
 This is the hard form of the trainer's flash-correlation loss (:func:`svbrdf.trainer.losses.flash_correlation_loss`,
 which only discourages the same pattern during the fine-tune): applied to the final maps of the preview and of the
@@ -47,8 +53,11 @@ from .settings import EVEN_LIGHTING_WIDTH
 #: Widths of the radial bumps, as fractions of the image width: the highlight lobe (and a clipped highlight's
 #: hole) to the broad fall-off.
 TREND_WIDTHS: Tuple[float, ...] = (0.05, 0.1, 0.2, 0.4)
-#: The maps whose trend is removed (every channel separately); normals are kept.
+#: The maps whose trend is removed (the base colour by its luminance); normals are kept.
 TREND_MAPS: Tuple[str, ...] = ("diffuse", "specular", "roughness")
+#: The largest gain :func:`luminance_gain` gives a pixel of the base colour (where the fitted luminance is a quarter
+#: of its mean or less).
+GAIN_MAX = 4.0
 #: The fit runs on a block-averaged copy no longer than this (the trend is smooth); the subtraction at full size.
 FIT_MAX_SIDE = 256
 #: :func:`lighting_field` is computed on a block-mean copy no longer than this and interpolated (it is smooth).
@@ -97,6 +106,39 @@ def fit_flash_trend(fields: np.ndarray, centre: Tuple[float, float],
     return coef[1:]
 
 
+def _full_trend(coef: np.ndarray, shape: Tuple[int, int], centre: Tuple[float, float],
+                widths: Sequence[float]) -> np.ndarray:
+    """(H, W, C) float32 the bumps weighted by ``coef`` (K, C) at full size, each channel minus its mean. Each bump is
+    separable, exp(-y^2/2s^2) exp(-x^2/2s^2): channel c is gy diag(coef_c) gx, a small matrix product, minus the
+    bumps' means mean(gy) mean(gx) weighted."""
+    h, w = shape
+    widths_px = np.asarray(widths, np.float64) * w
+    gy, gx = _axis_bumps(h, centre[0], widths_px), _axis_bumps(w, centre[1], widths_px)  # (H, K), (W, K)
+    means = gy.mean(axis=0) * gx.mean(axis=0)  # (K,)
+    return np.stack([((gy * coef[:, j]) @ gx.T - float(means @ coef[:, j])).astype(np.float32)
+                     for j in range(coef.shape[1])], axis=-1)
+
+
+def luminance_gain(diffuse: np.ndarray, trend: np.ndarray, level: float) -> np.ndarray:
+    """The base colour without a luminance trend: every pixel times ``level / (level + trend)``, one gain for its
+    three channels (hue and saturation kept).
+
+    Args:
+        diffuse: (H, W, 3) linear base colour in [0, 1].
+        trend: (H, W) the fitted luminance trend (zero mean), in the units of ``level``.
+        level: the luminance's mean, > 0.
+
+    Returns:
+        (H, W, 3) float32 in [0, 1]. The gain is at most :data:`GAIN_MAX` (where ``level + trend`` is small or
+        negative); a pixel it would take above 1 is scaled down as a whole (its hue kept), not clipped per channel.
+    """
+    gain = np.float32(level) / np.maximum(np.float32(level) + trend.astype(np.float32), np.float32(level / GAIN_MAX))
+    out = np.asarray(diffuse, np.float32) * gain[..., None]
+    peak = np.maximum(np.maximum(out[..., 0:1], out[..., 1:2]), out[..., 2:3])  # faster than max(axis=-1)
+    np.divide(out, np.maximum(peak, np.float32(1)), out=out)
+    return np.maximum(out, np.float32(0), out=out)
+
+
 def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None, photo: Optional[np.ndarray] = None,
                        widths: Sequence[float] = TREND_WIDTHS) -> Maps:
     """The maps without their radial trend around the flash highlight (see the module docstring).
@@ -105,19 +147,28 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
         maps: a texture set (H, W); maps that are ``None`` stay ``None``, normals are kept.
         centre: (row, column) of the highlight in the maps' pixels; default :func:`highlight_centre` of
             ``photo``, or the image centre without a photo.
-        photo: (H, W, 3) linear photo the maps were estimated from (for the default centre).
+        photo: (H, W, 3) linear photo the maps were estimated from: the default centre, and the base colour's
+            coarse colours are made the photo's (:func:`svbrdf.runtime.post.photo_colour.local_colour`: the casts
+            the photo does not show go).
         widths: see :func:`radial_basis`.
 
     Returns:
         A new :class:`Maps` (same meta plus ``meta["flash_trend"]``: ``{"centre": [row, col], "widths",
-        "removed": {map: RMS of the subtracted trend}}``), values clipped to :data:`MAP_RANGES`. Diffuse, specular
-        and roughness are float32.
+        "removed": {map: RMS of the change}}``), values in :data:`MAP_RANGES`. The base colour has its luminance
+        trend divided out (:func:`luminance_gain`: each pixel's hue kept; then, with ``photo``, its casts), the
+        specular and roughness their trend subtracted (clipped). Diffuse, specular and roughness are float32.
+
+    Raises:
+        ValueError: ``photo`` is not (H, W, 3).
     """
     h, w = maps.shape
     k = max(1, math.ceil(max(h, w) / FIT_MAX_SIDE))
+    if photo is not None:
+        photo = np.asarray(photo, dtype=np.float32)
+        if photo.shape != (h, w, 3):
+            raise ValueError(f"photo {photo.shape} does not match maps of {h}x{w}")
     if centre is None:
         if photo is not None:
-            photo = np.asarray(photo, dtype=np.float32)
             centre = highlight_centre(block_mean(photo, k))
             centre = (centre[0] * k, centre[1] * k)
         else:
@@ -126,25 +177,29 @@ def remove_flash_trend(maps: Maps, centre: Optional[Tuple[float, float]] = None,
     names = [n for n in TREND_MAPS if getattr(maps, n) is not None]
     if not names or min(h, w) // k < 4:
         return maps
-    # The block mean drops a partial last block; its grid still starts at the image's top-left corner.
-    small = np.concatenate([block_mean(getattr(maps, n), k) for n in names], axis=-1)
+    # The block mean drops a partial last block; its grid still starts at the image's top-left corner. The base
+    # colour is fitted by its luminance (one field), the other maps as they are.
+    fields = [block_mean(getattr(maps, n), k) for n in names]
+    fields = [f.mean(axis=-1, keepdims=True) if n == "diffuse" else f for n, f in zip(names, fields)]
+    small = np.concatenate(fields, axis=-1)
     coef = fit_flash_trend(small, (cy / k, cx / k), widths)  # (K, C) in map units
-    # Each bump is separable, exp(-y^2/2s^2) exp(-x^2/2s^2): the trend of channel c is gy diag(coef_c) gx, a small
-    # matrix product at full size, minus its mean (the bumps' means: mean(gy) mean(gx)).
-    widths_px = np.asarray(widths, np.float64) * w
-    gy, gx = _axis_bumps(h, cy, widths_px), _axis_bumps(w, cx, widths_px)  # (H, K), (W, K)
-    means = gy.mean(axis=0) * gx.mean(axis=0)  # (K,)
+    trend = _full_trend(coef, (h, w), (cy, cx), widths)  # (H, W, C)
     out: Dict[str, np.ndarray] = dict(maps.items())
     removed: Dict[str, float] = {}
-    start = 0
-    for n in names:
-        c = getattr(maps, n).shape[-1]
-        t = np.stack([(gy * coef[:, j]) @ gx.T - float(means @ coef[:, j]) for j in range(start, start + c)],
-                     axis=-1).astype(np.float32)  # (H, W, c)
-        lo, hi = MAP_RANGES[n]
-        out[n] = np.clip(np.asarray(getattr(maps, n), dtype=np.float32) - t, lo, hi)
-        removed[n] = float(np.sqrt(np.mean(np.square(t[::k, ::k], dtype=np.float64))))
-        start += c
+    for j, n in enumerate(names):
+        a = np.asarray(getattr(maps, n), dtype=np.float32)
+        if n == "diffuse":
+            level = float(small[..., j].mean(dtype=np.float64))
+            out[n] = luminance_gain(a, trend[..., j], level) if level > 0 else a
+            if photo is not None:
+                from .photo_colour import local_colour  # it imports this module
+
+                out[n] = local_colour(out[n], photo)
+        else:
+            lo, hi = MAP_RANGES[n]
+            out[n] = np.clip(a - trend[..., j:j + 1], lo, hi)
+        change = out[n][::k, ::k] - a[::k, ::k]
+        removed[n] = float(np.sqrt(np.mean(np.square(change, dtype=np.float64))))
     result = maps._with(out)
     result.meta["flash_trend"] = {"centre": [cy, cx], "widths": list(widths), "removed": removed}
     return result
@@ -244,7 +299,8 @@ def postprocess(maps: Maps, photo: np.ndarray, *, flash_trend: bool = True, spec
     :func:`svbrdf.runtime.inference.pipeline.estimate` and the refine's :meth:`svbrdf.trainer.train.Trainer.predict_maps`),
     each step when asked, in this order: :func:`svbrdf.runtime.post.highlight_fill.fill_highlight` (the region of a
     clipped highlight copied from the material elsewhere; first, so the trend fit does not compensate a hole that
-    is then filled), :func:`remove_flash_trend` around the photo's highlight and :func:`uniform_specular`.
+    is then filled), :func:`remove_flash_trend` around the photo's highlight (with the photo: the base colour's
+    casts too) and :func:`uniform_specular`.
 
     Args:
         maps: the network's texture set (H, W).
@@ -264,7 +320,7 @@ def postprocess(maps: Maps, photo: np.ndarray, *, flash_trend: bool = True, spec
     if highlight_fill:
         out = fill_highlight(out, photo, centre=None if centre is None else tuple(centre), patches=patches)
     if flash_trend:
-        out = remove_flash_trend(out, centre=centre)
+        out = remove_flash_trend(out, centre=centre, photo=photo)
     if specular_level:
         out = uniform_specular(out)
     changed = flash_trend or specular_level or highlight_fill
@@ -274,4 +330,4 @@ def postprocess(maps: Maps, photo: np.ndarray, *, flash_trend: bool = True, spec
 
 
 __all__ = ["postprocess", "remove_flash_trend", "uniform_specular", "even_lighting", "lighting_field", "EVEN_LIGHTING_WIDTH", "fit_flash_trend", "radial_basis", "TREND_WIDTHS", "TREND_MAPS",
-           "FIT_MAX_SIDE"]
+           "FIT_MAX_SIDE", "luminance_gain", "GAIN_MAX"]

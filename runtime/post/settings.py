@@ -40,7 +40,10 @@ class PostProcess:
         fill_patches: a large highlight is filled patch by patch (False: always one copy).
         flash_trend: remove the maps' smooth radial trend around the photo's flash highlight
             (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`): what the network left of the highlight
-            and fall-off.
+            and fall-off (the base colour's as one gain per pixel, its hue kept); then the base colour's coarse
+            colours are made the photo's (:func:`svbrdf.runtime.post.photo_colour.local_colour`: the casts the
+            photo does not show go, and with them most of the overall balance comes from the photo, with or
+            without ``colour_from_photo``).
         uniform_specular: one specular level per photo, its median
             (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`): its spatial variation measured as noise
             (docs/benchmarks/accuracy/README.md, "Now").

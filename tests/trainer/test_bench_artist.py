@@ -224,3 +224,83 @@ def test_a_copy_of_the_shared_capture_without_some_views(shared_data, tmp_path):
         cases = load_cases(tmp_path, 64, "*bath_tile/0[17]")
     assert [c.name for c in cases] == ["bath_tile/01", "bath_tile/07"]
     assert all(sorted(c.capture.photos) == [1, 2, 3, 4, 7, 8] and len(c.capture.others()) == 5 for c in cases)
+
+
+def test_foreign_colour_is_reported_for_synthetic_cases_and_photos():
+    """Every case gets the base colour's foreign colour (svbrdf.runtime.quality.colour_check): against the photo
+    when there is one, else against the ground truth rendered under the input flash; the artist table reports it
+    for synthetic cases and for photos."""
+    from svbrdf.trainer.bench import report
+
+    gt = _bumpy_maps(seed=3)
+    own = bm.evaluate(gt, gt=gt)
+    assert set(bm.COLOUR_METRICS) <= set(own) and own["foreign_colour"] < 5.0
+    blotch = gt.diffuse.copy()
+    blotch[:32, 16:48] = blotch[:32, 16:48].mean(-1, keepdims=True) * np.array([2.4, 0.3, 0.3], np.float32)
+    off = bm.evaluate(gt._with({**dict(gt.items()), "diffuse": np.clip(blotch, 0, 1)}), gt=gt)
+    assert off["foreign_colour"] > own["foreign_colour"] + 5 and off["foreign_colour_area"] > 0.1
+    photo = np.clip(render(gt, None, ZHAO), 0, 1)
+    seen = bm.evaluate(gt, photo=photo)
+    assert seen["foreign_colour"] == pytest.approx(own["foreign_colour"], abs=1e-6)  # the same reference
+    records = [{"case": "s", "kind": "synthetic", "method": "preview", "preset": None, "iterations": None, **own},
+               {"case": "p", "kind": "photo", "method": "preview", "preset": None, "iterations": None, **off}]
+    row = report.artist_table(records)[0]
+    assert row["foreign_colour_synthetic"] == pytest.approx(own["foreign_colour"])
+    assert row["foreign_colour_photos"] == pytest.approx(off["foreign_colour"])
+    assert "foreign colour photos" in "\n".join(report._artist_markdown([row]))
+
+
+def _domed_normals(n=N, tilt=0.006, seed=5):
+    """A stationary texture's normals (RMS slope ~0.05, as the network's) with and without the faint radial tilt a
+    flash leaves (a Gaussian dome 0.35 N wide, off-centre); and the dome's centre."""
+    rng = np.random.default_rng(seed)
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float64)
+    tex = np.fft.irfft2(np.fft.rfft2(rng.normal(size=(n, n))) * np.exp(
+        -2 * (np.pi * 1.5) ** 2 * (np.fft.fftfreq(n)[:, None] ** 2 + np.fft.rfftfreq(n)[None, :] ** 2)), s=(n, n))
+    tex *= 0.05 / np.hypot(*np.gradient(tex)).mean()
+    centre, s = (0.4 * n, 0.6 * n), 0.35 * n
+    dome = tilt * s * np.sqrt(np.e) * np.exp(-((yy + 0.5 - centre[0]) ** 2 + (xx + 0.5 - centre[1]) ** 2) / (2 * s * s))
+
+    def normals(h):
+        gy, gx = np.gradient(h)
+        v = np.stack([-gx, gy, np.ones_like(h)], -1)
+        return (v / np.linalg.norm(v, axis=-1, keepdims=True)).astype(np.float32)
+
+    return normals(tex + dome), normals(tex), centre
+
+
+def test_height_lowband_error_compares_the_broad_shapes():
+    rng = np.random.default_rng(6)
+    yy, xx = np.mgrid[0:48, 0:64] / 64.0
+    truth = np.sin(2 * np.pi * 1.5 * xx) * np.cos(2 * np.pi * yy) + 0.3 * rng.normal(size=(48, 64))
+    assert bm.height_lowband_error(truth, truth) == pytest.approx(0.0, abs=1e-12)
+    # offset, scale and tilt do not count
+    assert bm.height_lowband_error(5 + 3 * truth + 2 * xx - yy, truth) == pytest.approx(0.0, abs=1e-12)
+    dome = np.exp(-((xx - 0.5) ** 2 + (yy - 0.35) ** 2) / 0.1)
+    assert bm.height_lowband_error(dome, truth) > 1.0  # all broad, none of it the truth's
+    assert bm.height_lowband_error(-truth, truth) <= 4.0
+    assert bm.height_lowband_error(np.zeros((48, 64)), np.zeros((48, 64))) == 0.0
+    with pytest.raises(ValueError, match="size"):
+        bm.height_lowband_error(truth, truth[:, :32])
+
+
+def test_relief_metrics_see_the_flash_dome_in_the_height():
+    """The written height of normals with the flash's faint tilt (svbrdf.runtime.core.relief) has no dome; the
+    plainly integrated one, scored the same way, has; every case gets the radial scores, ground truth the broad
+    error."""
+    from svbrdf.runtime.core.relief import height_from_normals
+    from svbrdf.runtime.quality import relief_radial
+
+    domed, flat, centre = _domed_normals()
+    pred = _bumpy_maps(seed=4)._with({**dict(_bumpy_maps(seed=4).items()), "normal": domed})
+    gt = _bumpy_maps(seed=4)._with({**dict(_bumpy_maps(seed=4).items()), "normal": flat})
+    got = bm.relief_metrics(pred, gt, centre)
+    assert set(got) == set(bm.RELIEF_METRICS)
+    assert abs(got["relief_radial_corr"]) < 0.15 and got["height_lowband_err"] < 0.1, got
+    plain = height_from_normals(domed, zero="unit", low_cut=0)[0]
+    truth = height_from_normals(flat, zero="unit", low_cut=0)[0]
+    assert relief_radial(plain, centre)["relief_radial_corr"] < -0.5
+    assert bm.height_lowband_error(plain, truth) > 3 * got["height_lowband_err"]
+    assert set(bm.relief_metrics(pred, centre=centre)) == {"relief_radial_corr", "relief_radial_share"}
+    assert bm.relief_metrics(Maps(roughness=pred.roughness)) == {}
+    assert set(bm.RELIEF_METRICS) <= set(bm.evaluate(pred, gt=gt, centre=centre))

@@ -37,6 +37,38 @@ Highlight burn-in: the label-free score of :mod:`svbrdf.runtime.quality.burn_in`
 ``ring_*`` ring scores per map, ``burn_in`` the worst map's), imported from there so the runtime reports the same
 number.
 
+Foreign colour (:func:`svbrdf.runtime.quality.colour_check.foreign_colour`, every case): the CIELAB a*b* distance,
+at equal lightness, between the predicted base colour and the photo, block by block (16 blocks on the long side;
+blocks where the photo is clipped or too dark are left out). The photo is the input photo when given, else (a
+synthetic case) the ground truth rendered under the input flash, clipped to [0, 1]: what is seen.
+
+=====================  ================================================================================
+key                    definition
+=====================  ================================================================================
+foreign_colour         mean distance over the kept blocks (0: the photo's colours; about 10 and above:
+                       a hue the photo does not show there)
+foreign_colour_p99     99th percentile of the distances (the worst patch)
+foreign_colour_area    share of the kept blocks above 15 (a visible foreign colour), in [0, 1]
+=====================  ================================================================================
+
+Relief (:func:`relief_metrics`, every case with a normal map): the height of the written ``_height.png``
+(:func:`svbrdf.runtime.core.relief.relief_maps` of the predicted normals).
+
+=====================  ================================================================================
+key                    definition
+=====================  ================================================================================
+relief_radial_corr     Pearson correlation of the height and the distance to the highlight centre, in
+                       [-1, 1] (< 0: a dome under the flash; :mod:`svbrdf.runtime.quality.relief_check`)
+relief_radial_share    share of the height's variance its radial profile about that centre explains,
+                       in [0, 1] (a few hundredths by chance)
+height_lowband_err     synthetic cases, :func:`height_lowband_error`: the height against the truth's
+                       (its normals integrated plainly, ``low_cut=0``), each less its least-squares plane
+                       and divided by its RMS; the energy of the difference in the orthonormal DCT terms
+                       of at most :data:`LOWBAND_CYCLES` cycles across the map, over the pixel count
+                       (0: the same broad shape; a height that is all dome: about 1 plus the truth's
+                       own broad share; at most 4)
+=====================  ================================================================================
+
 What an artist sees (:func:`artist_metrics`; the columns of the first table of ``svbrdf-bench``'s ``results.md``):
 
 =====================  ================================================================================
@@ -69,6 +101,9 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from svbrdf.runtime.quality.burn_in import BURN_METRICS, burn_in_scores
+from svbrdf.runtime.quality.relief_check import RELIEF_METRICS as _RADIAL_METRICS, relief_radial
+from svbrdf.runtime.core.relief import height_from_normals, relief_maps
+from svbrdf.runtime.quality.colour_check import COLOUR_METRICS, foreign_colour
 from svbrdf.runtime.core.colour import linear_to_srgb
 from svbrdf.runtime.core.maps import MAP_NAMES, Maps, encode_normal, normalize_normals
 from svbrdf.runtime.core.render import ZHAO, RenderConfig, grazing_lights, novel_lights, render, rerender_rmse
@@ -76,6 +111,10 @@ from svbrdf.runtime.core.render import ZHAO, RenderConfig, grazing_lights, novel
 #: Keys returned by :func:`map_errors`.
 MAP_METRICS = ("diffuse_rmse", "diffuse_rmse_srgb", "specular_rmse", "specular_rmse_srgb", "roughness_rmse",
                "normal_rmse", "normal_angle_deg")
+#: Keys of :func:`relief_metrics` (``height_lowband_err`` with a ground truth only).
+RELIEF_METRICS = _RADIAL_METRICS + ("height_lowband_err",)
+#: :func:`height_lowband_error` compares the DCT terms of at most this many cycles across the map.
+LOWBAND_CYCLES = 2.0
 
 
 def rmse(a: np.ndarray, b: np.ndarray) -> float:
@@ -292,7 +331,8 @@ def evaluate(
         pred: predicted texture set.
         gt: ground truth (synthetic case): per-map errors, ``rerender_rmse`` (10 lights) and ``input_rmse``
             against renders of ``gt``.
-        photo: linear input photo (H, W, 3), used when there is no ground truth: ``input_rmse`` against it.
+        photo: linear input photo (H, W, 3): ``input_rmse`` against it when there is no ground truth; the
+            foreign colour against it always (without it, against ``gt`` rendered under the input flash).
         config: renderer settings.
         centre: highlight centre for the burn-in scores (default the image centre).
         capture: the capture's views (:class:`svbrdf.trainer.bench.cases.CaptureViews`) when the photo is one
@@ -310,10 +350,91 @@ def evaluate(
         out["input_rmse"] = rerender_rmse(pred, photo, [None], config)
         out["input_rmse_falloff"] = rerender_rmse(pred, photo, [None], config.replace(falloff=True))
     out.update(burn_in_scores(pred, centre))
+    out.update(colour_metrics(pred, gt=gt, photo=photo, config=config))
+    out.update(relief_metrics(pred, gt, centre))
     out.update(artist_metrics(pred, gt, capture, config))
     return out
 
 
+def colour_metrics(pred: Maps, *, gt: Optional[Maps] = None, photo: Optional[np.ndarray] = None,
+                   config: RenderConfig = ZHAO) -> Dict[str, float]:
+    """``foreign_colour*`` (:data:`COLOUR_METRICS`) of the predicted base colour against ``photo``, else against
+    ``gt`` rendered under the input flash (clipped to [0, 1]); empty without a base colour or a reference."""
+    if pred.diffuse is None or (photo is None and gt is None):
+        return {}
+    from svbrdf.runtime.post.highlight_fill import highlight_mask
+
+    seen = np.clip(photo if photo is not None else render(gt.clipped(), None, config), 0, 1)
+    return foreign_colour(np.clip(pred.diffuse, 0, 1), seen, unknown=highlight_mask(seen))
+
+
+def _unplane(h: np.ndarray) -> np.ndarray:
+    """(H, W) float64 ``h`` less its least-squares plane ``a + b row + c column`` (the centred coordinates are
+    orthogonal on the full grid, so each coefficient is one projection)."""
+    h = np.asarray(h, np.float64)
+    h = h - h.mean()
+    rows, cols = h.shape
+    y = np.arange(rows) - (rows - 1) / 2.0
+    x = np.arange(cols) - (cols - 1) / 2.0
+    if rows > 1:
+        h = h - (float(y @ h.sum(axis=1)) / (cols * float(y @ y))) * y[:, None]
+    if cols > 1:
+        h = h - (float(h.sum(axis=0) @ x) / (rows * float(x @ x))) * x[None, :]
+    return h
+
+
+def _dct_rows(n: int, k: int) -> np.ndarray:
+    """The first ``k`` rows of the orthonormal DCT-II matrix of size ``n`` ((k, n) float64)."""
+    m = np.cos(np.pi * np.arange(k)[:, None] * (np.arange(n)[None, :] + 0.5) / n) * math.sqrt(2.0 / n)
+    m[0] /= math.sqrt(2.0)
+    return m
+
+
+def height_lowband_error(pred: np.ndarray, truth: np.ndarray, cycles: float = LOWBAND_CYCLES) -> float:
+    """How differently two heights are shaped at the broadest scales (the ``height_lowband_err`` of the docstring).
+
+    Args:
+        pred, truth: (H, W) heights (any units, offsets and scales: each is taken less its least-squares plane and
+            divided by its RMS; a flat one stays 0).
+        cycles: the largest ``sqrt(cy^2 + cx^2)`` compared, cy and cx the cycles across the map's height and width
+            of an orthonormal DCT-II term (index k: k / 2 cycles).
+
+    Returns:
+        ``sum over those terms of d_k^2 / (H W)``, ``d = pred' - truth'``: in [0, 4]; 0 when the broad shapes agree.
+    """
+    a, b = _unplane(pred), _unplane(truth)
+    if a.shape != b.shape:
+        raise ValueError(f"height size mismatch: prediction {a.shape} vs truth {b.shape}")
+    for arr in (a, b):
+        sd = float(arr.std())
+        if sd > 0:
+            arr /= sd
+    d = a - b
+    rows, cols = d.shape
+    ky, kx = min(rows, int(2 * cycles) + 1), min(cols, int(2 * cycles) + 1)
+    coef = _dct_rows(rows, ky) @ d @ _dct_rows(cols, kx).T
+    rho = np.hypot(np.arange(ky)[:, None] / 2.0, np.arange(kx)[None, :] / 2.0)
+    return float(np.sum(coef[rho <= cycles] ** 2) / d.size)
+
+
+def relief_metrics(pred: Maps, gt: Optional[Maps] = None,
+                   centre: Optional[Tuple[float, float]] = None) -> Dict[str, float]:
+    """:data:`RELIEF_METRICS` of the predicted normal map's written height (:func:`relief_maps`): its radial scores
+    about ``centre`` (default the image centre; :func:`~svbrdf.runtime.quality.relief_check.relief_radial`) and,
+    with ``gt``, :func:`height_lowband_error` against the truth's plainly integrated normals; empty without a
+    normal map."""
+    if pred.normal is None:
+        return {}
+    height = relief_maps(pred.normal, maps="height", zero="unit").height
+    out = dict(relief_radial(height, centre))
+    if gt is not None and gt.normal is not None:
+        truth, _ = height_from_normals(gt.normal, zero="unit", low_cut=0)
+        out["height_lowband_err"] = height_lowband_error(height, truth)
+    return out
+
+
 __all__ = ["rmse", "angular_error_deg", "map_errors", "evaluation_lights", "evaluate", "MAP_METRICS",
+           "relief_metrics", "height_lowband_error", "RELIEF_METRICS", "LOWBAND_CYCLES", "colour_metrics",
+           "COLOUR_METRICS",
            "ARTIST_METRICS", "map_std", "gaussian_blur", "ssim_map", "grazing_errors", "relight_view", "capture_errors",
            "artist_metrics", "CAPTURE_CLIP_SRGB"]

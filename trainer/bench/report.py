@@ -38,8 +38,9 @@ per-preset value is kept under ``details``. A value is null when the runs it nee
   multi-view captures (mean ``capture_rmse`` and ``capture_ssim`` over the capture views), the grazing-light
   error and high-pass correlation, the detail ratios (median over the cases: a ratio to a near-constant truth is
   unbounded) and normal slope correlation (synthetic cases), the burn-in
-  with rings (synthetic cases, real photos without a capture, and the ground truth's chance level) and the mean
-  seconds; with each method's ratio to the baseline where lower or higher is better.
+  with rings (synthetic cases, real photos without a capture, and the ground truth's chance level), the foreign
+  colour of the base colour (synthetic cases and real photos without a capture) and the mean seconds; with each
+  method's ratio to the baseline where lower or higher is better.
 """
 
 from __future__ import annotations
@@ -58,12 +59,12 @@ from svbrdf.runtime.io.images import write_image
 
 from svbrdf.runtime.quality.burn_in import BURN_METRICS, RING_METRICS
 
-from .metrics import ARTIST_METRICS, MAP_METRICS
+from .metrics import ARTIST_METRICS, COLOUR_METRICS, MAP_METRICS, RELIEF_METRICS
 
 SCHEMA = "svbrdf-bench/1"
 #: Every numeric metric a record may carry, in table order.
 METRICS = (("rerender_rmse", "input_rmse") + MAP_METRICS + ("burn_in",) + BURN_METRICS + RING_METRICS
-           + ARTIST_METRICS)
+           + COLOUR_METRICS + RELIEF_METRICS + ARTIST_METRICS)
 #: Columns of :func:`artist_table`: (key, case group, metric); groups: ``capture`` (views of a real capture),
 #: ``synthetic`` (ground truth), ``photo`` (other real photos).
 ARTIST_COLUMNS = (
@@ -73,7 +74,8 @@ ARTIST_COLUMNS = (
     ("detail_roughness", "synthetic", "detail_roughness"), ("detail_normal", "synthetic", "detail_normal"),
     ("normal_slope_corr", "synthetic", "normal_slope_corr"), ("normal_angle_deg", "synthetic", "normal_angle_deg"),
     ("burn_in_synthetic", "synthetic", "burn_in"), ("burn_in_photos", "photo", "burn_in"),
-    ("burn_in_capture", "capture", "burn_in"), ("seconds", "synthetic", "seconds"),
+    ("burn_in_capture", "capture", "burn_in"), ("foreign_colour_synthetic", "synthetic", "foreign_colour"),
+    ("foreign_colour_photos", "photo", "foreign_colour"), ("seconds", "synthetic", "seconds"),
 )
 #: Column headings of the artist table, by key of :data:`ARTIST_COLUMNS`.
 ARTIST_HEADS = {
@@ -82,7 +84,8 @@ ARTIST_HEADS = {
     "detail_specular": "detail specular", "detail_roughness": "detail roughness", "detail_normal": "detail normal",
     "normal_slope_corr": "normal slope corr ↑", "normal_angle_deg": "normal °",
     "burn_in_synthetic": "burn-in synthetic ↓", "burn_in_photos": "burn-in photos ↓",
-    "burn_in_capture": "burn-in capture ↓", "seconds": "seconds",
+    "burn_in_capture": "burn-in capture ↓", "foreign_colour_synthetic": "foreign colour synthetic ↓",
+    "foreign_colour_photos": "foreign colour photos ↓", "seconds": "seconds",
 }
 TIMES = ("seconds", "train_seconds", "eval_seconds")
 METHOD_ORDER = ("baseline", "preview", "preview-full", "finetune", "scratch")
@@ -413,7 +416,9 @@ def _artist_markdown(rows: Sequence[Mapping[str, Any]]) -> List[str]:
             "(one exposure fitted per view) against the real photos. Grazing: 8 lights 60-75° from the normal, "
             "against renders of the ground truth. Detail: the map's spatial std over the truth's (0 = constant or "
             "flat, 1 = as varied as the truth; median over the cases). Burn-in: the worst map's disc or ring score "
-            "(`svbrdf.runtime.quality.burn_in`); the ground truth row is its chance level. Definitions: "
+            "(`svbrdf.runtime.quality.burn_in`); the ground truth row is its chance level. Foreign colour: the base "
+            "colour's hue against the photo's, block by block (CIELAB a*b* at equal lightness; 0 = the photo's "
+            "colours, `svbrdf.runtime.quality.colour_check`). Definitions: "
             "`svbrdf.trainer.bench.metrics`.", ""]
     return out
 

@@ -75,11 +75,14 @@ def test_large_maps_fit_on_a_reduced_copy_and_match_the_full_fit():
     centre = (n / 2 + 10, n / 2 - 20)
     burnt = _with_trend(clean, centre)
     out = ft.remove_flash_trend(burnt, centre=centre)
-    full = ft.fit_flash_trend(np.concatenate([burnt.diffuse, burnt.specular, burnt.roughness], -1), centre)
+    lum = burnt.diffuse.mean(axis=-1, keepdims=True)
+    full = ft.fit_flash_trend(np.concatenate([lum, burnt.specular, burnt.roughness], -1), centre)
     basis = ft.radial_basis(burnt.shape, centre)
     basis -= basis.mean(axis=(1, 2), keepdims=True)
-    ref = np.clip(burnt.diffuse - np.tensordot(basis, full[:, :3], axes=([0], [0])), 0, 1)
+    trend = np.tensordot(basis, full, axes=([0], [0]))  # (H, W, 3): luminance, specular, roughness
+    ref = ft.luminance_gain(burnt.diffuse, trend[..., 0], float(lum.mean()))
     assert np.abs(out.diffuse - ref).max() < 0.01
+    assert np.abs(out.roughness - np.clip(burnt.roughness - trend[..., 2:], 0, 1)).max() < 0.01
 
 
 def test_values_stay_in_range_and_missing_maps_stay_missing():
@@ -174,3 +177,34 @@ def test_lighting_field_shapes_and_small_photos(shape):
     photo[0, 0] = 0.0  # black pixels are floored, not log(0)
     field = ft.lighting_field(photo, 0.25)
     assert field.shape == shape and field.dtype == np.float32 and np.isfinite(field).all() and (field > 0).all()
+
+
+def test_the_trend_of_a_coloured_base_colour_is_removed_without_colouring_it():
+    """Issue 67: a brown base colour with the flash's near-white highlight baked in (a flat-topped disc, which no
+    sum of the fit's bumps matches exactly). Subtracted channel by channel, the fit's overshoot took the dark blue
+    and green channels to 0 under the flash (a maroon blotch) and the trend, subtracted everywhere, greyed the rest;
+    divided out as one gain per pixel, every pixel keeps the hue it had and no channel is zeroed."""
+    from svbrdf.runtime.quality import foreign_colour
+
+    n = 128
+    grain = 1.0 + 2.0 * (_texture(n, seed=8).roughness - 0.5)  # a stationary texture around 1
+    clean = (grain * np.array([0.12, 0.045, 0.02])).astype(np.float32)
+    yy, xx = np.mgrid[0:n, 0:n] + 0.5
+    disc = np.clip((0.18 - np.hypot(yy - 40, xx - 64) / n) / 0.04, 0, 1)[..., None]
+    burnt = Maps(diffuse=np.clip(clean + disc * np.array([0.15, 0.15, 0.18]), 0, 1).astype(np.float32),
+                 roughness=np.full((n, n, 1), 0.5, np.float32))
+    fixed = ft.remove_flash_trend(burnt, centre=(40.0, 64.0))
+    d = fixed.diffuse
+    # The trend is gone: the disc is no brighter than the rest (within the texture's spread).
+    inside, outside = disc[..., 0] > 0.99, disc[..., 0] == 0
+    lum_in, lum_out = d.mean(-1)[inside].mean(), d.mean(-1)[outside].mean()
+    assert abs(lum_in - lum_out) < 0.25 * abs(burnt.diffuse.mean(-1)[inside].mean() - lum_out)
+    # No colour the base colour did not have at that place (the per-channel subtraction: 9.5 CIELAB units on
+    # average, 8 % of the area above the visible threshold, 2 % of the blue channel at 0), no channel taken to 0,
+    # each pixel's hue kept.
+    colour = foreign_colour(d, burnt.diffuse)
+    assert colour["foreign_colour"] < 1.0 and colour["foreign_colour_area"] == 0.0
+    assert (d > 0).all()
+    np.testing.assert_allclose(d[..., 2] * burnt.diffuse[..., 0], d[..., 0] * burnt.diffuse[..., 2], rtol=1e-4,
+                               atol=1e-7)
+
