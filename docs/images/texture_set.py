@@ -1,7 +1,7 @@
 """Make ``docs/images/texture_set.jpg``: the bundled example photo, its texture set as ``svbrdf-preview`` writes it
 (base colour, normal, roughness, height, AO) and the set relit under the relit panel's two other lights.
 
-    python docs/images/texture_set.py [--out docs/images/texture_set.jpg]
+    python docs/images/texture_set.py [--out docs/images/texture_set.jpg] [--force]
 
 The files are shown as written (the AO too); the relit views are the last two panels of ``<name>_relit.png``.
 """
@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import OpenImageIO as oiio
 
-from svbrdf.runtime.io.images import read_image, write_image
+from svbrdf.runtime.io.images import read_image
 
 HERE = Path(__file__).resolve().parent
 EXAMPLE = HERE.parents[1] / "runtime" / "examples" / "carved_wood.png"
@@ -38,6 +38,7 @@ def _panel(img: np.ndarray, label: str) -> np.ndarray:
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     p.add_argument("--out", type=Path, default=HERE / "texture_set.jpg")
+    p.add_argument("--force", action="store_true", help="overwrite --out")
     args = p.parse_args(argv)
     with tempfile.TemporaryDirectory() as tmp:
         subprocess.run([sys.executable, "-m", "svbrdf.runtime.cli.preview", str(EXAMPLE), "-o", tmp, "-q"],
@@ -55,7 +56,13 @@ def main(argv=None) -> int:
         tiles = [_panel(img, label) for img, label in panels]
         gap = np.full((tiles[0].shape[0], GAP, 3), 0.12, np.float32)
         row = np.concatenate([t for tile in tiles for t in (tile, gap)][:-1], axis=1)
-        write_image(args.out, np.clip(row, 0, 1), bits=8, colour_space="sRGB")
+        if args.out.exists() and not args.force:
+            raise SystemExit(f"{args.out}: exists (--force to overwrite)")
+        buf = oiio.ImageBuf(oiio.ImageSpec(row.shape[1], row.shape[0], 3, oiio.UINT8))
+        buf.set_pixels(oiio.ROI(), np.clip(row, 0, 1))  # the files' codes, sRGB
+        buf.specmod().attribute("Compression", "jpeg:90")
+        if not buf.write(str(args.out)):
+            raise SystemExit(f"{args.out}: {buf.geterror()}")
     print(f"wrote {args.out}")
     return 0
 
