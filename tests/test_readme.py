@@ -56,6 +56,7 @@ SHORT = {
     "svbrdf-preview PHOTO --refine": (["--iters", "2", "--quiet"], ["out/carved_wood.json"]),
     "svbrdf-preview PHOTO --tileable --view --target gltf": (
         [], ["out/carved_wood.gltf", "out/carved_wood_view.html"]),
+    "svbrdf-preview --capture DIR -o OUT": (["--iters", "2", "--quiet"], ["OUT/capture.json", "OUT/capture_relit.png"]),
     "svbrdf-batch photos/ -o library/": (["--workers", "1"], ["library/library.json", "library/index.html"]),
     "svbrdf-blender addon -o DIR": ([], ["DIR/svbrdf_material.zip"]),
     "svbrdf-train prior --out runs/prior": (
@@ -87,9 +88,12 @@ def _short(command: str) -> str:
 def _argv(required: str, folder: Path) -> list:
     fill = {"PHOTO": str(EXAMPLE), "DIR": str(folder / "DIR"), "photos/": str(folder / "photos"),
             "library/": str(folder / "library"), "runs/prior": str(folder / "runs" / "prior"),
-            "CKPT": str(folder / "runs" / "prior" / "checkpoint.pt"), "model.onnx": str(folder / "model.onnx")}
+            "CKPT": str(folder / "runs" / "prior" / "checkpoint.pt"), "model.onnx": str(folder / "model.onnx"),
+            "OUT": str(folder / "OUT")}
     if required.startswith("svbrdf-bench"):
         fill["DIR"] = str(folder / "photos")
+    if "--capture" in required:
+        fill["DIR"] = str(folder / "capture")
     return [fill.get(word, word) for word in shlex.split(required)]
 
 
@@ -108,13 +112,18 @@ def test_the_table_lists_what_the_short_forms_cover():
 def test_every_command_of_the_table_runs_on_the_example(tmp_path):
     (tmp_path / "photos").mkdir()
     shutil.copy(EXAMPLE, tmp_path / "photos")
+    (tmp_path / "capture").mkdir()  # two views of the example, as a calibrated capture's
+    for i in range(2):
+        shutil.copy(EXAMPLE, tmp_path / "capture" / f"{i:02d}.png")
+    (tmp_path / "capture" / "parameters.json").write_text(
+        '{"image_size": 10.0, "camera_pos": [[0, 0, 11], [1, 0, 11]], "light_pos": [[0, 0, 11], [1, 0, 11]]}')
     rows = sorted(table_rows(), key=lambda r: ORDER.index(_short(r[0])) if _short(r[0]) in ORDER else -1)
     failures = []
     for command, install in rows:
         required = _required(command)
         extra, writes = SHORT[_short(command)]
         argv = _argv(required, tmp_path)
-        if "-o" not in argv and argv[0] == "svbrdf-preview":
+        if "-o" not in argv and argv[0] == "svbrdf-preview":  # the rows that name no folder
             argv += ["-o", str(tmp_path / "out")]
         light = install.startswith("`.`")  # the light install: `pip install .`
         res = _run(argv + extra, light, tmp_path)

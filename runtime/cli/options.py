@@ -137,8 +137,11 @@ def check_options(args) -> Optional[str]:
     if args.tile < min_tile():
         return (f"--tile must be >= {min_tile()} (4 x the {min_tile() // 4} px overlap of neighbouring tiles; "
                 f"smaller tiles leave a grid in the maps), got {args.tile}")
-    if (args.iters or args.quality) and not args.refine:
-        return "--iters and --quality need --refine"
+    capture = getattr(args, "capture", None)
+    if capture is not None and (args.refine or args.quality):
+        return "--capture fits the views itself: no --refine or --quality with it"
+    if (args.iters and not (args.refine or capture is not None)) or (args.quality and not args.refine):
+        return "--iters and --quality need --refine" + (" (--iters: or --capture)" if hasattr(args, "capture") else "")
     if args.maps != MAP_NAMES and args.target != "generic":
         return (f"--maps needs --target generic: the {args.target} preset converts all four maps "
                 f"({', '.join(MAP_NAMES)})")

@@ -38,6 +38,7 @@ examples:
   {PROG} wood.jpg --tileable --view    maps that repeat without a seam, and wood_view.html to relight them
   {PROG} wood.jpg --maps height,ao     the normal map and its height and ambient occlusion
   {PROG} wood.jpg --target ambientcg   Color, NormalGL/NormalDX, Roughness, Displacement, AmbientOcclusion, .mtlx
+  {PROG} --capture bath_tile/ -o maps/ several calibrated views of one material fitted together (needs torch)
 
 Each texture set is <name>_basecolor.png, <name>_normal, <name>_roughness, <name>_specular, <name>_height
 (white = high, mid-grey = the mean level) and <name>_ao (ambient occlusion, 1 = open) (.png 16-bit or .exr),
@@ -57,9 +58,13 @@ def build_parser() -> argparse.ArgumentParser:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("photos", nargs="+", metavar="PHOTO", help="flash photo(s): PNG, JPEG, TIFF, EXR, ...")
+    p.add_argument("photos", nargs="*", metavar="PHOTO", help="flash photo(s): PNG, JPEG, TIFF, EXR, ...")
     p.add_argument("-o", "--out", metavar="DIR", type=Path,
                    help="output folder (default: <photo folder>/<photo name>_svbrdf/)")
+    p.add_argument("--capture", metavar="DIR", type=Path,
+                   help="instead of photos: a calibrated multi-view flash capture (views NN.png rectified to the "
+                        "plane, parameters.json or optim.json with each view's camera and light), fitted together "
+                        "into one texture set named after the folder (needs torch; --iters: the fit's steps)")
     add_texture_options(p)
     return p
 
@@ -141,6 +146,8 @@ def _run(args) -> int:
 
     from ..progress import Progress, write
 
+    if args.capture is not None:
+        return _run_capture(args, session, config, options)
     failed = 0
     seen = {}
     batch = Progress(len(args.photos), PROG, quiet=args.quiet or len(args.photos) == 1, unit="photo")
@@ -169,6 +176,43 @@ def _run(args) -> int:
     return 1 if failed else 0
 
 
+def _run_capture(args, session, config, options) -> int:
+    """``--capture DIR``: one texture set of every view (:func:`svbrdf.runtime.inference.pipeline.process_capture`)."""
+    from ..errors import exists_message
+    from ..inference.pipeline import process_capture, write_maps
+    from ..inference.refine import load_capture
+    from ..progress import Progress, write
+
+    capture = load_capture()
+    folder = args.capture
+    name = folder.resolve().name
+    out_dir = args.out if args.out is not None else folder.parent / f"{name}_svbrdf"
+    if not options.force and (out_dir / f"{name}.json").exists():
+        raise SvbrdfError(exists_message(out_dir / f"{name}.json"))
+    start = time.perf_counter()
+    bar = Progress(options.iters or capture.ITERS, f"capture {name}", quiet=args.quiet)
+    try:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            maps, relit, detail = process_capture(folder, options, session, capture, config,
+                                                  progress=lambda step, loss: bar.update(step, loss=f"{loss:.4f}"))
+    except (SvbrdfError, KeyboardInterrupt):
+        raise
+    except Exception as exc:  # one line, as for a photo
+        raise SvbrdfError(f"{folder}: {type(exc).__name__}: {exc}") from exc
+    finally:
+        bar.close()
+    if not args.quiet:
+        for w in caught:
+            write(f"{PROG}: warning: {w.message}")
+    write_maps(maps, relit, out_dir, name, options, {"tool": f"{PROG} {__version__} --capture"})
+    h, w = maps.shape
+    if not args.quiet:
+        write(f"{folder} -> {out_dir}/{name}_*  {w}x{h}  {time.perf_counter() - start:.2f} s ({detail})",
+              file=sys.stdout)
+    return 0
+
+
 def main(argv: Optional[List[str]] = None) -> int:
     """Entry point of ``svbrdf-preview``; returns the exit code (see the module docstring)."""
     parser = build_parser()
@@ -176,6 +220,8 @@ def main(argv: Optional[List[str]] = None) -> int:
     if args is None:  # --help / --version (0) or a usage error (2)
         return code
     problem = check_options(args)
+    if not problem and bool(args.photos) == (args.capture is not None):
+        problem = "give photos or --capture DIR (not both)" if args.photos else "no photo given (or --capture DIR)"
     if problem:
         return _usage(parser, problem)
     from ..inference.pipeline import small_pages

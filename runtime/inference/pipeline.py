@@ -610,6 +610,59 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
     return maps, relit, detail
 
 
+def process_capture(folder: Path, options: PhotoOptions, session: PreviewSession, capture, config=None,
+                    progress: Optional[Callable[[int, float], None]] = None):
+    """One texture set fitted to every view of a calibrated multi-view flash capture (``svbrdf-preview
+    --capture``; :mod:`svbrdf.trainer.capture`, passed as ``capture`` by
+    :func:`svbrdf.runtime.inference.refine.load_capture`): the views' previews averaged, then fitted to all
+    views at once, in the capture's plane frame.
+
+    Returns:
+        ``(maps, relit, detail)`` as :func:`process_photo` (``later``): the maps carry ``meta["capture"]`` and the
+        capture's ``camera`` (the field of view of its mean camera height, ``fov_source`` ``"calibration"``).
+
+    Raises:
+        SvbrdfError: no calibration in ``folder``, none of its views on disk, views of different sizes or a view
+            that cannot be read (one line naming the file).
+    """
+    from ..outputs.texture_set import relit_panel
+
+    folder = Path(folder)
+    if not folder.is_dir():
+        raise SvbrdfError(f"{folder}: --capture needs a folder of views (NN.png) and their calibration")
+    calib = capture.read_calibration(folder)
+    if calib is None:
+        raise SvbrdfError(f"{folder}: not a calibrated capture (no parameters.json or optim.json beside the views)")
+    photos = {i: read_image(capture.view_file(folder, i), max_size=options.max_size) for i in sorted(calib.views)}
+    sizes = {p.shape[:2] for p in photos.values()}
+    if len(sizes) > 1:
+        raise SvbrdfError(f"{folder}: the views are of different sizes ({', '.join(f'{w}x{h}' for h, w in sorted(sizes))}); "
+                          f"a capture's views are rectified to one square of the plane")
+    previews = [estimate(p, session, max_size=options.max_size, tile=options.tile, post=options.post,
+                         upsampling=options.upsampling) for p in photos.values()]
+    prior = capture.average_maps(previews)
+    fitted = capture.fit_capture(photos, calib, prior, iters=options.iters or capture.ITERS,
+                                 threads=options.threads, callback=progress)
+    fov = capture.capture_fov(calib)
+    config = (config or options.render_config(session)).replace(fov_deg=fov)
+    maps = fitted.subset(options.maps) if options.maps != MAP_NAMES else fitted
+    maps.render_config = config
+    maps.meta.update(source=str(folder), model={"path": str(session.path), "sha256": session.info.sha256},
+                     maps=list(options.maps),
+                     camera={"fov_deg": round(fov, 3), "fov_source": "calibration",
+                             "how": f"{calib.path.name}: the mean camera height over the {calib.width_cm:g} cm width"})
+    if options.tileable:
+        from ..post.tileable import make_tileable
+
+        try:
+            maps = make_tileable(maps)
+        except SvbrdfError as exc:
+            raise SvbrdfError(f"{folder}: --tileable: {exc}") from None
+    detail = (f"{len(photos)} views fitted together, {fitted.meta['capture']['iterations']} it "
+              f"(photo error {fitted.meta['capture']['loss']:.4f})")
+    return maps, functools.partial(relit_panel, maps, config) if maps.complete else None, detail
+
+
 def photo_camera(photo: Path, fov: Optional[float], default: float) -> dict:
     """The camera of ``photo`` for every physical step (the relit panel, the viewer, the refine's renderer):
     ``{"fov_deg", "fov_source", "how"}``, the field of view across the photo's width from ``fov`` (``"option"``),

@@ -1,12 +1,13 @@
-"""The runtime's one call into the trainer: :func:`svbrdf.trainer.refine.refine` for ``--refine``, imported only
-when asked (the runtime imports no torch otherwise; tests/runtime/test_layering.py)."""
+"""The runtime's calls into the trainer: :func:`svbrdf.trainer.refine.refine` for ``--refine`` and
+:mod:`svbrdf.trainer.capture` for ``--capture``, imported only when asked (the runtime imports no torch otherwise;
+tests/runtime/test_layering.py)."""
 
 from __future__ import annotations
 
 from ..errors import MissingExtraError
 from ..install import missing_train_module, train_hint
 
-__all__ = ["load_refine"]
+__all__ = ["load_capture", "load_refine"]
 
 
 def load_refine():
@@ -24,3 +25,19 @@ def load_refine():
             raise
         raise MissingExtraError(train_hint("--refine", module)) from None
     return refine
+
+
+def load_capture():
+    """The trainer's capture fit for ``--capture``, the module :mod:`svbrdf.trainer.capture`, imported only then.
+
+    Raises:
+        MissingExtraError: the training side is not installed (the message names the pip command).
+    """
+    try:
+        from svbrdf.trainer import capture
+    except ImportError as exc:
+        module = missing_train_module(exc)
+        if module is None:
+            raise
+        raise MissingExtraError(train_hint("--capture", module)) from None
+    return capture
