@@ -10,20 +10,24 @@ from ..install import missing_train_module, train_hint
 __all__ = ["load_capture", "load_refine"]
 
 
+def _missing(what: str, exc: ImportError) -> Exception:
+    """The error to raise for ``exc``: :class:`MissingExtraError` naming the pip command when a module of the
+    training side is missing (:func:`svbrdf.runtime.install.train_hint`), else ``exc`` itself."""
+    module = missing_train_module(exc)
+    return exc if module is None else MissingExtraError(train_hint(what, module))
+
+
 def load_refine():
     """The runtime's one call into the trainer, :func:`svbrdf.trainer.refine.refine`, imported only for ``--refine``.
 
     Raises:
         MissingExtraError: torch or kornia (the training side) is not installed; the message names the pip command
-            for this installation (:func:`svbrdf.runtime.install.train_hint`).
+            for this installation.
     """
     try:
         from svbrdf.trainer.refine import refine
     except ImportError as exc:
-        module = missing_train_module(exc)
-        if module is None:
-            raise
-        raise MissingExtraError(train_hint("--refine", module)) from None
+        raise _missing("--refine", exc) from None
     return refine
 
 
@@ -36,8 +40,5 @@ def load_capture():
     try:
         from svbrdf.trainer import capture
     except ImportError as exc:
-        module = missing_train_module(exc)
-        if module is None:
-            raise
-        raise MissingExtraError(train_hint("--capture", module)) from None
+        raise _missing("--capture", exc) from None
     return capture
