@@ -1,6 +1,7 @@
 """svbrdf-bench: metrics on hand-made cases, case preparation, summary definitions, and the CLI end to end."""
 
 import json
+from pathlib import Path
 import math
 
 import numpy as np
@@ -417,3 +418,13 @@ def test_markdown_early_stop_table_with_and_without():
     lines = report._early_stop_table(recs)
     assert "| fast | c1 | 150 | 40 / 100 | 60 % | 0.26 / 0.25 |" in lines
     assert report._early_stop_table([_rec("finetune", "fast", 100, 30.0, 0.3)]) == []  # no history recorded
+
+
+def test_the_run_names_the_model_it_measured(tmp_path):
+    from svbrdf.trainer.bench.cli import _describe_model
+
+    packaged = _describe_model(None)
+    manifest = json.loads((Path(__file__).resolve().parents[2] / "models" / "manifest.json").read_text())
+    assert packaged["file"] == manifest["file"] and packaged["source"] == "packaged"
+    assert packaged["sha256"] == manifest["sha256"]
+    assert _describe_model(tmp_path / "missing.onnx") is None

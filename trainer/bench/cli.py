@@ -244,7 +244,7 @@ def run_benchmark(
                      "inputs": "realistic" if realistic else "clean", "renderer": renderer,
                      "noise": noise, "quantize": quantize, "methods": list(methods), "presets": list(presets),
                      "iters": sorted(set(opts.iters)), "time_budget": opts.time_budget, "threads": opts.threads,
-                     "repeats": opts.repeats, "bf16": opts.bf16, "model": opts.model,
+                     "repeats": opts.repeats, "bf16": opts.bf16, "model": _describe_model(opts.model),
                      "train_overrides": dict(opts.train_overrides),
                      "init": _describe_init(opts.init),
                      "render_config": opts.config.to_dict()},
@@ -298,6 +298,19 @@ def write_outputs(doc: Dict[str, Any], out: Path, json_path: Optional[Path] = No
                                          **doc["summary"]}, force)
     report.write_text(paths["markdown"], report.markdown(doc, paths["plot"].name, legend, note), force)
     return paths
+
+
+def _describe_model(model) -> Optional[dict]:
+    """The preview model a run measures: ``{"file", "source", "sha256"}`` (the packaged one when ``model`` is
+    None), or None when none can be found (the preview methods then skip)."""
+    from svbrdf.runtime.errors import SvbrdfError as _Error
+    from svbrdf.runtime.inference.manifest import find_model
+
+    try:
+        info = find_model(model)
+    except _Error:
+        return None
+    return {"file": info.path.name, "path": str(info.path), "source": info.source, "sha256": info.sha256}
 
 
 def _int_list(text: str) -> List[int]:
