@@ -633,7 +633,15 @@ def process_capture(folder: Path, options: PhotoOptions, session: PreviewSession
     calib = capture.read_calibration(folder)
     if calib is None:
         raise SvbrdfError(f"{folder}: not a calibrated capture (no parameters.json or optim.json beside the views)")
-    photos = {i: read_image(capture.view_file(folder, i), max_size=options.max_size) for i in sorted(calib.views)}
+    with warnings.catch_warnings(record=True) as caught:  # said once for all the views, not once per view
+        warnings.simplefilter("always")
+        photos = {i: read_image(capture.view_file(folder, i), max_size=options.max_size) for i in sorted(calib.views)}
+    said: dict = {}
+    for w in caught:
+        said.setdefault(str(w.message).split(": ", 1)[-1], []).append(w)
+    for text, ws in said.items():
+        message = ws[0].message if len(ws) == 1 else f"{folder}: {len(ws)} views: {text}"
+        warnings.warn(message if isinstance(message, Warning) else ws[0].category(message), stacklevel=2)
     sizes = {p.shape[:2] for p in photos.values()}
     if len(sizes) > 1:
         raise SvbrdfError(f"{folder}: the views are of different sizes ({', '.join(f'{w}x{h}' for h, w in sorted(sizes))}); "
