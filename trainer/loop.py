@@ -28,25 +28,15 @@ hook                    Trainer                                    PriorTrainer
 from __future__ import annotations
 
 import json
-import math
 import time
 from pathlib import Path
 from typing import Any, Callable, Dict, IO, List, Mapping, Optional
 
+from svbrdf.runtime.jsonutil import finite_json
+
 #: ``callback(trainer, record)`` after every log record; returning True stops the run (after this record; the
 #: trainer's ``interrupted`` is then set and its checkpoint saved).
 Callback = Callable[[Any, Dict[str, Any]], Optional[bool]]
-
-
-def _json_safe(value: Any) -> Any:
-    """``value`` with every non-finite float (in nested dicts and lists too) as None: the log stays valid JSON."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return None
-    if isinstance(value, Mapping):
-        return {k: _json_safe(v) for k, v in value.items()}
-    if isinstance(value, (list, tuple)):
-        return [_json_safe(v) for v in value]
-    return value
 
 
 class TrainingLoop:
@@ -134,7 +124,7 @@ class TrainingLoop:
 
         def write(line: Optional[Mapping[str, Any]]) -> None:
             if log is not None and line is not None:
-                log.write(json.dumps(_json_safe(line), allow_nan=False) + "\n")
+                log.write(json.dumps(finite_json(line), allow_nan=False) + "\n")
                 log.flush()
 
         saved: Optional[int] = None

@@ -18,6 +18,7 @@ from torch import nn
 
 from svbrdf.runtime.outputs.conversions import DIELECTRIC_F0
 from svbrdf.runtime.core.maps import SLICES
+from svbrdf.runtime.core.relief import clamped_slopes
 from svbrdf.trainer.colour import linear_to_srgb
 
 #: Added under the square root of a complex modulus so its gradient stays finite at 0.
@@ -559,8 +560,6 @@ class GradientLoss(nn.Module):
         return gradient_loss(pred, target, self.maps)
 
 
-#: Smallest ``n_z`` a slope is taken at (the benchmark's ``normal_slope_corr`` clamps the same way).
-SLOPE_MIN_NZ = 0.05
 #: Truths whose slopes spread less than this in both components have no pattern to correlate with: left out.
 SLOPE_MIN_STD = 1e-3
 
@@ -568,14 +567,14 @@ SLOPE_MIN_STD = 1e-3
 def slope_correlation_loss(pred: torch.Tensor, target: torch.Tensor, eps: float = 1e-8) -> torch.Tensor:
     """Pattern-of-relief term: one minus the correlation of the predicted and true surface slopes, per image.
 
-    The slopes are ``(-n_x / n_z, -n_y / n_z)`` (``n_z`` clamped at :data:`SLOPE_MIN_NZ`), each component's mean
-    over the image removed; the correlation is over both components and every pixel (the benchmark's
-    ``normal_slope_corr``). It does not depend on the prediction's scale, so its gradient reaches the network
-    however flat the normals are: a stage one unsure of the relief shrinks its normals (the per-map L1 is then
-    lowest), which shrinks the height layer, which starves the shared features of the normals' gradient (the v2 run
-    at 5200: 0.012 on the encoder from the normal L1 against 0.74 from the roughness's, 0.52 from this term;
-    ``bc3896e:docs/benchmarks/prior-v2/height/``); this term asks for the right pattern at any scale and the L1 then sets
-    the amplitude.
+    The slopes are :func:`~svbrdf.runtime.core.relief.clamped_slopes` (``(-n_x / n_z, -n_y / n_z)``, ``n_z`` clamped
+    at ``SLOPE_MIN_NZ``), each component's mean over the image removed; the correlation is over both components and
+    every pixel (the benchmark's ``normal_slope_corr``). It does not depend on the prediction's scale, so its
+    gradient reaches the network however flat the normals are: a stage one unsure of the relief shrinks its normals
+    (the per-map L1 is then lowest), which shrinks the height layer, which starves the shared features of the
+    normals' gradient (the v2 run at 5200: 0.012 on the encoder from the normal L1 against 0.74 from the
+    roughness's, 0.52 from this term; ``bc3896e:docs/benchmarks/prior-v2/height/``); this term asks for the right
+    pattern at any scale and the L1 then sets the amplitude.
 
     Args:
         pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.core.maps`), unit normals.
@@ -586,8 +585,7 @@ def slope_correlation_loss(pred: torch.Tensor, target: torch.Tensor, eps: float 
     """
     with torch.autocast(device_type=pred.device.type, enabled=False):
         def slopes(maps: torch.Tensor) -> torch.Tensor:
-            n = _f32(maps[:, SLICES["normal"]])
-            s = -n[:, :2] / n[:, 2:3].clamp_min(SLOPE_MIN_NZ)
+            s = clamped_slopes(_f32(maps[:, SLICES["normal"]]), axis=1)
             return s - s.mean(dim=(2, 3), keepdim=True)
 
         a, b = slopes(pred), slopes(target)

@@ -34,6 +34,7 @@ import torch
 
 from svbrdf.runtime.core.camera import radius2
 from svbrdf.runtime.errors import ImageError
+from svbrdf.runtime.jsonutil import finite_json
 from svbrdf.runtime.quality.burn_in import photo_burn_in
 from svbrdf.runtime.post import apply as apply_post
 from svbrdf.runtime.post.flash_trend import even_lighting
@@ -138,10 +139,6 @@ def to_maps(packed: torch.Tensor, meta: Optional[dict] = None) -> Maps:
 
 
 # ----------------------------------------------------------------------------------------------- trainer
-def _finite_or_none(x: float) -> Optional[float]:
-    return float(x) if math.isfinite(x) else None
-
-
 class Trainer(TrainingLoop):
     """Train G and D on one photo; :meth:`run` is the loop of :class:`~svbrdf.trainer.loop.TrainingLoop` (until
     ``iters``, or a plateau with ``quality="auto"``, or the callback or ``stop_requested`` asks to stop, or a time
@@ -516,7 +513,7 @@ class Trainer(TrainingLoop):
         self.step += 1
         rec: Dict[str, Any] = {"step": self.step}
         for k, v in terms.items():
-            rec[k] = _finite_or_none(float(torch.stack(v).mean()))
+            rec[k] = finite_json(float(torch.stack(v).mean()))
         rec["skipped"] = self.counters["nonfinite_skips"] - skips0
         if self.vignetting_logit is not None:
             rec["camera/vignetting"] = float(self.vignetting().detach())
@@ -543,8 +540,8 @@ class Trainer(TrainingLoop):
         maps_t = torch.cat(maps)
         change = None if self.eval_maps is None else float((maps_t - self.eval_maps).abs().mean())
         self.eval_maps = maps_t
-        return {"eval/render_l1": _finite_or_none(float(torch.stack(l1).mean())),
-                "eval/map_change": None if change is None else _finite_or_none(change)}
+        return {"eval/render_l1": finite_json(float(torch.stack(l1).mean())),
+                "eval/map_change": None if change is None else finite_json(change)}
 
     def plateaued(self) -> bool:
         """The ``quality="auto"`` stopping rule on this run's evaluations (:func:`plateau_reached`)."""

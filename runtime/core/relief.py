@@ -41,22 +41,26 @@ from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
-from typing import Callable, Dict, Optional, Tuple
+from typing import Any, Callable, Dict, Optional, Tuple
 
 import numpy as np
 
 from ..errors import SvbrdfError
 from .filters import all_finite
+from .stats import pearson
 
 __all__ = ["MAX_SLOPE", "MIN_NORMAL_LENGTH", "LOW_CUT", "LOW_ORDER", "BROAD_SHARE", "BROAD_FLOOR", "AO_RADIUS",
            "AO_DIRECTIONS", "AO_MAX_SIZE", "height_from_normals", "normalise", "denormalise", "ambient_occlusion",
-           "slope_correlation", "normal_slopes", "RELIEF_NAMES", "Relief", "relief_maps", "AO_STRENGTH"]
+           "slope_correlation", "normal_slopes", "clamped_slopes", "SLOPE_MIN_NZ", "RELIEF_NAMES", "Relief",
+           "relief_maps", "AO_STRENGTH"]
 
 #: Steepest slope a normal is integrated with (rise over run; 10 = a tilt of 84.3 deg); steeper normals, and
 #: normals with z <= 0, are clamped to this tilt in their own azimuth.
 MAX_SLOPE = 10.0
 #: A normal shorter than this (before renormalising) is "zero-length": an error, or flat with ``zero="flat"``.
 MIN_NORMAL_LENGTH = 1e-3
+#: Smallest ``n_z`` :func:`clamped_slopes` divides by (slopes up to 20 for a unit normal).
+SLOPE_MIN_NZ = 0.05
 #: Default AO search radius, in units of the map's width (1/16: 16 px at 256 px, 256 px at 4096 px).
 AO_RADIUS = 1.0 / 16.0
 #: Direction counts :func:`ambient_occlusion` supports (the 4 axis directions, or those and the 4 diagonals).
@@ -195,6 +199,25 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
     counts = _strips(lambda r0, r1: _slope_rows(n, r0, r1, zero, inv_max, p[r0:r1], q[r0:r1]), h, _STRIP, h * w)
     _raise_degenerate(counts, zero)
     return p, q
+
+
+def clamped_slopes(normal: Any, axis: int = -1) -> Any:
+    """The slopes ``-(n_x, n_y) / max(n_z, SLOPE_MIN_NZ)`` of normals, numpy or torch (the benchmark's
+    ``normal_slope_corr`` and the trainer's slope loss; the relief's integration uses :func:`normal_slopes`, which
+    clamps the slope's magnitude instead).
+
+    Args:
+        normal: array or tensor whose axis ``axis`` holds (x, y, z) (e.g. (H, W, 3) with -1, (B, 3, H, W) with 1).
+
+    Returns:
+        the same kind and dtype, with 2 entries (x, y slope) along ``axis``.
+    """
+    from .render import _clamp_min  # (render imports maps, which imports this module)
+
+    lead = (Ellipsis,) if axis < 0 else (slice(None),) * axis
+    tail = (slice(None),) * (-axis - 1) if axis < 0 else ()
+    xy, z = normal[lead + (slice(0, 2),) + tail], normal[lead + (slice(2, 3),) + tail]
+    return -xy / _clamp_min(z, SLOPE_MIN_NZ)
 
 
 def _inverse_max_slope(max_slope) -> np.float32:
@@ -681,17 +704,6 @@ def denormalise(h01, scale: float) -> np.ndarray:
 
 # ------------------------------------------------------------------------------------- slope correlation
 
-def _corr(a: np.ndarray, b: np.ndarray) -> Optional[float]:
-    a = a.astype(np.float64).ravel()
-    b = b.astype(np.float64).ravel()
-    if a.size < 2:
-        return None
-    a = a - a.mean()
-    b = b - b.mean()
-    den = np.sqrt(np.dot(a, a) * np.dot(b, b))
-    return None if den <= 1e-300 else float(np.dot(a, b) / den)
-
-
 def slope_correlation(height, normal, *, tileable: bool = False, max_slope: float = MAX_SLOPE,
                       zero: str = "error") -> Dict[str, Optional[float]]:
     """Pearson correlation between a height's slopes and a normal map's, per component (OpenGL convention).
@@ -728,10 +740,10 @@ def slope_correlation(height, normal, *, tileable: bool = False, max_slope: floa
     else:
         dx = hpx[:, 1:] - hpx[:, :-1]
         dy = hpx[1:, :] - hpx[:-1, :]
-    out = {"x": _corr(dx, gx), "y": _corr(-dy, -gy)}
+    out = {"x": pearson(dx, gx), "y": pearson(-dy, -gy)}
     if tileable:
-        out["wrap_x"] = _corr(dx[:, -1], gx[:, -1])
-        out["wrap_y"] = _corr(-dy[-1, :], -gy[-1, :])
+        out["wrap_x"] = pearson(dx[:, -1], gx[:, -1])
+        out["wrap_y"] = pearson(-dy[-1, :], -gy[-1, :])
     return out
 
 

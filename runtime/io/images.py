@@ -546,4 +546,12 @@ def write_image(
     return path
 
 
-__all__ = ["ImageWarning", "read_image", "read_strips", "write_image", "image_info", "WRITE_EXTENSIONS"]
+def text_supported() -> bool:
+    """True when OpenImageIO can draw text here (``ImageBufAlgo.render_text`` needs a usable font)."""
+    buf = oiio.ImageBuf(oiio.ImageSpec(64, 32, 3, oiio.FLOAT))
+    return bool(oiio.ImageBufAlgo.render_text(buf, 2, 20, "1.0", 12, "", (1.0, 1.0, 1.0))) and \
+        float(buf.get_pixels(oiio.FLOAT).sum()) > 0
+
+
+__all__ = ["ImageWarning", "read_image", "read_strips", "write_image", "image_info", "WRITE_EXTENSIONS",
+           "text_supported"]

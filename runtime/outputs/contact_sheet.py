@@ -157,7 +157,7 @@ def render_png(root: Path, records: Mapping[str, Mapping[str, Any]]) -> Optional
     """The ``index.png`` image (sRGB (rows x THUMB, LABEL_WIDTH + 6 THUMB, 3) float32), or None with no strip."""
     import OpenImageIO as oiio
 
-    from ..io.images import read_image
+    from ..io.images import read_image, text_supported
 
     rows = [r for r in _rows(records) if (root / "thumbs" / f"{r['name']}.png").is_file()][:PNG_ROWS]
     if not rows:
@@ -171,7 +171,7 @@ def render_png(root: Path, records: Mapping[str, Mapping[str, Any]]) -> Optional
         h, w = min(THUMB, tile.shape[0]), min(width - LABEL_WIDTH, tile.shape[1])
         canvas[i * row_h + 2:i * row_h + 2 + h, LABEL_WIDTH:LABEL_WIDTH + w] = tile[:h, :w]
     buf.set_pixels(oiio.ROI(), canvas)
-    if _text_supported():
+    if text_supported():
         ink = (0.0, 0.0, 0.0)
         for i, r in enumerate(rows):
             y = i * row_h + 24
@@ -182,14 +182,6 @@ def render_png(root: Path, records: Mapping[str, Mapping[str, Any]]) -> Optional
             if r["status"] != "done":
                 oiio.ImageBufAlgo.render_text(buf, 8, y + 70, r["status"], 14, "", (0.8, 0.0, 0.0))
     return np.asarray(buf.get_pixels(oiio.FLOAT)).reshape(row_h * len(rows), width, 3)
-
-
-def _text_supported() -> bool:
-    import OpenImageIO as oiio
-
-    buf = oiio.ImageBuf(oiio.ImageSpec(64, 32, 3, oiio.FLOAT))
-    return bool(oiio.ImageBufAlgo.render_text(buf, 2, 20, "1.0", 12, "", (1.0, 1.0, 1.0))) and \
-        float(buf.get_pixels(oiio.FLOAT).sum()) > 0
 
 
 def write_contact_sheet(root: Path, records: Mapping[str, Mapping[str, Any]]) -> Dict[str, Path]:

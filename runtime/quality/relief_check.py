@@ -29,6 +29,7 @@ from typing import Dict, Optional, Tuple
 import numpy as np
 
 from ..core.filters import block_mean
+from ..core.stats import pearson
 from .burn_in import RING_BINS, radial_share
 
 #: The scores are computed on a block-averaged copy no longer than this (pixels).
@@ -65,10 +66,8 @@ def relief_radial(height: np.ndarray, centre: Optional[Tuple[float, float]] = No
     if not np.ptp(g) > 0:
         return {"relief_radial_corr": 0.0, "relief_radial_share": 0.0}
     r = np.hypot(np.arange(g.shape[0])[:, None] + 0.5 - cy, np.arange(g.shape[1])[None, :] + 0.5 - cx)
-    a = (g - g.mean()).ravel()
-    b = (r - r.mean()).ravel()
-    den = math.sqrt(float(a @ a) * float(b @ b))
-    corr = float(a @ b) / den if den > 0 else 0.0
+    corr = pearson(g, r)
+    corr = 0.0 if corr is None else corr
     share = radial_share(g, (cy, cx), RING_BINS, RELIEF_RADIUS)
     return {"relief_radial_corr": float(np.clip(corr, -1.0, 1.0)), "relief_radial_share": float(share)}
 

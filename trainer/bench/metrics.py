@@ -102,10 +102,11 @@ import numpy as np
 
 from svbrdf.runtime.quality.burn_in import BURN_METRICS, burn_in_scores
 from svbrdf.runtime.quality.relief_check import RELIEF_METRICS as _RADIAL_METRICS, relief_radial
-from svbrdf.runtime.core.relief import height_from_normals, relief_maps
+from svbrdf.runtime.core.relief import clamped_slopes, height_from_normals, relief_maps
 from svbrdf.runtime.quality.colour_check import COLOUR_METRICS, foreign_colour
 from svbrdf.runtime.core.colour import linear_to_srgb
 from svbrdf.runtime.core.maps import MAP_NAMES, Maps, encode_normal, normalize_normals
+from svbrdf.runtime.core.stats import pearson
 from svbrdf.runtime.core.render import ZHAO, RenderConfig, grazing_lights, novel_lights, render, rerender_rmse
 
 #: Keys returned by :func:`map_errors`.
@@ -182,17 +183,15 @@ def map_std(name: str, arr: np.ndarray) -> float:
 
 
 def _corr(a: np.ndarray, b: np.ndarray) -> float:
-    """Pearson correlation of two arrays (0 when either is constant)."""
-    a = np.asarray(a, np.float64).ravel() - np.mean(a)
-    b = np.asarray(b, np.float64).ravel() - np.mean(b)
-    den = math.sqrt(float(np.dot(a, a)) * float(np.dot(b, b)))
-    return float(np.dot(a, b) / den) if den > 0 else 0.0
+    """Pearson correlation of two arrays (:func:`~svbrdf.runtime.core.stats.pearson`); 0 when either is constant."""
+    r = pearson(a, b)
+    return 0.0 if r is None else r
 
 
 def _slopes(normal: np.ndarray) -> np.ndarray:
-    """Surface slopes ``(-n_x / n_z, -n_y / n_z)`` (H, W, 2) of a normal map, each component mean-removed."""
-    n = normalize_normals(normal).astype(np.float64)
-    s = -n[..., :2] / np.maximum(n[..., 2:3], 0.05)
+    """Surface slopes (:func:`~svbrdf.runtime.core.relief.clamped_slopes`) (H, W, 2) of a normal map, unit first,
+    float64, each component mean-removed."""
+    s = clamped_slopes(normalize_normals(normal).astype(np.float64))
     return s - s.reshape(-1, 2).mean(axis=0)
 
 

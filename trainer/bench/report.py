@@ -55,7 +55,8 @@ import OpenImageIO as oiio
 
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.io.files import atomic_write
-from svbrdf.runtime.io.images import write_image
+from svbrdf.runtime.io.images import text_supported, write_image
+from svbrdf.runtime.jsonutil import finite_json
 
 from svbrdf.runtime.quality.burn_in import BURN_METRICS, RING_METRICS
 
@@ -107,19 +108,7 @@ def write_text(path: Path, text: str, force: bool = False) -> Path:
 
 def write_json(path: Path, obj: Any, force: bool = False) -> Path:
     """JSON (indented, no NaN: non-finite floats become null) written with :func:`write_text`."""
-    return write_text(path, json.dumps(_finite(obj), indent=1, allow_nan=False) + "\n", force)
-
-
-def _finite(obj: Any) -> Any:
-    if isinstance(obj, float):
-        return obj if math.isfinite(obj) else None
-    if isinstance(obj, Mapping):
-        return {str(k): _finite(v) for k, v in obj.items()}
-    if isinstance(obj, (list, tuple)):
-        return [_finite(v) for v in obj]
-    if isinstance(obj, (np.floating, np.integer)):
-        return _finite(obj.item())
-    return obj
+    return write_text(path, json.dumps(finite_json(obj), indent=1, allow_nan=False) + "\n", force)
 
 
 # ----------------------------------------------------------------------------------------------- aggregation
@@ -587,13 +576,6 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
 _PALETTE = [(0.12, 0.47, 0.71), (1.0, 0.5, 0.05), (0.17, 0.63, 0.17), (0.84, 0.15, 0.16), (0.58, 0.4, 0.74),
             (0.55, 0.34, 0.29), (0.89, 0.47, 0.76), (0.5, 0.5, 0.5), (0.74, 0.74, 0.13), (0.09, 0.75, 0.81)]
 _MARKERS = {"baseline": "square", "preview": "diamond", "finetune": "circle", "scratch": "cross"}
-
-
-def text_supported() -> bool:
-    """True when OpenImageIO can draw text here (it needs a usable font)."""
-    buf = oiio.ImageBuf(oiio.ImageSpec(64, 32, 3, oiio.FLOAT))
-    return bool(oiio.ImageBufAlgo.render_text(buf, 2, 20, "1.0", 12, "", (1.0, 1.0, 1.0))) and \
-        float(buf.get_pixels(oiio.FLOAT).sum()) > 0
 
 
 def _marker(buf, x: int, y: int, shape: str, colour, r: int = 4) -> None:

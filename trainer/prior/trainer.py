@@ -10,6 +10,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 
 import torch
 
+from svbrdf.runtime.jsonutil import finite_json
 from svbrdf.trainer import checkpoint as ckpt_io
 from svbrdf.trainer.config import resolve
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads
@@ -144,7 +145,7 @@ class PriorTrainer(TrainingLoop):
         """One optimiser step on a fresh batch; returns the log record."""
         terms, facts = self._step()
         rec: Dict[str, Any] = {k: facts[k] for k in ("step", "lr", "crop", "data_seconds", "seconds")}
-        rec.update({k: (float(v) if torch.isfinite(v) else None) for k, v in terms.items()})
+        rec.update({k: finite_json(float(v)) for k, v in terms.items()})
         if facts["skipped"]:
             rec["skipped"] = True
         return rec
