@@ -13,8 +13,8 @@ position; :func:`svbrdf.trainer.bench.datasets.read_capture_calibration`) gives 
    plus :data:`PRIOR_WEIGHT` times the mean squared distance of the parameters from the prior's: where the views
    say nothing (no highlight ever crossed a place), the maps stay the prior's.
 
-A fit without the prior overfits (per-pixel maps fitted to 8 of bath_tile's views reproduce them at 0.052 and
-relight the ninth at 0.186; issue 68). The figures of this fit, each view left out in turn:
+A fit without the prior overfits (issue 68 reports per-pixel maps fitted to 8 of bath_tile's views reproducing them
+at 0.052 and relighting the ninth at 0.186). The figures of this fit, each view left out in turn:
 ``docs/results/capture.md`` (``docs/results/capture.py``).
 """
 
@@ -27,10 +27,11 @@ from typing import Callable, Dict, Optional
 import numpy as np
 import torch
 
-from svbrdf.runtime.core.maps import Maps
+from svbrdf.runtime.core.maps import Maps, normalize_normals
 from svbrdf.runtime.core.render import ZHAO, RenderConfig
 from svbrdf.trainer.bench.datasets import capture_view_file as view_file  # noqa: F401  (the views' files)
 from svbrdf.trainer.bench.datasets import read_capture_calibration as read_calibration  # noqa: F401
+from svbrdf.trainer.colour import linear_to_srgb as _srgb
 from svbrdf.trainer.render import FlashGeometry
 
 #: Adam steps of the fit and its learning rate (in the parameters' logit and slope units).
@@ -47,9 +48,9 @@ __all__ = ["ITERS", "LR", "PRIOR_WEIGHT", "average_maps", "fit_capture", "captur
 
 def average_maps(maps: list) -> Maps:
     """The mean of several :class:`Maps` of one size (all four maps), normals renormalised."""
-    packed = np.mean([np.concatenate([m.diffuse, m.specular, m.roughness, m.normal], -1) for m in maps], axis=0)
-    normal = packed[..., 5:8] / np.maximum(np.linalg.norm(packed[..., 5:8], axis=-1, keepdims=True), 1e-8)
-    return Maps(diffuse=packed[..., :3], specular=packed[..., 3:4], roughness=packed[..., 4:5], normal=normal)
+    mean = Maps.unpack(np.mean([m.pack() for m in maps], axis=0))
+    mean.normal = normalize_normals(mean.normal)
+    return mean
 
 
 def capture_fov(calibration) -> float:
@@ -61,12 +62,6 @@ def capture_fov(calibration) -> float:
 def _logit(x: torch.Tensor) -> torch.Tensor:
     x = x.clamp(1e-3, 1 - 1e-3)
     return torch.log(x / (1 - x))
-
-
-def _srgb(x: torch.Tensor) -> torch.Tensor:
-    from svbrdf.trainer.colour import linear_to_srgb
-
-    return linear_to_srgb(x)
 
 
 def fit_capture(photos: Dict[int, np.ndarray], calibration, prior: Maps, *, iters: int = ITERS, lr: float = LR,
@@ -93,8 +88,7 @@ def fit_capture(photos: Dict[int, np.ndarray], calibration, prior: Maps, *, iter
     if any(p.shape[:2] != size for p in photos.values()):
         raise ValueError(f"every view must be {size[1]}x{size[0]} px like the prior")
     cfg = config.replace(falloff=True)
-    p0 = torch.from_numpy(np.concatenate([prior.diffuse, prior.specular, prior.roughness, prior.normal], -1)
-                          .astype(np.float32)).permute(2, 0, 1)[None]
+    p0 = torch.from_numpy(prior.pack()).permute(2, 0, 1)[None]
     start = [_logit(p0[:, 0:3]), _logit(p0[:, 3:4]), _logit(p0[:, 4:5]), p0[:, 5:7] / p0[:, 7:8].clamp(min=0.05)]
     params = [t.clone().requires_grad_() for t in start]
     views = []
@@ -125,9 +119,8 @@ def fit_capture(photos: Dict[int, np.ndarray], calibration, prior: Maps, *, iter
             callback(step, photo_loss)
     with torch.no_grad():
         out = _maps(params)[0].permute(1, 2, 0).numpy()
-    return Maps(diffuse=out[..., :3], specular=out[..., 3:4], roughness=out[..., 4:5], normal=out[..., 5:8],
-                meta={"capture": {"views": sorted(photos), "iterations": iters, "loss": photo_loss,
-                                  "prior_weight": prior_weight, "seconds": time.perf_counter() - t0}})
+    return Maps.unpack(out, meta={"capture": {"views": sorted(photos), "iterations": iters, "loss": photo_loss,
+                                              "prior_weight": prior_weight, "seconds": time.perf_counter() - t0}})
 
 
 def _maps(params) -> torch.Tensor:

@@ -573,7 +573,7 @@ def slope_correlation_loss(pred: torch.Tensor, target: torch.Tensor, eps: float 
     gradient reaches the network however flat the normals are: a stage one unsure of the relief shrinks its normals
     (the per-map L1 is then lowest), which shrinks the height layer, which starves the shared features of the
     normals' gradient (the v2 run at 5200: 0.012 on the encoder from the normal L1 against 0.74 from the
-    roughness's, 0.52 from this term; ``bc3896e:docs/benchmarks/prior-v2/height/``); this term asks for the right
+    roughness's, 0.52 from this term; CHANGELOG.md, study prior-v2); this term asks for the right
     pattern at any scale and the L1 then sets the amplitude.
 
     Args:

@@ -212,7 +212,7 @@ class Trainer(TrainingLoop):
         if use_perceptual and self.clipped_fraction < config.perceptual_min_clipped:
             use_perceptual = False
             self.notes.append(f"no clipped highlight ({100 * self.clipped_fraction:.3f} % of pixels >= {CLIP_LEVEL}):"
-                              " perceptual loss skipped (it did not help on such photos, bc3896e:docs/benchmarks/no-highlight)")
+                              " perceptual loss skipped (it did not help on such photos, CHANGELOG.md, study no-highlight)")
         if use_perceptual:
             self.perceptual = PerceptualLoss(config.perceptual, weights_path=config.vgg_weights,
                                              seed=config.seed).to(self.device)
@@ -597,7 +597,7 @@ def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool
     single values. The map change between evaluations is logged but not used: it settles at the GAN's jitter
     level (0.005-0.03 mean absolute change) instead of falling. Window 4 and tolerance 5 % (the defaults of
     :class:`~svbrdf.trainer.config.TrainConfig`) were chosen by ``bc3896e:trainer/bench/early_stop.py`` on
-    8 synthetic cases (bc3896e:docs/benchmarks/early-stop-tuning/).
+    8 synthetic cases (CHANGELOG.md, study early-stop-tuning).
     """
     if len(render_l1) <= window:
         return False

@@ -33,7 +33,7 @@ names it and nothing is written. The files are first written into a hidden stagi
 and then moved into place (:func:`svbrdf.runtime.io.files.staged_write`), so a failure never leaves half a set.
 The files of a plan are encoded concurrently (:data:`WRITE_WORKERS` threads): OpenImageIO releases the GIL
 while it compresses, and on two cores two threads write the five files of a 1024 px set 1.5x faster than one
-(docs/benchmarks/preview-speed).
+(CHANGELOG.md, study preview-speed).
 
 The relit panel (:func:`relit_panel`) is rendered at its display size, :data:`PANEL_SIZE` pixels on the long
 side of each view, from maps downsized for it: three renders at full resolution cost more than the whole
@@ -200,7 +200,7 @@ def generic_layout(maps: Maps, name: str, normal: str = "opengl", fmt: str = "pn
             continue
         bits = 8 if role == "basecolor" else data_bits
         files[role] = TextureFile(template.format(name=name, ext=fmt), info[role], arr, bits,
-                                  srgb=role == "basecolor", transform=functools.partial(_file_rows, map_name, normal))
+                                  srgb=role == "basecolor", transform=functools.partial(file_rows, map_name, normal))
     if maps.relief is not None:
         for role, entry in relief_file_info(maps.relief, data_bits).items():
             files[role] = TextureFile(RELIEF_FILES[role].format(name=name, ext=fmt), entry,
@@ -208,8 +208,8 @@ def generic_layout(maps: Maps, name: str, normal: str = "opengl", fmt: str = "pn
     return Layout(files, normal)
 
 
-def _file_rows(map_name: str, normal: str, rows: np.ndarray) -> np.ndarray:
-    """Rows of a map as its file stores them: clipped to the map's range (:meth:`Maps.clipped`), normals made unit
+def file_rows(map_name: str, normal: str, rows: np.ndarray) -> np.ndarray:
+    """Rows of a map as its file stores them (before the base colour's sRGB encoding): clipped to the map's range (:meth:`Maps.clipped`), normals made unit
     length and encoded ``(n + 1) / 2`` in ``normal``'s convention."""
     out = np.clip(rows, *MAP_RANGES[map_name])
     if map_name == "normal":

@@ -270,14 +270,12 @@ def write_maps_viewer(maps: Maps, out: Path, *, name: str, config: Optional[Rend
         ValueError: a map is missing.
     """
     from ..core.colour import linear_to_srgb
-    from ..core.maps import MAP_RANGES, encode_normal, normalize_normals
+    from .texture_set import GENERIC_FILES, file_rows
 
     maps.require(what="the viewer")
     config = config or maps.render_config or RenderConfig()
-    stored = {"basecolor": np.clip(linear_to_srgb(np.clip(maps.diffuse, *MAP_RANGES["diffuse"])), 0.0, 1.0),
-              "normal": encode_normal(normalize_normals(np.clip(maps.normal, *MAP_RANGES["normal"]))),
-              "roughness": np.clip(maps.roughness, *MAP_RANGES["roughness"]),
-              "specular": np.clip(maps.specular, *MAP_RANGES["specular"])}
+    stored = {role: file_rows(name, "opengl", getattr(maps, name)) for role, (name, _) in GENERIC_FILES.items()}
+    stored["basecolor"] = np.clip(linear_to_srgb(stored["basecolor"]), 0.0, 1.0)
     height_scale = 0.0
     if maps.relief is not None:
         height_scale = float(maps.relief.scale)

@@ -1,6 +1,6 @@
 """The preview's base colour with the photo's colour balance (pure numpy): the generator's instance normalisation
 hides a photo's overall colour from it, and the learned stage one predicts a nearly grey base colour for every
-material (docs/benchmarks/prior/README.md, "Colour"). Its casts are local too (a green or blue disc under the
+material (CHANGELOG.md, study prior, "Colour"). Its casts are local too (a green or blue disc under the
 flash, a greyed side): :func:`local_colour` takes out those the photo does not show, at a coarse scale
 (:mod:`svbrdf.runtime.quality.colour_check` measures what is left); the flash-trend removal runs it
 (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, after the highlight fill)."""

@@ -12,7 +12,7 @@ __all__ = ["PostProcess", "EVEN_LIGHTING_WIDTH"]
 
 #: The width of the low pass of :func:`even_lighting` that the preview (:attr:`PostProcess.even_lighting`)
 #: and the default refine (``even_lighting`` of the ``fast`` preset) use, a fraction of the photo width: the best of
-#: 1/16, 1/8 and 1/4 on held-out procedural materials (docs/benchmarks/refine-detail/flat-input/). It takes out the
+#: 1/16, 1/8 and 1/4 on held-out procedural materials (CHANGELOG.md, study refine-detail). It takes out the
 #: flash's broad fall-off and part of its highlight; narrower widths take out more of the highlight and with it
 #: the network's cue for the gloss (the preview's roughness turns matte, the refine's blotchy).
 EVEN_LIGHTING_WIDTH = 0.25
@@ -27,16 +27,16 @@ class PostProcess:
             (:func:`svbrdf.runtime.post.flash_trend.even_lighting`, a low pass of this standard deviation, a
             fraction of the width; ``None`` or 0: the photo as it is). The flash's fall-off and the broad part of
             its highlight are then not in the network's input, so it cannot paint them into the maps
-            (docs/benchmarks/refine-detail/flat-input/). For a stage one that records no ``network_input`` of
+            (CHANGELOG.md, study refine-detail). For a stage one that records no ``network_input`` of
             its own (v1); a model with a record is shown what it was trained on
             (:meth:`svbrdf.runtime.inference.session.PreviewSession.input_lighting`).
         colour_from_photo: give the base colour the photo's colour balance
             (:func:`svbrdf.runtime.post.photo_colour.photo_colour`): the generator normalises its features per
             image (instance normalisation), so it cannot see a photo's overall colour and predicts a nearly grey
-            base colour for every material (docs/benchmarks/prior/README.md, "Colour").
+            base colour for every material (CHANGELOG.md, study prior, "Colour").
         highlight_fill: fill the region of a clipped flash highlight and its shoulder with the material's own
             maps from elsewhere (:func:`svbrdf.runtime.post.highlight_fill.fill_highlight`): no disc, no blob
-            (docs/benchmarks/highlight-fill/, docs/benchmarks/refine-detail/lobe-and-rings/).
+            (CHANGELOG.md, studies highlight-fill and refine-detail).
         fill_patches: a large highlight is filled patch by patch (False: always one copy).
         flash_trend: remove the maps' smooth radial trend around the photo's flash highlight
             (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`): what the network left of the highlight
@@ -46,7 +46,7 @@ class PostProcess:
             without ``colour_from_photo``).
         uniform_specular: one specular level per photo, its median
             (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`): its spatial variation measured as noise
-            (docs/benchmarks/accuracy/README.md, "Now").
+            (CHANGELOG.md, study accuracy, "Now").
     """
 
     even_lighting: Optional[float] = EVEN_LIGHTING_WIDTH
