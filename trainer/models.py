@@ -78,7 +78,7 @@ class GeneratorConfig:
             so a bound buys nothing, and it traps training: both stage ones drove their height into the tanh's tail,
             where the normals' gradient is 3 % (v2 at 4745 iterations: pre-tanh mean -2.5) and 15 % (v1, whose
             height is also a constant: spread 0.003) of its unsaturated value, and their normals stayed flat
-            (``bc3896e:docs/benchmarks/prior-v2/height/``). :func:`linearise_height` converts a trained tanh model.
+            (CHANGELOG.md, study prior-v2). :func:`linearise_height` converts a trained tanh model.
     """
 
     width: float = 1.0
@@ -316,7 +316,7 @@ class PhotoContext:
 
     The U-Net's flash cue (the spot's position and every pixel's offset from it) and its global track (means over
     the input, fed back as per-channel biases at every decoder level) change with the crop it sees: a tile alone
-    gets other maps than the same pixels of the whole photo (bc3896e:docs/benchmarks/refine-detail/v2-refine). With this
+    gets other maps than the same pixels of the whole photo (CHANGELOG.md, study refine-detail). With this
     context a tile gets the whole photo's spot, its own pixels' offsets in the whole photo's frame and the whole
     photo's global vectors, so its maps differ from the whole photo's only within a receptive field of its border.
 

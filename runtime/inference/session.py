@@ -7,11 +7,11 @@
 
 The session keeps onnxruntime's CPU memory arena (``cpu_mem_arena=True``). Without it every intermediate
 tensor is fresh memory from the system and the one pass of a preview pays its page faults: on the 2-core
-machine of docs/benchmarks/preview-speed, a 1024 px pass of the v1 model takes 1.0 s with the arena and
+machine of CHANGELOG.md, study preview-speed, a 1024 px pass of the v1 model takes 1.0 s with the arena and
 1.4 s without (a first pass in a fresh process). Every pass ends by handing the arena's memory back
 (onnxruntime's arena shrinkage, :meth:`PreviewSession.run`): without that, the passes of a tiled photo (tiles
 of several shapes) piled up arena chunks, and a 2048 x 1536 photo peaked at 1511 MiB instead of 837 MiB
-(docs/benchmarks/large-photos).
+(CHANGELOG.md, study large-photos).
 """
 
 from __future__ import annotations
@@ -182,7 +182,7 @@ class PreviewSession:
         ``network_input`` record says (:func:`~svbrdf.runtime.inference.manifest.recorded_even_lighting`, chosen by
         measurement when it was shipped), and without one (v1) evenly lit at ``default``
         (:attr:`svbrdf.runtime.post.PostProcess.even_lighting`, which measured better for v1:
-        docs/benchmarks/refine-detail/flat-input/; ``None`` or 0: the photo as it is); its ``train_config`` is the
+        CHANGELOG.md, study refine-detail; ``None`` or 0: the photo as it is); its ``train_config`` is the
         fine-tune preset meant for it, not its own input.
         """
         training = self.metadata.get("training") or {}

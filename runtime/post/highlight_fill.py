@@ -3,7 +3,7 @@ from elsewhere in the set (pure numpy).
 
 Where a flash photo clipped, it holds no information about the material: every map there is the estimator's
 guess, and the guess shows (a dark or texture-less disc in the base colour, a roughness blob or a ring at the
-disc's edge: docs/benchmarks/highlight-fill/). A flat material is stationary, so what belongs there looks like the
+disc's edge: CHANGELOG.md, study highlight-fill). A flat material is stationary, so what belongs there looks like the
 rest of it. :func:`fill_highlight` does what an artist would do with a clone brush:
 
 1. **The region** (:func:`highlight_mask`): the photo's clipped pixels (any channel at or above
@@ -41,7 +41,7 @@ the photo shows the specular level best, and the runtime's single specular level
 (the preview's specular RMSE on the shared synthetic cases rose 0.0592 -> 0.0623 when it was filled). Nothing is filled (``meta["highlight_fill"]["filled"]`` False, with the reason) when the photo
 has neither a clipped highlight nor a shoulder, when the region covers more than :data:`MAX_SHARE` of the maps, or when no source fits.
 Thresholds were set on held-out procedural materials, not on the benchmark's data
-(docs/benchmarks/highlight-fill/README.md).
+(CHANGELOG.md, study highlight-fill).
 """
 
 from __future__ import annotations
@@ -69,7 +69,7 @@ MIN_GROW_PX = 2
 #: fall-off, scaled to the photo's level far from the highlight, would make it (None: no shoulder). The specular
 #: lobe then gives at least twice what the base colour does. 2, 3 and 4 gave the same errors on held-out
 #: procedural materials (re-render 0.1349 / 0.1348 / 0.1349 from 0.1361); 3 rather than 2, whose larger shoulders
-#: pass :data:`MAX_SHARE` more often (docs/benchmarks/refine-detail/lobe-and-rings/README.md).
+#: pass :data:`MAX_SHARE` more often (CHANGELOG.md, study refine-detail).
 SHOULDER: Optional[float] = 3.0
 #: Half-width of the box blur of the shoulder's photo, fraction of the width (about a Gaussian of 1 %: texture
 #: averaged out, the highlight's shape kept).

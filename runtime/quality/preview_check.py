@@ -23,7 +23,7 @@ from ..core.render import RenderConfig, rerender_rmse
 
 # The fine-tune is skipped when the preview's sRGB RMSE under the input flash is already at or below this: the
 # mean that 200 fast fine-tune iterations reach on the 12 Henzler photos
-# (docs/benchmarks/finetune-henzler/results.md: 0.117).
+# (CHANGELOG.md, study finetune-henzler: 0.117).
 SKIP_REFINE_RMSE = 0.117
 # ... and only when the preview's label-free burn-in (svbrdf.runtime.quality.burn_in, the worst map's disc or ring score) is
 # at or below this: about the 95th percentile of the ground-truth maps' own burn-in over the 32 held-out procedural

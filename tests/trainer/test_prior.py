@@ -424,7 +424,7 @@ class _HostReads(TorchDispatchMode):
 
 
 def test_the_v2_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
-    # The GPU chunks counted 73 host synchronisations per batch (bc3896e:docs/benchmarks/prior-v2/chunks/README.md): each
+    # The GPU chunks counted 73 host synchronisations per batch (CHANGELOG.md, study prior-v2): each
     # one stops the host until the GPU has run everything queued, so the batch cannot be built while the network
     # trains. Checked on the CPU by taking training steps on the meta device.
     generator = torch.Generator

@@ -76,13 +76,13 @@ class PriorConfig:
         flat_share: fraction of the drawn materials whose normals are made flat (0, 0, 1) before they are
             photographed: polished stone, lacquer, glossy paint and paper have no relief, and every procedural family
             has some (its mean normal angle drawn in :data:`svbrdf.trainer.procedural.PARAMS` ``normal_angle_deg``,
-            2-25 degrees), so a network trained on them alone gives every photo a relief (bc3896e:docs/benchmarks/prior-v2/
-            flat/). 0 = none (every run before 2026-11-27): no draw is made, the stream is
+            2-25 degrees), so a network trained on them alone gives every photo a relief (CHANGELOG.md, study
+            prior-v2). 0 = none (every run before 2026-11-27): no draw is made, the stream is
             unchanged. The validation batch never has them (its figures stay comparable along a run).
         black_share: fraction of the drawn dielectric materials whose base colour is darkened to a near-black mean
             (:data:`BLACK_LEVEL`, log-uniform): black plastic, lacquer and polished black stone. Without them a
             near-black base colour means a metal in the procedural stream (22 of 23 such materials in 512 draws),
-            and v2 reads every black material as one (bc3896e:docs/benchmarks/prior-v2/chunks/README.md, chunk 11). 0 =
+            and v2 reads every black material as one (CHANGELOG.md, study prior-v2, chunk 11). 0 =
             none (every run before 2026-11-27, fourth session): no draw is made, the stream is unchanged. The
             validation batch never has them.
         coarse_share: fraction of the drawn materials given a coarse relief on top of their own
@@ -90,7 +90,7 @@ class PriorConfig:
             :func:`svbrdf.trainer.procedural.coarse_height`): flagstones, brick walls, warped tiles, dented sheets. Every procedural family's relief
             is fine (94 % of its slope variance within a 4 px band at 256 px, against 50 % in the shared sets'
             materials), and the v2 stage one reads coarse relief at a slope correlation of 0.08 on those
-            (bc3896e:docs/benchmarks/prior-v2/relief-gap/). Applied before ``flat_share``, so a flat material stays flat.
+            (CHANGELOG.md, study prior-v2). Applied before ``flat_share``, so a flat material stays flat.
             0 = none (every run before 2026-11-27, eighth session): no draw is made, the stream is unchanged. The
             validation batch never has them.
     """

@@ -16,7 +16,7 @@ from svbrdf.trainer.prior.config import PriorConfig
 #: The detail-amount term on the roughness (weight 2, 32 px windows at 256 px): without it the recipe's roughness
 #: collapsed to its mean (detail 0.05 on held-out procedural materials); continued on one CPU core at 128 px with
 #: 16 px windows it placed the roughness pattern (detail 0.46); with 64 px windows too it made blobs and rings at
-#: the highlight (bc3896e:docs/benchmarks/prior-v2/cpu-continued/).
+#: the highlight (CHANGELOG.md, study prior-v2).
 PRIOR_PRESETS: Dict[str, Callable[[], PriorConfig]] = {
     "v1": PriorConfig,
     "v2": lambda: PriorConfig(

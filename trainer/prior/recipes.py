@@ -6,7 +6,7 @@ on between chunks (each by a ``svbrdf-train prior --resume`` flag); no preset re
 applies each change when the run reaches its iteration, as those resumes did (``--resume`` continues it). A rebuild
 is seeded but not bit-identical: the shipped run changed devices (H100, H200, CPU), threads and code along the way.
 
-Where each change of :data:`RECIPES` comes from (``bc3896e:docs/benchmarks/prior-v2/chunks/``: the chunk READMEs' commands
+Where each change of :data:`RECIPES` comes from (CHANGELOG.md, study prior-v2: the chunk READMEs' commands
 and the consoles' ``resuming ... at iteration N`` / ``note: ...`` lines; the checkpoints' ``prior_config`` and
 ``history``):
 
