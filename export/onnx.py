@@ -9,11 +9,11 @@ The graph (torch.onnx dynamo exporter, opset :data:`OPSET`, one file: ``external
   :mod:`svbrdf.runtime.core.maps`: diffuse 0:3 linear [0, 1], specular 3:4 linear [0, 1], roughness 4:5 [0, 1],
   normal 5:8 unit OpenGL).
 
-Part graphs (maps on demand): beside ``NAME.onnx`` the same generator is exported once per decoder,
-``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.inference.manifest.PARTS` (encoder + that decoder only; the
-other decoder's weights are not in the file). Same input and output contract, the channels of the maps a part
-does not compute are NaN (specified in :mod:`svbrdf.runtime.inference.manifest`). Each part is checked like the full graph
-(checker; onnxruntime against torch on its own channels, NaN on the others).
+Part graphs (maps on demand, docs/decisions/018-maps-on-demand.md): beside ``NAME.onnx`` the same generator is
+exported once per decoder, ``NAME.<part>.onnx`` for each part of :data:`svbrdf.runtime.inference.manifest.PARTS`
+(encoder + that decoder only; the other decoder's weights are not in the file). Same input and output contract,
+the channels of the maps a part does not compute are NaN (specified in :mod:`svbrdf.runtime.inference.manifest`).
+Each part is checked like the full graph (checker; onnxruntime against torch on its own channels, NaN on the others).
 
 Provenance goes twice: into the ONNX ``metadata_props`` (every manifest key except ``file``/``sha256``/
 ``parts``, values JSON-encoded; a part adds ``"part": {"name", "maps"}``) and into a manifest ``NAME.json``

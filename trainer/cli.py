@@ -36,7 +36,7 @@ SPEED_LINE_SECONDS = 30.0
 LOG = "train_log.jsonl"
 
 PRESET_HEADER = """training presets (cost: seconds per iteration on one thread; "AMX": a shared Xeon core with bf16,
-"AMD": a shared EPYC core without bf16, where everything runs fp32; bc3896e:trainer/bench/speed.py):"""
+"AMD": a shared EPYC core without bf16, where everything runs fp32; `git show 0b5a711:./trainer/bench/speed.py`):"""
 
 
 def preset_help() -> str:

@@ -49,14 +49,14 @@ class TrainConfig:
             trained by one backward pass of ``L_GAN + L_d + L_F + L_P`` (the gradient each decoder receives is
             that of its own published loss, since L_d does not depend on the normal/roughness decoder), then
             the discriminator step on the same tile and the rendering already made. Same losses, two generator
-            passes per iteration instead of three (``bc3896e:trainer/bench/speed.py --variants
+            passes per iteration instead of three (``git show 0b5a711:./trainer/bench/speed.py``, ``--variants
             alternating,joint``).
         lr, betas: Adam settings shared by the three optimisers.
         lambda_gan: weight of the generator GAN term in both decoder losses.
         gan_steps: the GAN (the generator's term and the discriminator's update) runs for the first ``gan_steps``
             iterations of a run only, then the run goes on without it (0 = every iteration, as in the paper). The
             GAN term is what makes a fine-tune's maps drift after its first 150 iterations
-            (CHANGELOG.md, study refine-detail); without it the later iterations are also faster.
+            (docs/decisions/020-fast-schedule.md); without it the later iterations are also faster.
         lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".
         lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
             ``vgg_weights``: optional VGG-19 state-dict file.
@@ -102,7 +102,7 @@ class TrainConfig:
         perceptual_min_clipped: photos with a smaller fraction of clipped pixels
             (:func:`svbrdf.trainer.losses.clipped_fraction`) train without L_P (0 = never skipped). ``fast``:
             5e-5, i.e. photos without a saturated highlight, where L_P brought no gain for 21 % of the time
-            (CHANGELOG.md, study no-highlight); L_F is kept there: it lowered error and burn-in.
+            (docs/decisions/021-fast-highlight-free.md); L_F is kept there: it lowered error and burn-in.
         iters_pretrain, iters_finetune, iters_fit: iterations of each stage.
         seed: seeds weights and the tile sequence.
         bf16: bfloat16 autocast around the networks (falls back to fp32 where unsupported).
@@ -125,7 +125,7 @@ class TrainConfig:
             (:class:`svbrdf.trainer.models.PhotoContext`), so what it learns on tiles is what it predicts for the
             whole photo; refreshed (without gradient) every ``context_every`` iterations (5: 1.12x the time of an
             iteration without the context, 1: 1.43x, the same maps on held-out procedural materials,
-            CHANGELOG.md, study refine-detail). No effect on ``"wen"``.
+            docs/decisions/066-unet-photo-context.md). No effect on ``"wen"``.
     """
 
     preset: str = "paper"
@@ -355,36 +355,36 @@ _FAST_V1 = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, schedule="joi
                 perceptual_min_clipped=5e-5, bf16=True,
                 iters_pretrain=6000, iters_finetune=600, iters_fit=6000, eval_every=50, checkpoint_every=250,
                 maps_every=0)
-#: The highlight-free flash model and losses of ``fast``, chosen by the ablation in CHANGELOG.md, study accuracy
+#: The highlight-free flash model and losses of ``fast``, chosen by the ablation in docs/decisions/021-fast-highlight-free.md
 #: (4 tuning cases, realistic inputs) and checked on a real photo: inverse-square fall-off and a learned
 #: vignetting, renderings clipped like the photo, a per-pixel re-render term, the flash-correlation stationarity
 #: term, a scale-free L_d, learned output offsets, the dielectric specular prior, and no Fourier term. The flash
 #: term's weight is 1: at 100 (best on the synthetic cases) real photos, whose field of view differs from the
-#: model's, collapsed to near-black or off-colour maps (CHANGELOG.md, study accuracy). The final maps lose their
+#: model's, collapsed to near-black or off-colour maps (docs/decisions/021-fast-highlight-free.md). The final maps lose their
 #: radial trend around the highlight (``post.flash_trend``), the hard form of that term, and their specular is one level
-#: (``post.uniform_specular``): its spatial variation measured as noise (CHANGELOG.md, study accuracy, "Now").
+#: (``post.uniform_specular``): its spatial variation measured as noise (docs/decisions/005-uniform-specular.md).
 _HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=True, learn_vignetting=True,
                        learn_offsets=True, lambda_render=1.0, lambda_flash=1.0, lambda_specular_prior=1.0,
                        lambda_fourier=0.0, diffuse_target="normalized",
                        post=NO_POST.replace(flash_trend=True, uniform_specular=True))
 #: 150 fine-tune iterations: from the procedural stage one (models/svbrdf_prior_v1) the re-render error of the 38
 #: realistic synthetic cases is lowest at 150 iterations and rises after (0.086, 0.088, 0.095 at 150, 300, 600),
-#: as do the roughness and normal errors (CHANGELOG.md, study prior). The normal map is pulled towards the
+#: as do the roughness and normal errors (docs/decisions/023-stage-one-v2.md). The normal map is pulled towards the
 #: stage one's (``lambda_anchor`` 3 on ``normal`` only): one photo does not tell the fine-tune the normals (its own
 #: correlate 0.015 with the truth), so it keeps the learned prior's unless the photo's losses outweigh the pull
-#: (4 tuning cases at weights 0 / 1 / 3 / 10, CHANGELOG.md, study accuracy, "Normals from the stage one").
+#: (4 tuning cases at weights 0 / 1 / 3 / 10, docs/decisions/021-fast-highlight-free.md).
 #: The GAN runs for those first 150 iterations only (``gan_steps``): it is what drifts after them. Without it the
 #: shared subset's re-render error stays flat from 150 to 600 iterations (0.0850 / 0.0832 / 0.0839 at 150 / 300 /
 #: 600; with it 0.0850 / 0.0875 / 0.0924), the capture relighting and the burn-in keep improving; on held-out
 #: procedural materials 600 iterations are still worse than 150 (0.180 vs 0.164; with the GAN 0.218):
-#: CHANGELOG.md, study refine-detail. A default run (150) is unchanged.
+#: docs/decisions/020-fast-schedule.md. A default run (150) is unchanged.
 #: The region of a clipped highlight is filled from the material elsewhere in the final maps (``post.highlight_fill``):
-#: the synthetic cases' burn-in 0.484 -> 0.359 at 150 iterations (CHANGELOG.md, study highlight-fill); with the
-#: highlight's shoulder in the region 0.332 (CHANGELOG.md, study refine-detail).
+#: the synthetic cases' burn-in 0.484 -> 0.359 at 150 iterations (docs/decisions/006-highlight-fill.md); with the
+#: highlight's shoulder in the region 0.332 (docs/decisions/006-highlight-fill.md).
 #: The generator sees the photo evenly lit (``post.even_lighting``, the preview's width), the losses the photo itself:
 #: on 16 held-out procedural materials re-render 0.1361 -> 0.1269, burn-in 0.711 -> 0.581. A narrower 0.125 ties on
 #: the re-render error and halves the burn-in score, but its roughness turns to irregular blotches the score does
-#: not see (detail 1.57 of the truth's on the shared sets): CHANGELOG.md, study refine-detail.
+#: not see (detail 1.57 of the truth's on the shared sets): docs/decisions/024-refine-recipe-v2.md.
 _FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "iters_finetune": 150, "lambda_anchor": 3.0, "anchor_maps": ("normal",),
          "gan_steps": 150,
          "post": _HIGHLIGHT_FREE["post"].replace(highlight_fill=True, even_lighting=EVEN_LIGHTING_WIDTH)}
@@ -425,14 +425,14 @@ TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
 #: weight 1 it is better than the preview on every measure (re-render 0.0756, diffuse 0.0846 -> 0.0735, specular
 #: 0.093, roughness 0.169, burn-in 0.153 -> 0.125). On every shared set it keeps the preview's capture relighting
 #: (0.139 -> 0.140) and lowers the re-render (0.0790 -> 0.0737) and the normal angle (9.51 -> 9.44);
-#: CHANGELOG.md, study refine-detail, 2026-11-27 third session.
+#: docs/decisions/024-refine-recipe-v2.md.
 REFINE_RECIPES: Dict[str, Dict[str, Any]] = {
     "v2": {"lambda_specular_prior": 0.0, "lambda_anchor": 1.0, "anchor_maps": list(MAP_NAMES)},
 }
 
 #: What each preset is, once (``svbrdf-train --help`` prints those of :data:`CLI_PRESETS`). Costs: seconds per
 #: iteration on one thread ("AMX": a shared Xeon core with bf16, "AMD": a shared EPYC core without bf16, where
-#: everything runs fp32; ``bc3896e:trainer/bench/speed.py``).
+#: everything runs fp32; ``git show 0b5a711:./trainer/bench/speed.py``).
 PRESET_DESCRIPTIONS: Dict[str, str] = {
     "paper": "the published setup (Wen et al. 2022 on top of Zhao et al. 2020): paper-size generator and "
              "PatchGAN, 256 px tiles, per iteration 5 normal/roughness-decoder + 1 diffuse/specular-decoder + 1 "
@@ -445,10 +445,10 @@ PRESET_DESCRIPTIONS: Dict[str, str] = {
             "one backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, "
             "multi-scale filter-bank perceptual loss (\"pyramid\", skipped on photos without a clipped highlight), "
             "bf16 autocast where the CPU has it; 6k / 150 / 6k iterations (150: from the procedural stage one, "
-            "CHANGELOG.md, study prior); and the highlight-free flash model: inverse-square fall-off, learned "
+            "docs/decisions/023-stage-one-v2.md); and the highlight-free flash model: inverse-square fall-off, learned "
             "vignetting, renderings clipped like the photo, a per-pixel re-render term, the flash-correlation "
             "stationarity term, a scale-free L_d, learned output offsets and a dielectric specular prior instead "
-            "of the Fourier term (CHANGELOG.md, study accuracy). AMD: 0.27 s/it (0.43 s/it with the alternating "
+            "of the Fourier term (docs/decisions/021-fast-highlight-free.md). AMD: 0.27 s/it (0.43 s/it with the alternating "
             "schedule). The shipped model was pretrained with the alternating schedule and the paper's losses on "
             "AMX: 6000 it in 1111 s.",
     "fast-v1": "fast with the paper's losses (GAN, L_d, Fourier, perceptual) and flash model, as before the "

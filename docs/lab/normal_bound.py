@@ -15,7 +15,7 @@ spectrum at correlation ``rho``, the best scale per case (printed last; on 2026-
     OMP_NUM_THREADS=1 python docs/lab/normal_bound.py MODEL.onnx OUT.json
 
 ``DATA=DIR`` (default ``../shared/data``) and ``SIZE=N`` (default 256 px) in the environment choose the shared sets
-and the side of every photo (``tests/test_lab.py`` runs it on a tiny input).
+and the side of every photo (``tests/lab/test_lab_scripts.py`` runs it on a tiny input).
 """
 import json
 import os

@@ -21,7 +21,7 @@ With COARSE (a share in [0, 1], default 0) the procedural materials of C and D g
 the materials are otherwise the same; ``COARSE_ONLY=1`` in the environment skips A and B, and
 ``COARSE_STONES_P=p`` sets ``PARAMS["coarse_stones_p"]`` (the share of uneven stones among the coarse reliefs;
 0: smooth warps only). ``DATA=DIR`` (default ``../shared/data``) and ``SIZE=N`` (default 256 px) in the environment
-choose the shared sets and the side of every photo (``tests/test_lab.py`` runs it on a tiny input).
+choose the shared sets and the side of every photo (``tests/lab/test_lab_scripts.py`` runs it on a tiny input).
 """
 import json
 import os

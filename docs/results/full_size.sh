@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 54's figures, as cited by README.md ("Instant at full size") and CHANGELOG.md (2026-11-28). From the
+# Issue 54's figures, as cited by README.md ("Instant at full size") and docs/decisions/010-network-size-512.md. From the
 # repository root, with the package installed (".[train]" for svbrdf-bench), `../shared/data` beside the checkout:
 #
 #   bash docs/results/full_size.sh        # ~35 minutes on 2026-11-28: one 2-core AMD EPYC

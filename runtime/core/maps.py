@@ -295,8 +295,8 @@ class Maps:
         normal becomes (0, 0, 1), the documented repair), strip by strip as their slopes are taken (``zero="unit"``
         of :func:`~svbrdf.runtime.core.relief.normal_slopes`), so the height's slopes are those of the written normal
         map. ``tileable``: the maps repeat (the height is integrated across the wrap). ``ao_strength``: the AO is that
-        of the height times it (default :data:`~svbrdf.runtime.core.relief.AO_STRENGTH`, measured; 1 = the normal
-        map's own depth).
+        of the height times it (default :data:`~svbrdf.runtime.core.relief.AO_STRENGTH`,
+        docs/decisions/002-ao-strength.md; 1 = the normal map's own depth).
 
         Raises:
             SvbrdfError: no normal map, NaN/Inf normals, or unknown names.

@@ -1,6 +1,6 @@
 """Relief maps from a normal map: a height field (least-squares integration) and ambient occlusion (pure numpy).
 
-Two maps artists expect next to the SVBRDF (issue 55), computed from the normal map alone, so they work for any
+Two maps artists expect next to the SVBRDF, computed from the normal map alone, so they work for any
 normal map (the network's, a refined one, an imported one):
 
 * :func:`height_from_normals`: the height field whose slopes are the normal map's, by a least-squares Poisson
@@ -10,8 +10,8 @@ normal map (the network's, a refined one, an imported one):
   :func:`normalise` turns it into the written map (white = high, mid-grey = the mean level) and its scale.
 * :func:`ambient_occlusion`: horizon-based, cosine-weighted ambient occlusion of that height field
   (1 = open), on a pyramid so that the cost stays bounded at 4K.
-* :func:`slope_correlation`: how well a height's slopes agree with a normal map's (the issue's acceptance
-  measure), for tests, benchmarks and sidecars.
+* :func:`slope_correlation`: how well a height's slopes agree with a normal map's, for tests, benchmarks and
+  sidecars.
 
 Conventions (docs/conventions.md, section 2): normals are unit vectors in the OpenGL frame: +x to the right of
 the image, **+y up the image** (towards row 0), +z out of the surface. A surface ``z = h(x, y)`` has the normal
@@ -25,14 +25,13 @@ The API's height is in **units of the map's width**: ``height = h_px / W`` (a he
 map is wide), so the same material at another resolution gets the same heights. ``scale`` (see
 :func:`normalise`) is in the same units. Height is linear data (no colour space); float32 everywhere.
 
-Cost (process CPU time of one thread, numpy 2.4.6, a shared 2-core AMD EPYC under load; min of 5 runs,
-height + AO, not tileable / tileable): 1024 px 0.09 / 0.09 s, 2048 px 0.34 / 0.28 s, 4096 px 0.94 / 0.75 s
-(medians up to 1.2 s). Memory stays within a few (H, W) float32 arrays.
+Memory stays within a few (H, W) float32 arrays: large maps are processed in strips, blocks and slices, on
+:data:`THREADS` threads, with the same values. Every FFT is a scaled one (numpy 2.4's unscaled directions are
+slower), the scale folded into the twiddles or the eigenvalues; signs are flipped by multiplication
+(``np.negative(x, out=x)`` on a 16-byte-strided float32 view is wrong in numpy 2.4.6).
 
-Two numpy 2.4 quirks shape the code: an unscaled FFT direction (``rfft`` with the default ``norm``, ``irfft``
-with ``norm="forward"``) runs several times slower than a scaled one, so every FFT here is a scaled one and the
-scale is folded into the twiddles or the eigenvalues; and ``np.negative(x, out=x)`` on a float32 view with a
-16-byte stride returns wrong values, so signs are flipped by multiplication.
+Decisions: docs/decisions/001-relief-low-cut.md (the broad relief), docs/decisions/002-ao-strength.md (the AO's
+depth), docs/decisions/003-relief-memory.md (strips and threads).
 
 Everything here imports numpy and the project's error type only.
 """
@@ -70,19 +69,15 @@ AO_MAX_SIZE = 2048
 #: Cut-off of the height's high-pass, in cycles across the map (:func:`height_from_normals`): a material's relief
 #: repeats within the photo; what is broader (the dome the flash's faint radial tilt integrates to, drift) is not
 #: its relief. Weight ``rho^6 / (rho^6 + 1.5^6)`` of a component of ``rho`` cycles: 0.08 at 1, 0.85 at 2, 0.985 at 3.
-#: Chosen on the tune part of the shared data (docs/data-split.md; issue 67), the preview's normals at 512 px: with 1
-#: the worst photo's height kept a correlation of 0.43 with the distance to the flash (0.09 with 1.5); with 2 the
-#: largest true stones (brick_uneven_stones, 1-2 cycles) kept a slope correlation of 0.94 (0.98 with 1.5).
+#: Decision: docs/decisions/001-relief-low-cut.md.
 LOW_CUT = 1.5
 #: Order of that high-pass: the weight is ``rho^(2 LOW_ORDER) / (rho^(2 LOW_ORDER) + LOW_CUT^(2 LOW_ORDER))``.
 LOW_ORDER = 3
 #: Broad relief the normals show is the material's: it is taken out in full while its slopes carry at most 2 % of
-#: the slope energy of the height plus a floor (it is then the integral of a faint bias: 0.01 % to 1 % on the tune
-#: part's photos), kept from 5 % (a lone pit, a stone as large as the map: 4 % for the largest true stones), in
-#: proportion between.
+#: the slope energy of the height plus a floor, kept from 5 %, in proportion between (001-relief-low-cut.md).
 BROAD_SHARE = (0.02, 0.05)
 #: The floor: the energy of an RMS slope of 0.02 (1.1 deg) over the map is added to the height's, so that a map holding
-#: little but a faint broad tilt (a smooth glossy surface and the flash's dome: RMS slope 0.001) is still flat.
+#: little but a faint broad tilt is still flat.
 BROAD_FLOOR = 0.02
 #: Rows processed at a time by the per-pixel loops (keeps the temporaries in cache; any value gives the same result).
 _STRIP = 32
@@ -186,7 +181,7 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
             ``"flat"`` (the documented repair: slope 0, as (0, 0, 1)); ``"unit"``: the normals as the writers store
             them, each strip made unit first by :func:`~svbrdf.runtime.core.maps.normalize_normals` (z clamped
             at 0, a zero vector made (0, 0, 1), any length accepted): the slopes of the written normal map, to the
-            bit, without a normalised copy of the whole map (0.36 s at 4096 px).
+            bit, without a normalised copy of the whole map.
 
     Returns:
         ``(p, q)``: two (H, W) float32 arrays, dimensionless (rise over run, run = one pixel step).
@@ -394,7 +389,7 @@ def _slope_divergence(n: np.ndarray, inv_max: np.float32, zero: str, tileable: b
     forming them: at each pixel the pair arriving minus the pair leaving, ``(p[j-1] - p[j+1]) / 2 + (q[i+1] -
     q[i-1]) / 2``; with Neumann borders (not tileable) a missing pair counts 0, i.e. ``p[-1] = -p[0]``, ``p[W] =
     -p[W-1]`` (same for q). (H, W) float32. The slopes are made strip by strip (:func:`_slope_rows`, each strip with
-    the q of the row above and below it): no (H, W) slope map is held (512 MB at 8192 px). Raises
+    the q of the row above and below it): no (H, W) slope map is held. Raises
     :func:`normal_slopes`' error for degenerate normals."""
     h, w = n.shape[:2]
     rhs = np.empty((h, w), np.float32)
@@ -587,8 +582,7 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
     With ``low_cut=0`` the slopes' curl-free part is matched exactly; their curl (which no height has) is what
     remains. Cost: the input plus two (H, W) float32 arrays at the peak (the right-hand side, made from the normals
     strip by strip, and one transform pass's output; the quadratic's fit and the weights go in row blocks); four
-    real-FFT passes over the map
-    (about 0.4-0.6 s of one core at 4096 x 4096, measured with numpy 2.4; see :mod:`svbrdf.runtime.core.relief`).
+    real-FFT passes over the map. Decision: docs/decisions/001-relief-low-cut.md.
 
     Args:
         normal: (H, W, 3) float unit normals, OpenGL frame (+x right, +y up the image, +z out), components in
@@ -684,7 +678,7 @@ def normalise(height) -> Tuple[np.ndarray, float]:
 
 def _normalise(arr: np.ndarray, out: Optional[np.ndarray] = None) -> Tuple[np.ndarray, float]:
     """:func:`normalise` of a checked float32 height, into ``out`` when given (``out=arr``: in place, no second
-    (H, W) array: 256 MB at 8192 px)."""
+    (H, W) array)."""
     centred = np.subtract(arr, np.float32(arr.mean(dtype=np.float64)), out=out)
     scale = _scale_of(centred)
     if scale <= 0.0:
@@ -780,7 +774,7 @@ def _upsample(a: np.ndarray, shape: Tuple[int, int], tileable: bool) -> np.ndarr
     ``out[2i+1] = 3/4 a[i] + 1/4 a[i+1]``, the border continued by wrap or by edge), cropped to ``shape``.
 
     Along the columns, then the rows, in blocks of :data:`_UPSAMPLE_BLOCK` input rows (each with its neighbour rows):
-    no column-upsampled copy of the whole map is held (128 MB for the 8192 px AO), the same values."""
+    no column-upsampled copy of the whole map is held, the same values."""
     n0 = a.shape[0]
     out = np.empty((min(shape[0], 2 * n0), min(shape[1], 2 * a.shape[1])), np.float32)
     for i0 in range(0, n0, _UPSAMPLE_BLOCK):
@@ -903,12 +897,11 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
     at most this dark). The finest level computed is the first whose long side is at most ``max_size``
     (:data:`AO_MAX_SIZE` = 2048): a 4096 px map gets its AO from the 2048 px level, bilinearly upsampled, so
     relief narrower than ~2 px at 4K occludes only through its average. Cost: about 1.3 x the finest level's,
-    ~110 float32 array operations per pixel with 8 directions, in row strips that stay in cache (about 0.2-0.4 s
-    of one core for 2048 x 2048 and for 4096 x 4096).
+    ~110 float32 array operations per pixel with 8 directions, in row strips that stay in cache.
 
-    Depth. The AO is that of the relief the normal map implies: the network's normal maps are shallow (their
-    heights span 0.1 % to 1 % of the map's width), so their AO stays close to 1. To exaggerate it (an artistic
-    choice), pass a larger height or scale, or ``strength``: ``ambient_occlusion(height, strength=k)`` is
+    Depth. The AO is that of the relief the normal map implies: the network's normal maps are shallow, so their AO
+    stays close to 1 (docs/decisions/002-ao-strength.md). To exaggerate it, pass a larger height or scale, or
+    ``strength``: ``ambient_occlusion(height, strength=k)`` is
     ``ambient_occlusion(k * height)`` (the same float32 products) without a scaled copy held through the call.
 
     Args:
@@ -956,7 +949,7 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
     while max(levels[first].shape) > max_size:
         first += 1
     shapes = [lv.shape for lv in levels]
-    levels[:first] = [None] * first  # the levels finer than max_size only gave the coarser ones (268 MB at 8192 px)
+    levels[:first] = [None] * first  # the levels finer than max_size only gave the coarser ones
     del hpx
     ao = None
     for lev in range(len(levels) - 1, first - 1, -1):
@@ -983,15 +976,9 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
 
 #: Names of the relief maps, derived from the normal map on demand, in the order they are written.
 RELIEF_NAMES: Tuple[str, ...] = ("height", "ao")
-#: Default depth gain of the written AO: the AO is that of ``AO_STRENGTH x`` the height the normal map implies. Measured
-#: reason (issue 55): on the 20 synthetic Des18 test materials with ground-truth normals
-#: (``weiyi-auxrender/test_data/Des18/gt-material``), the packaged model's normal maps have a median RMS slope 0.12 x
-#: the ground truth's (height span 0.09 x; 0.4-2.3 px predicted against 2-56 px true at 288 px), so the AO of the
-#: predicted relief (mean 0.9997) misses the occlusion of the true one (mean 0.983). 8 ~ 1 / 0.12 restores the
-#: median depth; it over-deepens nearly flat materials and under-deepens deep ones (the prediction compresses the
-#: range). The height map and its ``height_scale`` stay those of the normal map. The 20 sets were measured before the
-#: shared data's split (``docs/data-split.md``); per part the median ratio is 0.057 on the 4 tune sets, 0.49 on the 4
-#: check sets and 0.116 on the 12 sets in neither: 8 is the all-sets figure, not a tune-only choice.
+#: Default depth gain of the written AO: the AO is that of ``AO_STRENGTH x`` the height the normal map implies (about
+#: 1 / the packaged model's measured flatness); the height map and its ``height_scale`` stay those of the normal map.
+#: Decision: docs/decisions/002-ao-strength.md.
 AO_STRENGTH = 8.0
 AO_STRENGTH_REASON = ("the packaged model's normal maps are measured 0.12 x as steep as the ground truth (median RMS "
                       "slope, 20 synthetic Des18 test materials): the AO is that of the height x 8, the median true "

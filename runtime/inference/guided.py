@@ -2,9 +2,8 @@
 to the photo's size with its own detail (numpy).
 
 The stage one was trained on 256 px crops, and its maps relight real photos and ground truth better when it sees a
-photo of at most :data:`NETWORK_SIZE` (512) px than at 1024 px (issue 54, CHANGELOG 2026-11-28: at 1024 px the real
-capture relit at its other views 0.948x the error, the re-render of the checked ground truth 0.815x, normals' slope
-correlation 2.3x on the checked part and 5x on the tuned one), in half the time. So a photo longer than :attr:`Upsampling.network_size` runs the network
+photo of at most :data:`NETWORK_SIZE` (512) px than at 1024 px, in half the time (decision:
+docs/decisions/010-network-size-512.md). So a photo longer than :attr:`Upsampling.network_size` runs the network
 and the post-processing on itself averaged over k x k pixel blocks (:func:`network_photo`, ``k = ceil(long side /
 network_size)``), and :func:`guided_upsample` brings the maps to its size: each map channel ``P`` is
 
@@ -49,16 +48,12 @@ class Upsampling:
     Attributes:
         network_size: the longest side (px) of the photo the network and the post-processing see (the photo in k x k
             pixel blocks, :func:`network_photo`); shorter photos run at their own size. ``None``: the photo's own
-            size at any size (the network in tiles above ``tile``: about 0.5 s per megapixel on two cores).
+            size at any size (the network in tiles above ``tile``).
         radius: half-width of the window of the local gain, pixels at the network's size.
         eps: regulariser of the gain, a fraction of the squared mean luminance (flat areas of the photo get no
-            detail: its noise is not the material's). Against the maps of the network at 2048 px (a 4032 x 3024
-            photo, docs/lab/speed/README.md), 1e-2 / 1e-3 / 1e-4 cut the error of the base colour's and roughness's
-            gradients (their detail) against the bilinear upsampling's by 8-9 / 14 / 19-24 % (normals 2 / 4 / 8 %);
-            the smallest is kept.
-        strip_bytes: bytes of float32 temporaries one strip of rows may take. Small enough for the C allocator to
-            reuse freed strips instead of mapping fresh pages: at 4096 px, 8 MB took 3.7-5.3 s against 5.4-6.8 s
-            for 64 MB strips (a third of the page faults; docs/lab/speed/README.md).
+            detail: its noise is not the material's; 010-network-size-512.md).
+        strip_bytes: bytes of float32 temporaries one strip of rows may take: small enough for the C allocator to
+            reuse freed strips instead of mapping fresh pages (010-network-size-512.md).
         threads: strips upsampled at once (each strip's pixels are computed the same way: the result does not depend
             on it).
     """
@@ -272,7 +267,7 @@ def guided_upsample(maps: Maps, guide_low: np.ndarray, guide: np.ndarray,
 
 def luminance(image: np.ndarray) -> np.ndarray:
     """(H, W) float32 mean of the linear channels of an (H, W, 3) photo: ``(r + g) + b`` over 3, channel by channel
-    (the bits of ``mean(axis=-1)``, several times faster than a reduction over an axis of 3)."""
+    (the bits of ``mean(axis=-1)``, without a reduction over an axis of 3)."""
     a = np.asarray(image, np.float32)
     out = a[..., 0] + a[..., 1]
     out += a[..., 2]

@@ -57,8 +57,8 @@ MIN_SIZE = 8
 PRIOR_STAGE = "prior"
 #: What a stage one is shown, recorded per model (checkpoint and manifest key ``network_input``, written when it is
 #: shipped: :func:`svbrdf.trainer.checkpoint.clean_checkpoint`): ``"even"`` the photo divided by its own smooth
-#: lighting (:func:`svbrdf.runtime.post.flash_trend.even_lighting`, measured better for v1), ``"photo"`` the photo as it
-#: is (measured better for the v2 run, CHANGELOG.md, study prior-v2).
+#: lighting (:func:`svbrdf.runtime.post.flash_trend.even_lighting`, v1), ``"photo"`` the photo as it is (v2).
+#: Decision: docs/decisions/007-network-input-lighting.md.
 NETWORK_INPUTS = ("even", "photo")
 
 

@@ -5,13 +5,11 @@
     session = load_session()                     # model lookup: see svbrdf.runtime.inference.manifest
     maps = estimate("photo.jpg", session)        # svbrdf.runtime.inference.pipeline
 
-The session keeps onnxruntime's CPU memory arena (``cpu_mem_arena=True``). Without it every intermediate
-tensor is fresh memory from the system and the one pass of a preview pays its page faults: on the 2-core
-machine of CHANGELOG.md, study preview-speed, a 1024 px pass of the v1 model takes 1.0 s with the arena and
-1.4 s without (a first pass in a fresh process). Every pass ends by handing the arena's memory back
-(onnxruntime's arena shrinkage, :meth:`PreviewSession.run`): without that, the passes of a tiled photo (tiles
-of several shapes) piled up arena chunks, and a 2048 x 1536 photo peaked at 1511 MiB instead of 837 MiB
-(CHANGELOG.md, study large-photos).
+The session keeps onnxruntime's CPU memory arena (``cpu_mem_arena=True``): without it every intermediate
+tensor is fresh memory from the system and the one pass of a preview pays its page faults. Every pass ends by
+handing the arena's memory back (onnxruntime's arena shrinkage, :meth:`PreviewSession.run`), so the passes of a
+tiled photo (tiles of several shapes) do not pile up arena chunks. Decision:
+docs/decisions/012-onnx-memory-arena.md.
 """
 
 from __future__ import annotations
@@ -181,8 +179,8 @@ class PreviewSession:
         stage one (``"prior"``, or no training record) learned on flash photos as they are; it is shown what its
         ``network_input`` record says (:func:`~svbrdf.runtime.inference.manifest.recorded_even_lighting`, chosen by
         measurement when it was shipped), and without one (v1) evenly lit at ``default``
-        (:attr:`svbrdf.runtime.post.PostProcess.even_lighting`, which measured better for v1:
-        CHANGELOG.md, study refine-detail; ``None`` or 0: the photo as it is); its ``train_config`` is the
+        (:attr:`svbrdf.runtime.post.PostProcess.even_lighting`, docs/decisions/007-network-input-lighting.md;
+        ``None`` or 0: the photo as it is); its ``train_config`` is the
         fine-tune preset meant for it, not its own input.
         """
         training = self.metadata.get("training") or {}

@@ -10,8 +10,8 @@ each) and the weighted sum is normalised. Where two neighbours' ramps cover the 
 pixel has a non-zero total weight.
 
 Why the whole overlap: a network with per-image normalisation gives each tile its own levels, and a ramp only
-``overlap`` pixels wide turns that difference into a visible line (a 2048 px preview's roughness showed one at
-column ~1000, 64 px ramps before 2026-11-25); spread over the overlap it is a gradual change.
+``overlap`` pixels wide turns that difference into a visible line; spread over the overlap it is a gradual change.
+Decision: docs/decisions/011-even-tiles.md.
 
 Pure numpy (part of the light runtime).
 """
@@ -25,9 +25,8 @@ import numpy as np
 #: Overlap in pixels of neighbouring tiles (each side), the default of the preview's tiled inference.
 DEFAULT_OVERLAP = 64
 #: Inner tiles start on multiples of this many pixels: the generators downsample by up to 16 (the U-Net's four
-#: stride-2 levels; v1: 4), and a tile that starts off that grid is sampled differently from the whole image (the
-#: test generator's tiles starting at columns 75 and 149 disagreed with its one pass by 15 deg of normal where one
-#: tile covers a pixel; on the grid, at 64 and 160, by 4 deg: tests/runtime/inference/test_session.py).
+#: stride-2 levels; v1: 4), and a tile that starts off that grid is sampled differently from the whole image
+#: (tests/runtime/inference/test_session.py).
 TILE_ALIGN = 32
 
 __all__ = ["DEFAULT_OVERLAP", "TILE_ALIGN", "tile_starts", "tile_boxes", "ramp_weights", "tile_weights", "tiled_apply"]

@@ -13,8 +13,8 @@ Reading (:func:`read_image`): any format OpenImageIO reads (PNG 8/16-bit, JPEG, 
 
 Writing (:func:`write_image`): PNG (8/16-bit), OpenEXR (half/float) or TIFF (8/16/32-bit), atomically
 (:func:`svbrdf.runtime.io.files.atomic_write`), never over an existing file unless ``force=True``. PNG files are
-encoded by :func:`svbrdf.runtime.io.png.write_png` (the "up" filter and ISA-L's deflate, 2.6x less CPU than
-OpenImageIO's writer with the system zlib for files of about the same size), the others by OpenImageIO; both leave
+encoded by :func:`svbrdf.runtime.io.png.write_png` (the "up" filter and ISA-L's deflate; decision:
+docs/decisions/013-png-encoder.md), the others by OpenImageIO; both leave
 the GIL while they encode, so files can be written from several threads.
 
 OpenImageIO never raises on a bad file; every call here is checked and turned into an
@@ -195,7 +195,7 @@ class _Decoder:
         self.path, self.raw = path, raw
         self.is_float = spec.format.basetype in _FLOAT_TYPES
         # 8/16-bit unsigned files are read as stored and decoded through a table of every code (_code_table): the
-        # same float32 values as converting each pixel, 10x faster and without the float copies.
+        # same float32 values as converting each pixel, without the float copies (019-large-photos-in-strips.md).
         self.native = next((t for t in _TABLE_TYPES if spec.format.basetype == t), None)
         self.read_type = self.native if self.native is not None else oiio.FLOAT
         nch = spec.nchannels
@@ -351,8 +351,8 @@ def read_strips(path: PathLike, rows: int) -> Iterator[Tuple[int, np.ndarray]]:
     """``(y0, strip)``: the pixels of a file as :func:`read_image` decodes them (linear, (r, W, 3) float32; no
     ``max_size``), ``rows`` rows at a time from the top (the last strip shorter), so that a caller that only needs
     reductions of a large photo (block means, luminance) never holds it whole. The next strip is decoded on a second
-    thread while the caller works on this one (OpenImageIO leaves the GIL while it decodes): a 4096 px PNG's read,
-    block means and luminance take 0.35 s instead of 0.6 s one after the other.
+    thread while the caller works on this one (OpenImageIO leaves the GIL while it decodes). Decision:
+    docs/decisions/019-large-photos-in-strips.md.
 
     Args:
         path: image file stored as displayed (EXIF orientation 1; :func:`image_info`).
@@ -510,7 +510,7 @@ def write_image(
     h, w, c = a.shape
 
     # quantised (or transformed) and written strip by strip: the caller's array is never modified and no
-    # full-size copy of it is made (the 16-bit codes of an 8192 px normal map are 384 MB)
+    # full-size copy of it is made
     strips = None if (is_float and transform is None) else _strips(a, None if is_float else bits, srgb_encode,
                                                                    transform)
     if ext == ".png":  # our encoder (:mod:`.png`); OpenImageIO writes the other formats

@@ -1,12 +1,8 @@
 """PNG encoding of the maps: the "up" filter in numpy and ISA-L's deflate (python-isal), strip by strip.
 
 :func:`write_png` is what :func:`svbrdf.runtime.io.images.write_image` uses for every PNG; reading stays with
-OpenImageIO. Why not OpenImageIO's PNG writer: it compresses with the system zlib, whose fastest useful setting
-(Huffman-only after libpng's "up" filter) coded 95-110 MB/s here, and writing the maps of a 4096 px photo was
-then most of the preview's time on two cores. ISA-L's level 1 (real matches, vectorised) codes the same filtered
-rows at about 300 MB/s into files of about the same size: on the maps of a 4096 px photo, CPU seconds 2.10 -> 0.80,
-143 -> 141 MB in all (normal map 57.0 -> 60.7 MB, AO 17.9 -> 14.7 MB); a uniform map is coded with matches (the
-4096 px specular: 143 KB). CHANGELOG.md, 2026-11-28 (night).
+OpenImageIO, whose PNG writer compresses with the system zlib, several times slower for files of about the same
+size. Decision: docs/decisions/013-png-encoder.md.
 
 The file: the PNG signature, IHDR (greyscale, grey + alpha, RGB or RGBA, 8 or 16 bits, no interlace), the
 colour-space chunks (:data:`COLOUR_CHUNKS`), one IDAT chunk per compressed strip, IEND. Every row uses filter 2
@@ -24,8 +20,7 @@ import numpy as np
 from isal import isal_zlib
 
 SIGNATURE = b"\x89PNG\r\n\x1a\n"
-#: ISA-L's deflate level (0-3). 1: measured above; 0 left the filtered normal map at 74.0 MB (60.7 at 1) in the
-#: same time, 2 at 60.3 MB in about the same time (0.37-0.49 s against 0.35-0.52 s); 3 was not measured.
+#: ISA-L's deflate level (0-3; 013-png-encoder.md).
 LEVEL = 1
 #: PNG colour type by channel count (greyscale, grey + alpha, RGB, RGBA).
 _COLOUR_TYPE = {1: 0, 2: 4, 3: 2, 4: 6}

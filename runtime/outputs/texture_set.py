@@ -32,12 +32,11 @@ Safety: if a file of the plan exists and ``force`` is false, an :class:`~svbrdf.
 names it and nothing is written. The files are first written into a hidden staging folder inside ``out_dir``
 and then moved into place (:func:`svbrdf.runtime.io.files.staged_write`), so a failure never leaves half a set.
 The files of a plan are encoded concurrently (:data:`WRITE_WORKERS` threads): OpenImageIO releases the GIL
-while it compresses, and on two cores two threads write the five files of a 1024 px set 1.5x faster than one
-(CHANGELOG.md, study preview-speed).
+while it compresses (decision: docs/decisions/015-texture-set-writes.md).
 
 The relit panel (:func:`relit_panel`) is rendered at its display size, :data:`PANEL_SIZE` pixels on the long
-side of each view, from maps downsized for it: three renders at full resolution cost more than the whole
-model at 1024 px and more, and a side-by-side panel is looked at, not measured.
+side of each view, from maps downsized for it: a side-by-side panel is looked at, not measured
+(015-texture-set-writes.md).
 """
 
 from __future__ import annotations
@@ -277,8 +276,8 @@ def write_layout(
             ``maps.render_config`` is ``None``).
         relit: the relit panel, or a function that returns it (called on a writer thread).
         relief: a function returning ``maps`` with their relief (``lambda m: m.with_relief()``), called on the
-            calling thread while the layout's files of ``maps`` are written (at 4096 px the relief takes 0.8 s, the
-            normal map's file 1.4 s); the files the layout adds for the relief, the sidecar and the relit panel follow.
+            calling thread while the layout's files of ``maps`` are written; the files the layout adds for the
+            relief, the sidecar and the relit panel follow.
             The layout must only add files for the relief (the project's own layout does; a target that packs the
             AO into another file gets maps that carry their relief instead: ``ValueError``). Still all or nothing,
             but for a file of ``out_dir`` that appears while the last files are moved into place.

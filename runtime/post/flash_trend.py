@@ -23,18 +23,18 @@ its mean and everything that is not round about the flash (a stationary texture 
 functions with a weight near zero, so it is hardly changed). Given the photo, the base colour then loses the coarse
 colour casts the photo does not show (:func:`svbrdf.runtime.post.photo_colour.local_colour`: the network's tint
 under the flash or on one side; after the highlight fill, whose copy it sees). The normal map is left as it is
-(its burn-in, the tilt of a bulge, is small in every measurement: CHANGELOG.md, study accuracy).
+(its burn-in, the tilt of a bulge, is small).
 
 This is the hard form of the trainer's flash-correlation loss (:func:`svbrdf.trainer.losses.flash_correlation_loss`,
 which only discourages the same pattern during the fine-tune): applied to the final maps of the preview and of the
 refine, it is what makes them highlight-free, and the renderer's specular lobe is left to reproduce the highlight.
-Widths chosen on held-out procedural materials, not on the benchmark's data (CHANGELOG.md, study accuracy,
-"Flash-trend removal").
+Decision: docs/decisions/004-flash-trend-removal.md.
 
 :func:`even_lighting` is the same idea on the network's *input*: the photo divided by its own smooth lighting
 (the flash's fall-off and the broad part of its highlight), so that the network sees the material evenly lit and
 has no bright disc to paint into its maps. The preview runs the network on it
-(:attr:`svbrdf.runtime.post.PostProcess.even_lighting`); the post-processing still reads the photo itself.
+(:attr:`svbrdf.runtime.post.PostProcess.even_lighting`; docs/decisions/007-network-input-lighting.md); the
+post-processing still reads the photo itself.
 """
 
 from __future__ import annotations
@@ -268,14 +268,9 @@ def even_lighting(photo: np.ndarray, sigma: float) -> np.ndarray:
 def uniform_specular(maps: Maps) -> Maps:
     """The maps with the specular albedo replaced by its median: one level per photo.
 
-    Measured on held-out procedural materials (whose specular does vary with the material classes inside the
-    pattern) and on the shared ground-truth sets, the spatial variation of the predicted specular is noise: a
-    Gaussian blur of any width lowers its error, and a constant lowers it most, for the preview and the refine
-    alike (CHANGELOG.md, study accuracy, "Now"). The level itself (dielectric or metal) is what the photo
-    tells. The median rather than the mean: a network unsure between a dielectric and a metal calls some pixels
-    metal, and the mean follows them (the preview's specular RMSE, mean -> median: 0.0752 -> 0.0592 on the shared
-    sets, 0.1365 -> 0.1361 on held-out procedural materials; CHANGELOG.md, study accuracy, "Normals from the
-    stage one").
+    The predicted specular's spatial variation is noise; the level (dielectric or metal) is what the photo tells.
+    The median rather than the mean: a network unsure between a dielectric and a metal calls some pixels metal.
+    Decision: docs/decisions/005-uniform-specular.md.
 
     Args:
         maps: a texture set; without a specular map it is returned as it is.

@@ -3,7 +3,7 @@ from elsewhere in the set (pure numpy).
 
 Where a flash photo clipped, it holds no information about the material: every map there is the estimator's
 guess, and the guess shows (a dark or texture-less disc in the base colour, a roughness blob or a ring at the
-disc's edge: CHANGELOG.md, study highlight-fill). A flat material is stationary, so what belongs there looks like the
+disc's edge). A flat material is stationary, so what belongs there looks like the
 rest of it. :func:`fill_highlight` does what an artist would do with a clone brush:
 
 1. **The region** (:func:`highlight_mask`): the photo's clipped pixels (any channel at or above
@@ -37,11 +37,10 @@ rest of it. :func:`fill_highlight` does what an artist would do with a clone bru
 The base colour, roughness and normals (:data:`FILL_MAPS`) are filled with the same offsets (they stay registered);
 normals are renormalised and every map is clipped to its range. The specular map is kept: the highlight is where
 the photo shows the specular level best, and the runtime's single specular level (the median,
-:func:`svbrdf.runtime.post.flash_trend.uniform_specular`) loses that evidence when the region is filled from elsewhere
-(the preview's specular RMSE on the shared synthetic cases rose 0.0592 -> 0.0623 when it was filled). Nothing is filled (``meta["highlight_fill"]["filled"]`` False, with the reason) when the photo
+:func:`svbrdf.runtime.post.flash_trend.uniform_specular`) loses that evidence when the region is filled from elsewhere.
+Nothing is filled (``meta["highlight_fill"]["filled"]`` False, with the reason) when the photo
 has neither a clipped highlight nor a shoulder, when the region covers more than :data:`MAX_SHARE` of the maps, or when no source fits.
-Thresholds were set on held-out procedural materials, not on the benchmark's data
-(CHANGELOG.md, study highlight-fill).
+Decision: docs/decisions/006-highlight-fill.md.
 """
 
 from __future__ import annotations
@@ -67,9 +66,7 @@ GROW = 1.0
 MIN_GROW_PX = 2
 #: The highlight's shoulder: where the photo (blurred) is more than this times as bright as a matte material's flash
 #: fall-off, scaled to the photo's level far from the highlight, would make it (None: no shoulder). The specular
-#: lobe then gives at least twice what the base colour does. 2, 3 and 4 gave the same errors on held-out
-#: procedural materials (re-render 0.1349 / 0.1348 / 0.1349 from 0.1361); 3 rather than 2, whose larger shoulders
-#: pass :data:`MAX_SHARE` more often (CHANGELOG.md, study refine-detail).
+#: lobe then gives at least twice what the base colour does (006-highlight-fill.md).
 SHOULDER: Optional[float] = 3.0
 #: Half-width of the box blur of the shoulder's photo, fraction of the width (about a Gaussian of 1 %: texture
 #: averaged out, the highlight's shape kept).
@@ -92,7 +89,7 @@ BAND = 0.35
 #: has fallen to exp(-3) = 5 % of the step there).
 WINDOW_SPREADS = 3
 #: The step at the region's edge is spread over about the region's radius, at most this many pixels (a wider
-#: spread looks the same at 1024-2048 px and would make the solve's window the whole photo: 4.8 s at 2048 x 1536).
+#: spread looks the same at 1024-2048 px and would make the solve's window the whole photo).
 SPREAD_MAX_PX = 64
 #: Regions whose box (with the band) is wider than this on the search grid are filled patch by patch (the
 #: patches this wide, overlapping by a quarter), each copied from where it best continues what is around it and
@@ -463,7 +460,7 @@ def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optiona
         start += a.shape[-1]
     x = np.concatenate(arrays, axis=-1)
     k = _search_step(h, w)
-    wts = map_weights(x[::k, ::k], groups)  # variances of a strided copy: 0.3 s less at 2048 px
+    wts = map_weights(x[::k, ::k], groups)  # variances of a strided copy
     if not wts.any():
         record["reason"] = "constant maps"
         return out

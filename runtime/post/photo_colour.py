@@ -1,6 +1,6 @@
 """The preview's base colour with the photo's colour balance (pure numpy): the generator's instance normalisation
 hides a photo's overall colour from it, and the learned stage one predicts a nearly grey base colour for every
-material (CHANGELOG.md, study prior, "Colour"). Its casts are local too (a green or blue disc under the
+material (docs/decisions/008-photo-colour.md). Its casts are local too (a green or blue disc under the
 flash, a greyed side): :func:`local_colour` takes out those the photo does not show, at a coarse scale
 (:mod:`svbrdf.runtime.quality.colour_check` measures what is left); the flash-trend removal runs it
 (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, after the highlight fill)."""
@@ -17,15 +17,13 @@ __all__ = ["photo_colour", "local_colour", "COLOUR_MAX_SIDE", "COLOUR_QUANTILE",
            "LOCAL_MAX_SIDE", "LOCAL_TOLERANCE", "HIGHLIGHT_MAX_SIDE"]
 
 
-#: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics;
-#: at 1024 px the full-size quantile alone cost 0.1 s).
+#: :func:`photo_colour` takes its mean colours from a block-mean copy no longer than this (they are global statistics).
 COLOUR_MAX_SIDE = 256
 #: Pixels whose luminance is above this quantile of the photo's are left out of :func:`photo_colour` (the flash
 #: highlight is the light's colour, not the material's).
 COLOUR_QUANTILE = 0.9
-#: The scale of :func:`local_colour`: the standard deviation of its low pass, a fraction of the width. Of 1/16, 1/8
-#: and 1/4 on the tune part of the shared data (docs/data-split.md): 1/4 leaves casts the colour check sees, 1/16 is
-#: the colour check's own block (it would score the correction's own scale).
+#: The scale of :func:`local_colour`: the standard deviation of its low pass, a fraction of the width
+#: (008-photo-colour.md).
 LOCAL_SIGMA = 0.125
 #: The largest factor (and 1 / the smallest) :func:`local_colour` gives a channel.
 LOCAL_GAIN_MAX = 2.0

@@ -4,7 +4,7 @@
 returns one of the same size whose opposite borders join: column ``W - 1`` continues into column 0 and row
 ``H - 1`` into row 0. Every map is cut the same way, so the maps stay registered with each other.
 
-Methods (chosen by measurement, CHANGELOG.md, study tileable):
+Methods (decision: docs/decisions/009-tileable-cut.md):
 
 ``"cut"`` (default): a strip of the material itself is laid over the wrap, joined by minimal-error cuts, and the
     steps left across the cuts are repaired.
@@ -16,8 +16,7 @@ Methods (chosen by measurement, CHANGELOG.md, study tileable):
     Then the same for the vertical wrap with a horizontal strip of the result; that cut runs across the whole
     width and is constrained to close on itself across the horizontal wrap. The difference that decides the
     cuts is summed over every map present, each normalised by its own variance. A cut still leaves a step
-    where the two sides differ in level (a smooth map such as roughness: the raw cuts' joins carry 2-10x the
-    energy of natural neighbour pairs, CHANGELOG.md, study tileable), so the repair solves a periodic screened
+    where the two sides differ in level (a smooth map such as roughness), so the repair solves a periodic screened
     Poisson problem (:func:`_repair`, by FFT): every gradient of the result is kept except across a join,
     where the input's own gradient at the source is asked for, and the step is spread smoothly over about
     ``o`` pixels. Every detail is a pixel of the input; only a smooth correction of small amplitude is added,
@@ -232,10 +231,8 @@ def _closed_vertical_cut(err: np.ndarray) -> np.ndarray:
 def _zone(o: int) -> int:
     """Width of the overlap zones in which a cut may run: the outer ``o`` columns of each half of the strip.
 
-    Wider zones (``2 o - 4``: the cut allowed up to 4 columns from the wrap) lowered the raw cuts' join scores on
-    held-out procedural maps (0.98 -> 0.87, median; CHANGELOG.md, study tileable) but kept the
-    maps' own pixels next to their borders, where the network's maps are least reliable: on the shared photos
-    three 2048 px Henzler sets got diffuse joins of 3.6-6.9 after the repair. The copied strip keeps them out."""
+    Not wider: the maps' own pixels next to their borders, where the network's maps are least reliable, stay out of
+    the join (009-tileable-cut.md)."""
     return o
 
 

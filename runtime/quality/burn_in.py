@@ -82,7 +82,8 @@ def highlight_centre(photo: np.ndarray, window: float = 0.25) -> Tuple[float, fl
     """Where the flash highlight of a photo is: the centre of the brightest ``window * W`` square.
 
     The luminance (channel mean) is box-filtered with a square of side ``window`` times the width (large, so
-    the texture averages out and the smooth flash fall-off dominates) and the arg-max is returned.
+    the texture averages out and the smooth flash fall-off dominates) and the arg-max is returned. Decision:
+    docs/decisions/016-highlight-centre.md.
 
     Args:
         photo: (H, W, 3) linear photo.

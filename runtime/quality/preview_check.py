@@ -22,14 +22,11 @@ from ..core.maps import Maps
 from ..core.render import RenderConfig, rerender_rmse
 
 # The fine-tune is skipped when the preview's sRGB RMSE under the input flash is already at or below this: the
-# mean that 200 fast fine-tune iterations reach on the 12 Henzler photos
-# (CHANGELOG.md, study finetune-henzler: 0.117).
+# mean that 200 fast fine-tune iterations reach on the 12 Henzler photos.
 SKIP_REFINE_RMSE = 0.117
 # ... and only when the preview's label-free burn-in (svbrdf.runtime.quality.burn_in, the worst map's disc or ring score) is
-# at or below this: about the 95th percentile of the ground-truth maps' own burn-in over the 32 held-out procedural
-# materials at 256 px (seed 987654: mean 0.174, median 0.120, p90 0.329, p95 0.521, max 0.777), i.e. a level a
-# stationary material rarely reaches by chance. (Before the ring score it was 0.25, the p95 of the older mean-of-
-# four-maps score on the shared ground truth.)
+# at or below this: about the 95th percentile of stationary ground-truth maps' own burn-in.
+# Decision: docs/decisions/014-skip-refine.md.
 SKIP_REFINE_BURN_IN = 0.5
 
 

@@ -1,7 +1,7 @@
 """Headless browsers for checking and photographing the project's pages, with the standard library only.
 
 Two drivers with the same small interface (``open(url)``, ``evaluate(expression)``, ``screenshot()``,
-``close()``), used by ``tests/runtime/outputs/test_viewer.py`` and ``docs/images/scripts/viewer_screenshots.py``:
+``close()``), used by ``tests/runtime/outputs/test_viewer.py`` and ``git show bc3896e:./docs/images/scripts/viewer_screenshots.py``:
 
 * :class:`Chromium`: the DevTools protocol over a pipe (``--remote-debugging-pipe``), no network at all; WebGL
   through ANGLE's SwiftShader (software).

@@ -76,14 +76,14 @@ def test_paper_and_zhao_presets_are_the_published_schedule():
         assert not c.render_config.falloff
     assert f.lambda_render > 0 and f.lambda_flash > 0 and f.lambda_specular_prior > 0 and f.saturate
     assert f.learn_vignetting and f.learn_offsets and f.diffuse_target == "normalized" and f.render_config.falloff
-    assert f.lambda_fourier == 0  # no longer needed once the flash term is in (CHANGELOG.md, study accuracy)
+    assert f.lambda_fourier == 0  # no longer needed once the flash term is in (docs/decisions/021-fast-highlight-free.md)
     new = ("render", "saturate", "learn_vignetting", "learn_offsets", "lambda_render", "lambda_flash",
            "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "post",
            "lambda_anchor", "anchor_maps", "gan_steps")
     assert f.even_lighting == 0.25 and p.even_lighting == z.even_lighting == 0  # refine-detail/flat-input
     assert f.gan_steps == f.iters_finetune and p.gan_steps == z.gan_steps == 0  # refine-detail: the GAN drifts
-    assert f.lambda_anchor > 0 and f.anchor_maps == ("normal",)  # CHANGELOG.md, study accuracy, "Normals from ..."
-    assert f.iters_finetune == 150 and resolve("fast-v1").iters_finetune == 600  # CHANGELOG.md, study prior
+    assert f.lambda_anchor > 0 and f.anchor_maps == ("normal",)  # docs/decisions/021-fast-highlight-free.md
+    assert f.iters_finetune == 150 and resolve("fast-v1").iters_finetune == 600  # docs/decisions/023-stage-one-v2.md
     assert dataclasses.replace(resolve("fast-v1"), preset="fast", **{k: getattr(f, k) for k in new}) == f
     assert resolve("fast-zhao").lambda_perceptual == 0 and resolve("fast-zhao").lambda_flash == 0
 

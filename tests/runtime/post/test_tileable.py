@@ -87,7 +87,7 @@ def test_make_tileable_keeps_a_stationary_materials_statistics():
         before, after = getattr(m, name), getattr(t, name)
         assert cut_scores(before, identity)["ratio"] > 5, name  # the untiled wrap is a seam
         # the joins look like natural neighbour pairs (1.2 on the shared photos' 0.5-2 megapixel maps, checked by
-        # CHANGELOG.md, study tileable; this 119 x 121 set has overlaps of 7 px)
+        # docs/decisions/009-tileable-cut.md; this 119 x 121 set has overlaps of 7 px)
         assert cut_scores(after, src)["ratio"] < min(1.5, cut_scores(getattr(raw, name), src)["ratio"]), name
         # statistics: the repair moves the values' distribution little beyond what copying the strips does
         assert histogram_distance(before, after) < histogram_distance(before, getattr(raw, name)) + 0.05 * before.std()
