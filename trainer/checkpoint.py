@@ -49,7 +49,7 @@ from svbrdf.runtime.post.flash_trend import EVEN_LIGHTING_WIDTH
 from svbrdf.runtime.inference.manifest import PRIOR_STAGE, network_input_record
 from svbrdf.runtime.io.files import atomic_write
 from svbrdf.trainer.config import REFINE_RECIPES
-from svbrdf.trainer.models import Generator, GeneratorConfig
+from svbrdf.trainer.models import Generator, create_generator
 
 FORMAT = "svbrdf-train-checkpoint"
 FORMAT_VERSION = 1
@@ -215,7 +215,7 @@ def model_weights(ckpt: Mapping[str, Any]) -> Dict[str, torch.Tensor]:
 def generator_from_checkpoint(ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> Generator:
     """Build the generator of a loaded checkpoint dict (CPU, eval mode; :func:`model_weights`)."""
     try:
-        gen = Generator(GeneratorConfig.from_dict(ckpt["generator_config"]))
+        gen = create_generator(**ckpt["generator_config"])
         gen.load_state_dict({k: v.float() if v.is_floating_point() else v for k, v in model_weights(ckpt).items()})
     except (ValueError, TypeError, KeyError, RuntimeError) as e:
         first = str(e).strip().splitlines()[0] if str(e).strip() else type(e).__name__
@@ -227,8 +227,9 @@ def load_generator(path: PathLike) -> Tuple[Generator, Dict[str, Any]]:
     """The trained generator of a checkpoint and its metadata (every key but the weights and optimiser states).
 
     Returns:
-        ``(generator, meta)``: a CPU :class:`~svbrdf.trainer.models.Generator` in eval mode, and a dict with
-        ``generator_config``, ``train_config``, ``stage``, ``step``, ``photo``, ``history``, ``versions``, ...
+        ``(generator, meta)``: a CPU :class:`~svbrdf.trainer.models.Generator` (the class of its ``arch``) in eval
+        mode, and a dict with ``generator_config``, ``train_config``, ``stage``, ``step``, ``photo``, ``history``,
+        ``versions``, ...
 
     Raises:
         ModelError: see :func:`load_checkpoint`, or weights that do not fit the stored configuration.

@@ -14,7 +14,6 @@ from typing import Dict, Sequence
 
 import torch
 import torch.nn.functional as F
-from torch import nn
 
 from svbrdf.runtime.outputs.conversions import DIELECTRIC_F0
 from svbrdf.runtime.core.maps import SLICES
@@ -77,8 +76,8 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
     ``(z - min z) / (max z - min z + eps)`` over the whole image. ``K`` is a normalised
     ``kernel_size x kernel_size`` Gaussian (sigma 101 over 101 px is nearly a box). With ``padding="zeros"``
     (Zhao, TF SAME) the sums still divide by the full kernel weight, so a ``kernel_size // 2`` border is darkened;
-    ``"reflect"`` avoids that (needs H, W > kernel_size // 2). Computed by FFT in float64 (float32 rounding reached 0.025 in flat regions);
-    measured on a loaded 2-core machine: 1.4-2 s for a 1024 x 1024 photo, 17-25 s and 2.6 GB peak for 4096 x 4096.
+    ``"reflect"`` avoids that (needs H, W > kernel_size // 2). Computed by FFT in float64, one channel at a time.
+    Decision: docs/decisions/065-guessed-diffuse-float64.md
 
     Deviation: Zhao linearises with x^2.2; the project decodes sRGB exactly upstream, so ``photo`` is linear.
 
@@ -100,9 +99,7 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
         raise ValueError(f"photo must be (B, C, H, W), got {tuple(photo.shape)}")
     if padding == "reflect" and min(photo.shape[-2:]) <= kernel_size // 2:
         raise ValueError(f"reflect padding needs H, W > {kernel_size // 2}, got {tuple(photo.shape[-2:])}")
-    # float64: with float32 FFTs the round-off of the blurred variance follows the brightest part of the image
-    # and reaches a few percent of the output in flat, low-noise regions (their std is ~1e-4).
-    x = photo.double()
+    x = photo.double()  # float32 round-off of the blurred variance shows in flat regions (decision 065)
     from kornia.filters import get_gaussian_kernel1d  # here: the prior's losses must import without kornia
 
     g = get_gaussian_kernel1d(kernel_size, sigma, device=x.device, dtype=x.dtype)[0]
@@ -157,19 +154,6 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
     return (p - g).abs().mean()
 
 
-class DiffuseLoss(nn.Module):
-    """Module form of :func:`diffuse_loss` (``target`` fixed at construction)."""
-
-    def __init__(self, target: str = "absolute"):
-        super().__init__()
-        if target not in DIFFUSE_TARGETS:
-            raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
-        self.target = target
-
-    def forward(self, pred_diffuse: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
-        return diffuse_loss(pred_diffuse, guess, self.target)
-
-
 @lru_cache(maxsize=4)
 def _srgb_level(linear: float) -> float:
     """The sRGB encoding of one linear value (the curve the loss uses), computed once per value."""
@@ -201,17 +185,6 @@ def render_loss(rendering: torch.Tensor, photo: torch.Tensor, clip_level: float 
         return err.mean()
 
 
-class RenderLoss(nn.Module):
-    """Module form of :func:`render_loss`."""
-
-    def __init__(self, clip_level: float = 0.99):
-        super().__init__()
-        self.clip_level = clip_level
-
-    def forward(self, rendering: torch.Tensor, photo: torch.Tensor) -> torch.Tensor:
-        return render_loss(rendering, photo, self.clip_level)
-
-
 def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.Tensor:
     """Weak prior on the specular albedo: ``mean |sqrt(rho_s) - sqrt(f0)|``.
 
@@ -229,17 +202,6 @@ def specular_prior_loss(maps: torch.Tensor, f0: float = DIELECTRIC_F0) -> torch.
     with torch.autocast(device_type=maps.device.type, enabled=False):
         s = _f32(maps[:, SLICES["specular"]]).clamp_min(0.0)
         return (torch.sqrt(s + 1e-8) - f0 ** 0.5).abs().mean()
-
-
-class SpecularPriorLoss(nn.Module):
-    """Module form of :func:`specular_prior_loss`."""
-
-    def __init__(self, f0: float = DIELECTRIC_F0):
-        super().__init__()
-        self.f0 = f0
-
-    def forward(self, maps: torch.Tensor) -> torch.Tensor:
-        return specular_prior_loss(maps, self.f0)
 
 
 #: Powers p of the flash basis ``l_z ** p`` (:func:`flash_basis`): broad (the fall-off and cosine), medium
@@ -303,17 +265,6 @@ def flash_correlation_loss(maps: torch.Tensor, basis: torch.Tensor, eps: float =
         return (amp / scale).pow(2).mean()
 
 
-class FlashCorrelationLoss(nn.Module):
-    """Module form of :func:`flash_correlation_loss`."""
-
-    def __init__(self, eps: float = STD_EPS):
-        super().__init__()
-        self.eps = eps
-
-    def forward(self, maps: torch.Tensor, basis: torch.Tensor) -> torch.Tensor:
-        return flash_correlation_loss(maps, basis, self.eps)
-
-
 def gan_generator_loss(fake_logits: torch.Tensor) -> torch.Tensor:
     """Non-saturating GAN loss of the generator: BCE-with-logits(D(fake), 1), mean over the patch map.
 
@@ -340,20 +291,6 @@ def gan_discriminator_loss(real_logits: torch.Tensor, fake_logits: torch.Tensor)
     r, f = _f32(real_logits), _f32(fake_logits)
     return (F.binary_cross_entropy_with_logits(r, torch.ones_like(r))
             + F.binary_cross_entropy_with_logits(f, torch.zeros_like(f)))
-
-
-class GANGeneratorLoss(nn.Module):
-    """Module form of :func:`gan_generator_loss`."""
-
-    def forward(self, fake_logits: torch.Tensor) -> torch.Tensor:
-        return gan_generator_loss(fake_logits)
-
-
-class GANDiscriminatorLoss(nn.Module):
-    """Module form of :func:`gan_discriminator_loss`."""
-
-    def forward(self, real_logits: torch.Tensor, fake_logits: torch.Tensor) -> torch.Tensor:
-        return gan_discriminator_loss(real_logits, fake_logits)
 
 
 def maps_for_loss(maps: torch.Tensor) -> torch.Tensor:
@@ -421,22 +358,6 @@ def fourier_loss(maps: torch.Tensor, guess: torch.Tensor, mode: str = "complex",
         return torch.log(mean + eps)
 
 
-class FourierLoss(nn.Module):
-    """Module form of :func:`fourier_loss` (mode, eps and include_dc fixed at construction)."""
-
-    def __init__(self, mode: str = "complex", eps: float = 1e-8, include_dc: bool = True):
-        super().__init__()
-        if mode not in ("complex", "magnitude"):
-            raise ValueError(f"mode must be 'complex' or 'magnitude', got {mode!r}")
-        self.mode, self.eps, self.include_dc = mode, eps, include_dc
-
-    def forward(self, maps: torch.Tensor, guess: torch.Tensor) -> torch.Tensor:
-        return fourier_loss(maps, guess, self.mode, self.eps, self.include_dc)
-
-    def extra_repr(self) -> str:
-        return f"mode={self.mode!r}, eps={self.eps}, include_dc={self.include_dc}"
-
-
 def clipped_fraction(photo: torch.Tensor, level: float = CLIP_LEVEL) -> float:
     """Fraction of pixels whose brightest channel is at or above ``level``: how much of the photo a saturated
     flash highlight covers.
@@ -484,17 +405,6 @@ def supervised_maps_loss(pred: torch.Tensor, target: torch.Tensor, weights=None)
     return out
 
 
-class SupervisedMapsLoss(nn.Module):
-    """Module form of :func:`supervised_maps_loss` (returns the weighted total)."""
-
-    def __init__(self, weights=None):
-        super().__init__()
-        self.weights = dict(SUPERVISED_WEIGHTS if weights is None else weights)
-
-    def forward(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        return supervised_maps_loss(pred, target, self.weights)["total"]
-
-
 def relit_loss(pred_renderings: torch.Tensor, target_renderings: torch.Tensor, eps: float = RELIT_LOG_EPS) -> torch.Tensor:
     """Rendering loss of predicted against ground-truth maps under the same lights: mean absolute difference of
     ``log(eps + radiance)`` (the log keeps a highlight from drowning the rest of the image).
@@ -511,17 +421,6 @@ def relit_loss(pred_renderings: torch.Tensor, target_renderings: torch.Tensor, e
         a = torch.log(_f32(pred_renderings).clamp_min(0.0) + eps)
         b = torch.log(_f32(target_renderings).clamp_min(0.0) + eps)
         return (a - b).abs().mean()
-
-
-class RelitLoss(nn.Module):
-    """Module form of :func:`relit_loss`."""
-
-    def __init__(self, eps: float = RELIT_LOG_EPS):
-        super().__init__()
-        self.eps = eps
-
-    def forward(self, pred_renderings: torch.Tensor, target_renderings: torch.Tensor) -> torch.Tensor:
-        return relit_loss(pred_renderings, target_renderings, self.eps)
 
 
 #: Maps whose spatial detail :func:`gradient_loss` compares by default.
@@ -549,17 +448,6 @@ def gradient_loss(pred: torch.Tensor, target: torch.Tensor, maps: Sequence[str] 
         return 0.5 * (dx.abs().mean() + dy.abs().mean())
 
 
-class GradientLoss(nn.Module):
-    """Module form of :func:`gradient_loss`."""
-
-    def __init__(self, maps: Sequence[str] = GRADIENT_MAPS):
-        super().__init__()
-        self.maps = tuple(maps)
-
-    def forward(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        return gradient_loss(pred, target, self.maps)
-
-
 #: Truths whose slopes spread less than this in both components have no pattern to correlate with: left out.
 SLOPE_MIN_STD = 1e-3
 
@@ -570,11 +458,8 @@ def slope_correlation_loss(pred: torch.Tensor, target: torch.Tensor, eps: float 
     The slopes are :func:`~svbrdf.runtime.core.relief.clamped_slopes` (``(-n_x / n_z, -n_y / n_z)``, ``n_z`` clamped
     at ``SLOPE_MIN_NZ``), each component's mean over the image removed; the correlation is over both components and
     every pixel (the benchmark's ``normal_slope_corr``). It does not depend on the prediction's scale, so its
-    gradient reaches the network however flat the normals are: a stage one unsure of the relief shrinks its normals
-    (the per-map L1 is then lowest), which shrinks the height layer, which starves the shared features of the
-    normals' gradient (the v2 run at 5200: 0.012 on the encoder from the normal L1 against 0.74 from the
-    roughness's, 0.52 from this term; CHANGELOG.md, study prior-v2); this term asks for the right
-    pattern at any scale and the L1 then sets the amplitude.
+    gradient reaches the network however flat the normals are; the per-map L1 then sets the amplitude.
+    Decision: docs/decisions/023-stage-one-v2.md (the slope term)
 
     Args:
         pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.core.maps`), unit normals.
@@ -593,13 +478,6 @@ def slope_correlation_loss(pred: torch.Tensor, target: torch.Tensor, eps: float 
         corr = (a * b).sum(dim=(1, 2, 3)) / (aa * bb + eps).sqrt()
         valid = (b.flatten(2).std(dim=2) > SLOPE_MIN_STD).any(dim=1).to(corr.dtype)  # ridges along one axis count
         return ((1.0 - corr) * valid).sum() / valid.sum().clamp_min(1.0)
-
-
-class SlopeCorrelationLoss(nn.Module):
-    """Module form of :func:`slope_correlation_loss`."""
-
-    def forward(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        return slope_correlation_loss(pred, target)
 
 
 #: Sides of the square windows, px, whose spread :func:`detail_amount_loss` compares (clamped to the image side).
@@ -639,23 +517,10 @@ def detail_amount_loss(pred: torch.Tensor, target: torch.Tensor, maps: Sequence[
         return torch.stack([(_window_std(p, s) - _window_std(t, s)).abs().mean() for s in windows]).mean()
 
 
-class DetailAmountLoss(nn.Module):
-    """Module form of :func:`detail_amount_loss`."""
-
-    def __init__(self, maps: Sequence[str] = GRADIENT_MAPS, windows: Sequence[int] = DETAIL_WINDOWS):
-        super().__init__()
-        self.maps, self.windows = tuple(maps), tuple(windows)
-
-    def forward(self, pred: torch.Tensor, target: torch.Tensor) -> torch.Tensor:
-        return detail_amount_loss(pred, target, self.maps, self.windows)
-
-
 __all__ = [
-    "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DiffuseLoss", "DIFFUSE_TARGETS",
-    "render_loss", "RenderLoss", "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss",
-    "FlashCorrelationLoss", "specular_prior_loss", "SpecularPriorLoss", "gan_generator_loss", "gan_discriminator_loss",
-    "GANGeneratorLoss", "GANDiscriminatorLoss", "maps_for_loss", "fourier_loss", "FourierLoss",
-    "SUPERVISED_WEIGHTS", "supervised_maps_loss", "SupervisedMapsLoss", "RELIT_LOG_EPS", "relit_loss", "RelitLoss",
-    "GRADIENT_MAPS", "gradient_loss", "GradientLoss", "DETAIL_WINDOWS", "detail_amount_loss", "DetailAmountLoss",
-    "slope_correlation_loss", "SlopeCorrelationLoss",
+    "clipped_fraction", "CLIP_LEVEL", "guessed_diffuse", "diffuse_loss", "DIFFUSE_TARGETS", "render_loss",
+    "FLASH_POWERS", "flash_basis", "flash_maps", "flash_correlation_loss", "specular_prior_loss",
+    "gan_generator_loss", "gan_discriminator_loss", "maps_for_loss", "fourier_loss", "SUPERVISED_WEIGHTS",
+    "supervised_maps_loss", "RELIT_LOG_EPS", "relit_loss", "GRADIENT_MAPS", "gradient_loss", "DETAIL_WINDOWS",
+    "detail_amount_loss", "slope_correlation_loss",
 ]

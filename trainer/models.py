@@ -13,21 +13,26 @@ Generator (paper widths, T = input size)::
     decoder   d1 conv3 256->512 IN | lrelu up2 conv4 512->256 conv4 256->256 IN
               | lrelu up2 conv4 256->64 conv4 64->64 IN | lrelu conv3 64->outc | tanh
 
-with two decoders: ``decoder_nr`` (height, roughness) and ``decoder_ds`` (diffuse RGB, specular).
+with two decoders: ``decoder_nr`` (height, roughness) and ``decoder_ds`` (diffuse RGB, specular):
+:class:`WenGenerator`, ``arch="wen"``.
 
-``GeneratorConfig(arch="unet")`` builds the candidate for a prior over many materials instead (issue 26,
+:class:`UNetGenerator` (``arch="unet"``) is the candidate for a prior over many materials (issue 26,
 :class:`UNetEncoder`, :class:`UNetDecoder`): a U-Net with skips down to full resolution, a global-feature track
 (per-channel means fed back as per-channel biases, the idea of Deschaintre et al. 2018, peers.md), no
 normalisation layer anywhere, and two cues that instance normalisation hid: the photo's log colour and the offset of
-every pixel from the brightest spot (the flash highlight). Same attribute names (``encoder``, ``decoder_nr``,
-``decoder_ds``, ``out_offset``), same :meth:`Generator.decode` outputs, so the fine-tune, the checkpoints, the ONNX
-export and its part graphs run it unchanged.
+every pixel from the brightest spot (the flash highlight).
+
+One class per architecture behind one contract, :class:`Generator` (``forward_features`` -> :class:`Features`,
+``decode``, ``forward``, ``photo_context``) and the same attribute names (``encoder``, ``decoder_nr``,
+``decoder_ds``, ``out_offset``), so the fine-tune, the checkpoints, the ONNX export and its part graphs run either
+unchanged. :func:`create_generator` (or ``Generator(cfg)``) builds the class registered for the architecture
+(:data:`GENERATORS`).
 """
 
 from __future__ import annotations
 
 from dataclasses import asdict, dataclass, fields, replace
-from typing import Any, Dict, Iterable, List, Mapping, Optional, Sequence, Tuple
+from typing import Any, ClassVar, Dict, Iterable, List, Mapping, NamedTuple, Optional, Sequence, Tuple, Type
 
 import torch
 import torch.nn.functional as F
@@ -51,7 +56,7 @@ def _from_dict(cls, d: Mapping):
     return cls(**d)
 
 
-#: Generator architectures (:attr:`GeneratorConfig.arch`).
+#: Generator architectures (:attr:`GeneratorConfig.arch`), each a class in :data:`GENERATORS`.
 ARCHS: Tuple[str, ...] = ("wen", "unet")
 #: :attr:`GeneratorConfig.height_activation` values.
 HEIGHT_ACTIVATIONS: Tuple[str, ...] = ("tanh", "linear")
@@ -74,11 +79,9 @@ class GeneratorConfig:
             levels below the full one, channels ``32 * 2**level * width`` capped at ``512 * width``).
         height_activation: how the height channel leaves the decoder: ``"tanh"`` (Zhao's, the default: every
             checkpoint before it existed) bounds it to [0, 1] with ``(tanh(y) + 1) / 2``; ``"linear"`` gives
-            ``(y + 1) / 2``, the same slope at y = 0 and no bound. Only the height's differences make the normals,
-            so a bound buys nothing, and it traps training: both stage ones drove their height into the tanh's tail,
-            where the normals' gradient is 3 % (v2 at 4745 iterations: pre-tanh mean -2.5) and 15 % (v1, whose
-            height is also a constant: spread 0.003) of its unsaturated value, and their normals stayed flat
-            (CHANGELOG.md, study prior-v2). :func:`linearise_height` converts a trained tanh model.
+            ``(y + 1) / 2``, the same slope at y = 0 and no bound (only the height's differences make the normals).
+            :func:`linearise_height` converts a trained tanh model. Decision: docs/decisions/023-stage-one-v2.md
+            (linear height)
     """
 
     width: float = 1.0
@@ -176,7 +179,7 @@ def upsample_conv4(x: torch.Tensor, weight: torch.Tensor) -> torch.Tensor:
     low-resolution grid: one 3x3 convolution with ``4 * C_out`` phase kernels, then ``pixel_shuffle(2)``.
 
     Exactly the same function as ``conv4(upsample(x))`` (to float rounding) with 36 instead of 64 multiply-adds per
-    output and no upsampled copy (effect on a training iteration: ``bc3896e:trainer/bench/speed.py``).
+    output and no upsampled copy. Decision: docs/decisions/020-fast-schedule.md (fused up-blocks)
 
     Args:
         x: (B, C_in, h, w) input.
@@ -312,13 +315,13 @@ def flash_cue(x: torch.Tensor, centre: Optional[torch.Tensor] = None, origin: Op
 @dataclass
 class PhotoContext:
     """What a tile of a photo takes from the whole photo in the U-Net (``arch="unet"``): everything the network
-    otherwise computes from its own input as a whole (:meth:`Generator.photo_context`).
+    otherwise computes from its own input as a whole (:meth:`UNetGenerator.photo_context`).
 
     The U-Net's flash cue (the spot's position and every pixel's offset from it) and its global track (means over
     the input, fed back as per-channel biases at every decoder level) change with the crop it sees: a tile alone
-    gets other maps than the same pixels of the whole photo (CHANGELOG.md, study refine-detail). With this
-    context a tile gets the whole photo's spot, its own pixels' offsets in the whole photo's frame and the whole
-    photo's global vectors, so its maps differ from the whole photo's only within a receptive field of its border.
+    gets other maps than the same pixels of the whole photo. With this context a tile gets the whole photo's spot,
+    its own pixels' offsets in the whole photo's frame and the whole photo's global vectors, so its maps differ from
+    the whole photo's only within a receptive field of its border. Decision: docs/decisions/066-unet-photo-context.md
 
     Attributes:
         centre: (B, 2) the flash spot of the whole photo (:func:`flash_cue` units).
@@ -449,16 +452,58 @@ class UNetDecoder(nn.Module):
 OFFSET_CHANNELS = ("height", "roughness", "diffuse_r", "diffuse_g", "diffuse_b", "specular")
 
 
-class Generator(nn.Module):
-    """Encoder + two decoders; linear photo -> SVBRDF maps of the same size.
-
-    Args:
-        cfg: hyper-parameters (default: the paper's).
+class Features(NamedTuple):
+    """What :meth:`Generator.forward_features` returns and :meth:`Generator.decode` takes, for every architecture.
 
     Attributes:
-        encoder: shared encoder, (B, 3, H, W) -> latent (B, 4*64*width, H/4, W/4) for the paper depth.
-        decoder_nr: latent -> (height, roughness) pre-tanh.
-        decoder_ds: latent -> (diffuse RGB, specular) pre-tanh.
+        encoded: the encoder's output, as this architecture's decoders take it (``"wen"``: the (B, C, H / m, W / m)
+            latent, m = :attr:`Generator.multiple`; ``"unet"``: the skips at every level, level 0 at the padded full
+            size, and the (B, G) global vector, None with a context).
+        size: (H, W) of the padded input, the size the decoders' outputs have before cropping.
+        context: the whole photo's :class:`PhotoContext` when the input is a tile of it (``"unet"``), else None.
+    """
+
+    encoded: Any
+    size: Tuple[int, int]
+    context: Optional[PhotoContext] = None
+
+
+#: Generator classes by :attr:`GeneratorConfig.arch` (:func:`register_generator`).
+GENERATORS: Dict[str, Type["Generator"]] = {}
+
+
+def register_generator(cls: Type["Generator"]) -> Type["Generator"]:
+    """Class decorator: make ``cls`` the generator built for ``GeneratorConfig(arch=cls.arch)``."""
+    GENERATORS[cls.arch] = cls
+    return cls
+
+
+def create_generator(arch: str = "wen", **cfg: Any) -> "Generator":
+    """The generator of architecture ``arch`` (:data:`GENERATORS`), the other :class:`GeneratorConfig` fields as
+    keywords (a checkpoint's ``generator_config`` unpacks here).
+
+    Raises:
+        ValueError: an unknown architecture, field or value.
+    """
+    return Generator(GeneratorConfig.from_dict({"arch": arch, **cfg}))
+
+
+class Generator(nn.Module):
+    """Encoder + two decoders; linear photo -> SVBRDF maps of the same size. The contract every architecture keeps.
+
+    ``Generator(cfg)`` builds the class registered for ``cfg.arch`` (:data:`GENERATORS`: :class:`WenGenerator`,
+    :class:`UNetGenerator`), as :func:`create_generator` does.
+
+    Args:
+        cfg: hyper-parameters (default: the paper's; a subclass's: its architecture's defaults).
+
+    Attributes:
+        arch: the :attr:`GeneratorConfig.arch` the class implements.
+        takes_context: whether a tile can take its whole photo's :meth:`photo_context`.
+        multiple: the input is padded to a multiple of it (``2 ** decoder_blocks``).
+        encoder: shared encoder.
+        decoder_nr: encoder output -> (height, roughness) pre-tanh.
+        decoder_ds: encoder output -> (diffuse RGB, specular) pre-tanh.
         out_offset: (6,) constants added to the decoders' pre-tanh outputs, in the order height, roughness,
             diffuse R, G, B, specular (:data:`OFFSET_CHANNELS`); 0 unless trained (a fine-tune fits them per photo
             with a high learning rate, so a saturated output can move its level quickly;
@@ -466,90 +511,70 @@ class Generator(nn.Module):
             with zeros.
     """
 
+    arch: ClassVar[str] = ""
+    takes_context: ClassVar[bool] = False
+
+    def __new__(cls, cfg: Optional[GeneratorConfig] = None):
+        if cls is Generator:
+            cls = GENERATORS[(cfg or GeneratorConfig()).arch]
+        return super().__new__(cls)
+
     def __init__(self, cfg: Optional[GeneratorConfig] = None):
         super().__init__()
-        self.cfg = cfg = cfg or GeneratorConfig()
-        n, w = cfg.decoder_blocks, cfg.width
-        self.multiple = 2 ** n
-        if cfg.arch == "unet":
-            ch, gdim = _unet_channels(cfg), _ch(128, w)
-            self.encoder = UNetEncoder(ch, gdim)
-            self.decoder_nr = UNetDecoder(ch, gdim, 2)
-            self.decoder_ds = UNetDecoder(ch, gdim, 4)
-            self.out_offset = nn.Parameter(torch.zeros(len(OFFSET_CHANNELS)))
-            self.encoder.requires_grad_(cfg.train_encoder)
-            return
-        enc = [9, _ch(64, w)] + [_ch(min(64 * 2 ** i, 512), w) for i in range(1, n + 1)]
-        layers = [_conv(3, enc[0], 5), _conv(enc[0], enc[1], 3, pre_act=True, norm=True)]
-        layers += [_conv(enc[i], enc[i + 1], 3, stride=2, pre_act=True, norm=True) for i in range(1, n + 1)]
-        self.encoder = nn.Sequential(*layers)
-        # d1 doubles the latent (256 -> 512); block j outputs the encoder width one level up, the last one 64.
-        dec = [_ch(min(2 * 64 * 2 ** n, 512), w)] + enc[n + 1:2:-1] + [enc[1]]
-        self.decoder_nr = self._decoder(enc[-1], dec, 2)
-        self.decoder_ds = self._decoder(enc[-1], dec, 4)
-        self.out_offset = nn.Parameter(torch.zeros(len(OFFSET_CHANNELS)))
-        _init_weights(self)
-        self.encoder.requires_grad_(cfg.train_encoder)
+        self.cfg = cfg or GeneratorConfig(arch=self.arch)
+        if self.cfg.arch != self.arch:
+            raise ValueError(f"{type(self).__name__} implements arch={self.arch!r}, not {self.cfg.arch!r}")
+        self.multiple = 2 ** self.cfg.decoder_blocks
 
     def _load_from_state_dict(self, state_dict, prefix, *args, **kwargs):
         # Checkpoints from before ``out_offset`` existed: zero offsets, i.e. the same model.
         state_dict.setdefault(prefix + "out_offset", torch.zeros(len(OFFSET_CHANNELS)))
         super()._load_from_state_dict(state_dict, prefix, *args, **kwargs)
 
-    @staticmethod
-    def _decoder(cin: int, dec: Sequence[int], outc: int) -> nn.Sequential:
-        layers = [_conv(cin, dec[0], 3, norm=True)]
-        layers += [_up_block(dec[i], dec[i + 1]) for i in range(len(dec) - 1)]
-        layers.append(_conv(dec[-1], outc, 3, pre_act=True))  # Wen's trimmed last block: no upsampling
-        return nn.Sequential(*layers)
+    def _padded(self, x: torch.Tensor) -> torch.Tensor:
+        m = self.multiple
+        return F.pad(x, (0, (-x.shape[-1]) % m, 0, (-x.shape[-2]) % m), mode="replicate")
 
     def forward_features(self, x: torch.Tensor, context: Optional[PhotoContext] = None,
-                         origin: Optional[torch.Tensor] = None) -> Any:
-        """Encoder latent of a linear photo.
+                         origin: Optional[torch.Tensor] = None) -> Features:
+        """Encoder output of a linear photo.
 
         Args:
             x: (B, 3, H, W) linear RGB photo (values >= 0, typically [0, 1]); any H, W >= 8. It is padded
-                (replicate, bottom/right) to a multiple of 4 (``2 ** decoder_blocks``) before encoding.
-            context: ``arch="unet"`` only: ``x`` is a tile of the photo this :meth:`photo_context` was taken from,
-                at ``origin`` ((B, 2) or (2,) top-left row, column in that photo); its maps then are those of the
-                same pixels of the whole photo, up to a receptive field at the tile's border. Ignored for ``"wen"``.
+                (replicate, bottom/right) to a multiple of :attr:`multiple` before encoding.
+            context: ``x`` is a tile of the photo this :meth:`photo_context` was taken from, at ``origin`` ((B, 2)
+                or (2,) top-left row, column in that photo); its maps then are those of the same pixels of the whole
+                photo, up to a receptive field at the tile's border. Ignored where not :attr:`takes_context`.
 
         Returns:
-            ``arch="wen"``: (B, C, ceil(H/4), ceil(W/4)) latent; ``arch="unet"``: ``(skips, global, context)``, the
-            skips at every level (level 0 at the padded full size), the (B, G) global vector (None with a context)
-            and the context.
+            :class:`Features`.
         """
         if x.ndim != 4 or x.shape[1] != 3:
             raise ValueError(f"Generator expects (B, 3, H, W), got {tuple(x.shape)}")
-        m = self.multiple
-        x = F.pad(x, (0, (-x.shape[-1]) % m, 0, (-x.shape[-2]) % m), mode="replicate")
-        if self.cfg.arch != "unet":
-            return self.encoder(x)
-        skips, g = self.encoder(x, context, origin)
-        return skips, g, context
+        x = self._padded(x)
+        context = context if self.takes_context else None
+        return Features(self._encode(x, context, origin), (x.shape[-2], x.shape[-1]), context)
+
+    def _encode(self, x: torch.Tensor, context: Optional[PhotoContext], origin: Optional[torch.Tensor]) -> Any:
+        """The padded photo -> :attr:`Features.encoded`."""
+        raise NotImplementedError
+
+    def decoder_outputs(self, name: str, features: Features) -> torch.Tensor:
+        """The pre-tanh outputs of decoder ``name`` (``"decoder_nr"`` or ``"decoder_ds"``), before
+        :attr:`out_offset`: (B, 2 or 4, H, W) at the padded size."""
+        raise NotImplementedError
 
     def photo_context(self, photo: torch.Tensor) -> PhotoContext:
-        """The whole photo's flash spot and global vectors, for its tiles (:class:`PhotoContext`; ``arch="unet"``).
+        """The whole photo's context for its tiles (:class:`PhotoContext`), where :attr:`takes_context`.
 
         Args:
-            photo: (B, 3, H, W) linear RGB photo, as given to :meth:`forward`. Costs the encoder and the decoders
-                below full resolution; differentiable (compute it under ``torch.no_grad()`` to reuse it across steps).
-        """
-        if self.cfg.arch != "unet":
-            raise ValueError("a photo context exists for arch='unet' only")
-        m = self.multiple
-        x = F.pad(photo, (0, (-photo.shape[-1]) % m, 0, (-photo.shape[-2]) % m), mode="replicate")
-        skips, g = self.encoder(x)
-        _, centre = flash_cue(x)
-        tracks = {name: getattr(self, name).tracks((skips, g)) for name in DECODER_MAPS}
-        return PhotoContext(centre, (x.shape[-2], x.shape[-1]), tracks)
+            photo: (B, 3, H, W) linear RGB photo, as given to :meth:`forward`.
 
-    def _decoded(self, name: str, latent: Any) -> torch.Tensor:
-        dec = getattr(self, name)
-        if self.cfg.arch != "unet":
-            return dec(latent)
-        skips, g, context = latent
-        return dec((skips, g), None if context is None else context.tracks[name])
+        Raises:
+            ValueError: an architecture whose tiles take no context.
+        """
+        takers = ", ".join(repr(a) for a, cls in GENERATORS.items() if cls.takes_context)
+        raise ValueError(f"a photo context exists for arch {takers} only, not {self.arch!r}")
 
     @staticmethod
     def _unit(y: torch.Tensor) -> torch.Tensor:
@@ -557,15 +582,15 @@ class Generator(nn.Module):
         y = y.to(torch.promote_types(y.dtype, torch.float32))
         return (torch.tanh(y) + 1.0) * 0.5
 
-    def decode(self, latent: torch.Tensor, maps: Iterable[str] = MAP_NAMES,
+    def decode(self, features: Features, maps: Iterable[str] = MAP_NAMES,
                size: Optional[Tuple[int, int]] = None) -> Dict[str, torch.Tensor]:
         """Run only the decoders needed for ``maps``.
 
         Args:
-            latent: output of :meth:`forward_features`.
+            features: output of :meth:`forward_features`.
             maps: names among ``diffuse, specular, roughness, normal``; ``normal``/``roughness`` run
                 ``decoder_nr``, ``diffuse``/``specular`` run ``decoder_ds``.
-            size: (H, W) of the original photo to crop to (default: the padded size, 4x the latent).
+            size: (H, W) of the original photo to crop to (default: the padded size, ``features.size``).
 
         Returns:
             ``{name: tensor}`` in :data:`~svbrdf.runtime.core.maps.MAP_NAMES` order, float32 (float64 for float64
@@ -576,14 +601,10 @@ class Generator(nn.Module):
         unknown = want - set(MAP_NAMES)
         if unknown:
             raise ValueError(f"unknown maps {sorted(unknown)}; expected some of {', '.join(MAP_NAMES)}")
-        if size is None:
-            full = latent[0][0] if self.cfg.arch == "unet" else latent
-            scale = 1 if self.cfg.arch == "unet" else self.multiple
-            size = (full.shape[-2] * scale, full.shape[-1] * scale)
-        h, w = size
+        h, w = features.size if size is None else size
         out: Dict[str, torch.Tensor] = {}
         if want & set(DECODER_MAPS["decoder_nr"]):
-            pre = self._decoded("decoder_nr", latent) + self.out_offset[0:2].view(1, 2, 1, 1)
+            pre = self.decoder_outputs("decoder_nr", features) + self.out_offset[0:2].view(1, 2, 1, 1)
             y = self._unit(pre)[..., :h, :w]
             height = y[:, 0:1]
             if self.cfg.height_activation == "linear":
@@ -591,7 +612,8 @@ class Generator(nn.Module):
             out["normal"] = height_to_normal(height, self.cfg.height_scale)
             out["roughness"] = y[:, 1:2]
         if want & set(DECODER_MAPS["decoder_ds"]):
-            y = self._unit(self._decoded("decoder_ds", latent) + self.out_offset[2:6].view(1, 4, 1, 1))[..., :h, :w]
+            pre = self.decoder_outputs("decoder_ds", features) + self.out_offset[2:6].view(1, 4, 1, 1)
+            y = self._unit(pre)[..., :h, :w]
             out["diffuse"] = y[:, 0:3]
             out["specular"] = y[:, 3:4]
         return {n: out[n] for n in MAP_NAMES if n in want}
@@ -601,6 +623,80 @@ class Generator(nn.Module):
         """(B, 3, H, W) linear photo -> (B, 8, H, W) packed maps (layout and ranges of :meth:`decode`); a tile of a
         photo with that photo's ``context`` at ``origin`` (:meth:`forward_features`)."""
         return pack_maps(self.decode(self.forward_features(x, context, origin), size=(x.shape[-2], x.shape[-1])))
+
+
+@register_generator
+class WenGenerator(Generator):
+    """The published generator (``arch="wen"``, the module docstring's table): a shared encoder to a latent at
+    1/4 resolution for the paper depth, (B, 4*64*width, H/4, W/4), and two decoders, instance-normalised."""
+
+    arch = "wen"
+
+    def __init__(self, cfg: Optional[GeneratorConfig] = None):
+        super().__init__(cfg)
+        n, w = self.cfg.decoder_blocks, self.cfg.width
+        enc = [9, _ch(64, w)] + [_ch(min(64 * 2 ** i, 512), w) for i in range(1, n + 1)]
+        layers = [_conv(3, enc[0], 5), _conv(enc[0], enc[1], 3, pre_act=True, norm=True)]
+        layers += [_conv(enc[i], enc[i + 1], 3, stride=2, pre_act=True, norm=True) for i in range(1, n + 1)]
+        self.encoder = nn.Sequential(*layers)
+        # d1 doubles the latent (256 -> 512); block j outputs the encoder width one level up, the last one 64.
+        dec = [_ch(min(2 * 64 * 2 ** n, 512), w)] + enc[n + 1:2:-1] + [enc[1]]
+        self.decoder_nr = self._decoder(enc[-1], dec, 2)
+        self.decoder_ds = self._decoder(enc[-1], dec, 4)
+        self.out_offset = nn.Parameter(torch.zeros(len(OFFSET_CHANNELS)))
+        _init_weights(self)
+        self.encoder.requires_grad_(self.cfg.train_encoder)
+
+    @staticmethod
+    def _decoder(cin: int, dec: Sequence[int], outc: int) -> nn.Sequential:
+        layers = [_conv(cin, dec[0], 3, norm=True)]
+        layers += [_up_block(dec[i], dec[i + 1]) for i in range(len(dec) - 1)]
+        layers.append(_conv(dec[-1], outc, 3, pre_act=True))  # Wen's trimmed last block: no upsampling
+        return nn.Sequential(*layers)
+
+    def _encode(self, x, context, origin) -> torch.Tensor:
+        return self.encoder(x)
+
+    def decoder_outputs(self, name: str, features: Features) -> torch.Tensor:
+        return getattr(self, name)(features.encoded)
+
+
+@register_generator
+class UNetGenerator(Generator):
+    """The candidate for a prior over many materials (``arch="unet"``, issue 26): :class:`UNetEncoder` and two
+    :class:`UNetDecoder`; a tile can take its whole photo's :meth:`photo_context`."""
+
+    arch = "unet"
+    takes_context = True
+
+    def __init__(self, cfg: Optional[GeneratorConfig] = None):
+        super().__init__(cfg)
+        ch, gdim = _unet_channels(self.cfg), _ch(128, self.cfg.width)
+        self.encoder = UNetEncoder(ch, gdim)
+        self.decoder_nr = UNetDecoder(ch, gdim, 2)
+        self.decoder_ds = UNetDecoder(ch, gdim, 4)
+        self.out_offset = nn.Parameter(torch.zeros(len(OFFSET_CHANNELS)))
+        self.encoder.requires_grad_(self.cfg.train_encoder)
+
+    def _encode(self, x, context, origin) -> Tuple[Tuple[torch.Tensor, ...], Optional[torch.Tensor]]:
+        return self.encoder(x, context, origin)
+
+    def decoder_outputs(self, name: str, features: Features) -> torch.Tensor:
+        ctx = features.context
+        return getattr(self, name)(features.encoded, None if ctx is None else ctx.tracks[name])
+
+    def photo_context(self, photo: torch.Tensor) -> PhotoContext:
+        """The whole photo's flash spot and global vectors, for its tiles (:class:`PhotoContext`).
+
+        Args:
+            photo: (B, 3, H, W) linear RGB photo, as given to :meth:`forward`. Costs the encoder and the decoders
+                below full resolution; differentiable (compute it under ``torch.no_grad()`` to reuse it across steps).
+        """
+        x = self._padded(photo)
+        skips, g = self.encoder(x)
+        _, centre = flash_cue(x)
+        tracks = {name: getattr(self, name).tracks((skips, g)) for name in DECODER_MAPS}
+        return PhotoContext(centre, (x.shape[-2], x.shape[-1]), tracks)
 
 
 class Discriminator(nn.Module):
@@ -651,7 +747,7 @@ def linearise_height(generator: Generator, photos: torch.Tensor) -> float:
         raise ValueError(f"the generator's height is already {generator.cfg.height_activation!r}")
     was_training = generator.training
     generator.eval()
-    pre = generator._decoded("decoder_nr", generator.forward_features(photos))[:, 0] + generator.out_offset[0]
+    pre = generator.decoder_outputs("decoder_nr", generator.forward_features(photos))[:, 0] + generator.out_offset[0]
     generator.train(was_training)
     k = float((1.0 - torch.tanh(pre.float()) ** 2).mean())
     last = [m for m in generator.decoder_nr.modules() if isinstance(m, nn.Conv2d)][-1]
@@ -669,7 +765,8 @@ def count_parameters(module: nn.Module, trainable_only: bool = False) -> int:
 
 
 __all__ = [
-    "OFFSET_CHANNELS", "ARCHS", "UNetEncoder", "UNetDecoder", "flash_cue", "PhotoContext",
+    "OFFSET_CHANNELS", "ARCHS", "UNetEncoder", "UNetDecoder", "flash_cue", "PhotoContext", "Features",
     "GeneratorConfig", "DiscriminatorConfig", "MODEL_PRESETS", "DISC_PRESETS", "DECODER_MAPS", "Generator",
+    "WenGenerator", "UNetGenerator", "GENERATORS", "register_generator", "create_generator",
     "Discriminator", "height_to_normal", "pack_maps", "count_parameters", "linearise_height", "HEIGHT_ACTIVATIONS",
 ]

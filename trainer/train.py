@@ -115,8 +115,7 @@ def predict_full(generator: Generator, photo: torch.Tensor, *, max_side: int = 1
     boxes = tile_boxes(h, w, max_side, overlap) if max(h, w) > max_side else [(0, 0, h, w)]
     if len(boxes) == 1:
         return generator(photo).float()
-    unet = getattr(getattr(generator, "cfg", None), "arch", None) == "unet"
-    ctx = generator.photo_context(photo) if context and unet else None
+    ctx = generator.photo_context(photo) if context and getattr(generator, "takes_context", False) else None
     acc = torch.zeros((1, 8, h, w), dtype=torch.float32, device=photo.device)
     wsum = torch.zeros((1, 1, h, w), dtype=torch.float32, device=photo.device)
     for box in boxes:
@@ -212,7 +211,7 @@ class Trainer(TrainingLoop):
         if use_perceptual and self.clipped_fraction < config.perceptual_min_clipped:
             use_perceptual = False
             self.notes.append(f"no clipped highlight ({100 * self.clipped_fraction:.3f} % of pixels >= {CLIP_LEVEL}):"
-                              " perceptual loss skipped (it did not help on such photos, CHANGELOG.md, study no-highlight)")
+                              " perceptual loss skipped (it did not help on such photos: docs/decisions/021-fast-highlight-free.md)")
         if use_perceptual:
             self.perceptual = PerceptualLoss(config.perceptual, weights_path=config.vgg_weights,
                                              seed=config.seed).to(self.device)
@@ -308,9 +307,9 @@ class Trainer(TrainingLoop):
         return t[..., y0:y0 + self.tile, x0:x0 + self.tile]
 
     def _context(self, refresh: bool = False) -> Optional[PhotoContext]:
-        """The whole photo's context for this iteration's tiles (None: a "wen" generator or ``photo_context``
-        off); recomputed without gradient every ``context_every`` iterations, or now with ``refresh``."""
-        if not self.config.photo_context or self.generator.cfg.arch != "unet":
+        """The whole photo's context for this iteration's tiles (None: a generator that takes none, ``"wen"``, or
+        ``photo_context`` off); recomputed without gradient every ``context_every`` iterations, or now with ``refresh``."""
+        if not self.config.photo_context or not self.generator.takes_context:
             return None
         due = self.step // self.config.context_every
         if refresh or self.context is None or due != self._context_step:
@@ -596,8 +595,7 @@ def plateau_reached(render_l1: Sequence[float], window: int, tol: float) -> bool
     The GAN makes the signal noisy (about +-10 % between evaluations), so the best of a window is compared, not
     single values. The map change between evaluations is logged but not used: it settles at the GAN's jitter
     level (0.005-0.03 mean absolute change) instead of falling. Window 4 and tolerance 5 % (the defaults of
-    :class:`~svbrdf.trainer.config.TrainConfig`) were chosen by ``bc3896e:trainer/bench/early_stop.py`` on
-    8 synthetic cases (CHANGELOG.md, study early-stop-tuning).
+    :class:`~svbrdf.trainer.config.TrainConfig`) were chosen on 8 synthetic cases: docs/decisions/022-early-stop.md.
     """
     if len(render_l1) <= window:
         return False

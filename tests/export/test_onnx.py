@@ -280,3 +280,29 @@ def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path, h
     with torch.inference_mode():
         want = generator(torch.from_numpy(x)).numpy()
     np.testing.assert_allclose(sess.run(None, {"image": x})[0], want, atol=export_onnx.PARITY_ATOL)
+
+
+def test_the_shipped_checkpoint_builds_its_class_and_exports_the_shipped_graph(tmp_path):
+    # Golden check of the generator classes: the packaged checkpoint, rebuilt by the factory and exported again, gives
+    # what the packaged ONNX graph (exported from it before the classes were split) gives, and so does torch.
+    from pathlib import Path
+
+    from svbrdf.trainer.checkpoint import load_generator
+    from svbrdf.trainer.models import UNetGenerator
+
+    models = Path(__file__).resolve().parents[2] / "models"
+    generator, meta = load_generator(models / "svbrdf_prior_v2.pt")
+    assert type(generator) is UNetGenerator and meta["generator_config"]["arch"] == "unet"
+    with warnings.catch_warnings():  # the full graph only, as export_generator traces it (its parts cost 2x more)
+        warnings.simplefilter("ignore", FutureWarning)
+        export_onnx._export(export_onnx._Graph(generator).eval(), tmp_path / "again.onnx", OPSET, "shipped")
+    x = np.random.default_rng(7).random((1, 3, 45, 70), dtype=np.float32)  # not a multiple of 16: padded inside
+    with torch.inference_mode():
+        want = generator(torch.from_numpy(x)).numpy()
+    for graph in (models / "svbrdf_prior_v2.onnx", tmp_path / "again.onnx"):
+        sess = ort.InferenceSession(str(graph), providers=["CPUExecutionProvider"])
+        np.testing.assert_allclose(sess.run(None, {"image": x})[0], want, atol=export_onnx.PARITY_ATOL, rtol=0)
+    shipped = ort.InferenceSession(str(models / "svbrdf_prior_v2.onnx"), providers=["CPUExecutionProvider"])
+    again = ort.InferenceSession(str(tmp_path / "again.onnx"), providers=["CPUExecutionProvider"])
+    np.testing.assert_allclose(again.run(None, {"image": x})[0], shipped.run(None, {"image": x})[0],
+                               atol=1e-5, rtol=0)

@@ -4,8 +4,9 @@ import torch.nn.functional as F
 
 from svbrdf.runtime.core.maps import MAP_NAMES, N_CHANNELS, SLICES
 from svbrdf.trainer.models import (
-    DISC_PRESETS, MODEL_PRESETS, Discriminator, DiscriminatorConfig, Generator, GeneratorConfig,
-    count_parameters, flash_cue, height_to_normal, linearise_height, pack_maps,
+    ARCHS, DISC_PRESETS, GENERATORS, MODEL_PRESETS, Discriminator, DiscriminatorConfig, Features, Generator,
+    GeneratorConfig, UNetGenerator, WenGenerator, count_parameters, create_generator, flash_cue, height_to_normal,
+    linearise_height, pack_maps,
 )
 
 
@@ -21,6 +22,45 @@ def _inorm(c):
 def tiny():
     torch.manual_seed(0)
     return Generator(MODEL_PRESETS["tiny"]).eval()
+
+
+# ---- one class per architecture behind one factory ----
+
+def test_every_architecture_has_its_class_behind_the_factory():
+    assert set(GENERATORS) == set(ARCHS) and GENERATORS["wen"] is WenGenerator and GENERATORS["unet"] is UNetGenerator
+    for arch, cls in GENERATORS.items():
+        cfg = GeneratorConfig(width=0.125, decoder_blocks=3, arch=arch)
+        for g in (Generator(cfg), create_generator(**cfg.to_dict())):
+            assert type(g) is cls and isinstance(g, Generator) and g.arch == arch and g.cfg == cfg
+    assert type(Generator()) is WenGenerator and type(create_generator(width=0.125)) is WenGenerator
+    with pytest.raises(ValueError, match="arch"):
+        create_generator("resnet")
+    with pytest.raises(ValueError, match="unknown GeneratorConfig keys"):
+        create_generator("unet", depth=3)
+    with pytest.raises(ValueError, match="implements arch='wen'"):
+        WenGenerator(GeneratorConfig(arch="unet"))
+
+
+@pytest.mark.parametrize("arch", ARCHS)
+def test_every_architecture_keeps_one_contract(arch):
+    with torch.random.fork_rng():
+        torch.manual_seed(0)
+        g = create_generator(arch, width=0.125, decoder_blocks=3).eval()
+    x = torch.rand(2, 3, 37, 50)
+    with torch.no_grad():
+        feats = g.forward_features(x)
+        assert isinstance(feats, Features) and feats.size == (40, 56) and feats.context is None
+        padded = g.decode(feats)
+        assert all(m.shape[-2:] == (40, 56) for m in padded.values())
+        pre = g.decoder_outputs("decoder_ds", feats)
+        assert pre.shape == (2, 4, 40, 56)
+        torch.testing.assert_close(padded["specular"], torch.tanh(pre[:, 3:4] + g.out_offset[5]) * 0.5 + 0.5)
+        torch.testing.assert_close(pack_maps(g.decode(feats, size=(37, 50))), g(x))
+    # the same parameter names, and in the same order (the optimisers' states follow it), for every architecture
+    order = [n.split(".")[0] for n, _ in g.named_parameters()]
+    assert sorted(set(order), key=order.index) == ["out_offset", "encoder", "decoder_nr", "decoder_ds"]
+    assert [n for n, _ in g.named_children()] == ["encoder", "decoder_nr", "decoder_ds"]
+    assert g.takes_context == (arch == "unet")
 
 
 # ---- parameter counts against the published layer tables (peers.md 1.2, 1.5) ----
@@ -396,8 +436,8 @@ def test_the_unet_output_conv_stays_float32_under_bf16_autocast():
     x = torch.rand(1, 3, 32, 32)
     with torch.no_grad(), torch.autocast("cpu", dtype=torch.bfloat16):
         latent = g.forward_features(x)
-        feats = g.decoder_nr._levels((latent[0], latent[1]))
-        y = g.decoder_nr((latent[0], latent[1]))
+        feats = g.decoder_nr._levels(latent.encoded)
+        y = g.decoder_nr(latent.encoded)
     assert feats.dtype == torch.bfloat16 and y.dtype == torch.float32
     want = F.conv2d(feats.float(), g.decoder_nr.out.weight, g.decoder_nr.out.bias)
     torch.testing.assert_close(y, want, atol=1e-6, rtol=1e-6)

@@ -4,8 +4,8 @@ headless Firefox, the page opened from a ``file://`` URL.
 The browser tests run once per browser (``browser`` fixture, tests/runtime/conftest.py) and skip for a browser that
 is absent (``apt-get install chromium firefox-esr``). Measured on a 2-core AMD EPYC without a GPU (Chromium through
 SwiftShader, Firefox ESR 153 through Mesa llvmpipe): both within 1/255 of the numpy render, in the pixels read
-back and in the screenshots; the tolerance is the issue's 2/255. The README's pictures:
-``docs/images/scripts/viewer_screenshots.py``.
+back and in the screenshots; the tolerance is the issue's 2/255. The script of the viewer's screenshots left the tree
+in 3c4b280 (``git show 3c4b280~1:./docs/images/scripts/viewer_screenshots.py``).
 """
 
 import base64
@@ -267,6 +267,29 @@ def test_viewer_html_is_self_contained():
               "roughness": np.full((4, 4, 1), 0.5), "specular": np.full((4, 4, 1), 0.04)}
     page = viewer_html(stored, RenderConfig(), "a <b> name")
     assert "a &lt;b&gt; name" in page and "<script src" not in page and "<link" not in page
+
+
+def test_the_shaders_and_the_page_are_package_data_with_every_placeholder_filled():
+    import re
+    from importlib import resources
+
+    tomllib = pytest.importorskip("tomllib")  # Python 3.11+
+
+    from svbrdf.runtime.outputs import viewer
+
+    folder = resources.files("svbrdf.runtime.outputs").joinpath(viewer.ASSETS)
+    names = {viewer.VERTEX_FILE, viewer.FRAGMENT_FILE, viewer.PAGE_FILE}
+    assert names <= {f.name for f in folder.iterdir()}
+    # the wheel packs them: pyproject's package-data names the folder
+    pyproject = tomllib.loads((Path(__file__).parents[3] / "pyproject.toml").read_text(encoding="utf-8"))
+    assert f"{viewer.ASSETS}/*" in pyproject["tool"]["setuptools"]["package-data"]["svbrdf.runtime.outputs"]
+    stored = {"basecolor": np.full((4, 4, 3), 0.5), "normal": np.full((4, 4, 3), 0.5) + [0, 0, 0.5],
+              "roughness": np.full((4, 4, 1), 0.5), "specular": np.full((4, 4, 1), 0.04),
+              "height": np.full((4, 4, 1), 0.5)}
+    page = viewer_html(stored, RenderConfig(), "name", note="note", height_scale=0.1)
+    assert not re.findall(r"@[A-Z_]+@", page)
+    assert folder.joinpath(viewer.VERTEX_FILE).read_text(encoding="utf-8") in page
+    assert "const float ALPHA_MIN = " in page and page.startswith("<!DOCTYPE html>")
 
 
 # ------------------------------------------------------------------------------------------- relief and AO
