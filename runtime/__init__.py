@@ -2,11 +2,11 @@
 
 Public API::
 
-    from svbrdf.runtime import PostProcess, estimate, load_session
+    from svbrdf.runtime import PostProcess, estimate, load_session, with_relief, write_texture_set
     session = load_session()              # packaged model, or SVBRDF_MODEL, or a path
     maps = estimate("photo.jpg", session) # -> Maps (numpy arrays; see svbrdf.runtime.core.maps)
-    maps.save("out/", "photo")
-    maps.with_relief().save("out/", "photo", force=True)  # + photo_height.png, photo_ao.png (from the normals)
+    write_texture_set(maps, "out/", "photo")
+    write_texture_set(with_relief(maps), "out/", "photo", force=True)  # + photo_height.png, photo_ao.png
     bare = estimate("photo.jpg", session, post=PostProcess.off())  # the network's maps, no correction
 
 The package is organised by role: ``core`` (maps, renderer, colour), ``io`` (image files), ``inference`` (model,
@@ -32,10 +32,12 @@ _LAZY = {
     "Maps": ".core.maps",
     "Relief": ".core.relief",
     "relief_maps": ".core.relief",
+    "with_relief": ".core.relief",
     "RenderConfig": ".core.render",
     "render": ".core.render",
     "read_image": ".io.images",
     "write_image": ".io.images",
+    "write_texture_set": ".outputs.texture_set",
     "load_session": ".inference.session",
     "PreviewSession": ".inference.session",
     "estimate": ".inference.pipeline",
@@ -58,10 +60,11 @@ def __getattr__(name: str):
 
 if TYPE_CHECKING:  # pragma: no cover
     from .core.maps import Maps
-    from .core.relief import Relief, relief_maps
+    from .core.relief import Relief, relief_maps, with_relief
     from .core.render import RenderConfig, render
     from .errors import ImageError, ModelError, SvbrdfError
     from .inference.pipeline import PhotoOptions, estimate, process_photo
     from .inference.session import PreviewSession, load_session
     from .io.images import read_image, write_image
+    from .outputs.texture_set import write_texture_set
     from .post.settings import PostProcess

@@ -109,6 +109,7 @@ def test_the_table_lists_what_the_short_forms_cover():
     assert {_short(c) for c, _ in table_rows()} == set(SHORT)
 
 
+@pytest.mark.integration
 def test_every_command_of_the_table_runs_on_the_example(tmp_path):
     (tmp_path / "photos").mkdir()
     shutil.copy(EXAMPLE, tmp_path / "photos")

@@ -4,7 +4,8 @@
 
 One row per method, preset and iteration count; each column the mean over the cases it applies to (n in the
 header): seconds over every case; the real capture's relighting over its views; re-render, grazing and the per-map
-errors over the synthetic cases (ground truth); burn-in over the synthetic cases and over the real photos.
+errors over the synthetic cases (ground truth); burn-in over the synthetic cases and over the real photos; the base
+colour's foreign colour (CIELAB a*b* against the photo, ``runtime/quality/colour_check.py``) over the real photos.
 """
 
 import json
@@ -25,8 +26,9 @@ COLUMNS = [  # (header, record key, which cases)
     ("normal °", "normal_angle_deg", "synthetic"),
     ("burn-in synthetic", "burn_in", "synthetic"),
     ("burn-in photos", "burn_in", "photo"),
+    ("foreign colour photos", "foreign_colour", "photo"),
 ]
-NAMES = {"baseline": "trivial baseline", "preview": "preview"}
+NAMES = {"baseline": "trivial baseline", "preview": "preview", "refine": "refine (`--refine`, the default)"}
 
 
 def _fmt(v: float) -> str:
@@ -37,7 +39,7 @@ def table(doc: dict) -> str:
     groups = defaultdict(list)
     for r in doc["records"]:
         groups[(r["method"], r["preset"], r["iterations"])].append(r)
-    order = {"baseline": 0, "preview": 1, "finetune": 2, "scratch": 3}
+    order = {"baseline": 0, "preview": 1, "refine": 2, "finetune": 3, "scratch": 4}
     keys = sorted(groups, key=lambda k: (order.get(k[0], 9), k[1] or "", k[2] or 0))
     counts = {}
     rows = []
@@ -53,11 +55,11 @@ def table(doc: dict) -> str:
             mean = float(np.mean(vals)) if vals else None
             cells.append("–" if mean is None else f"{mean:.2f}" if field == "normal_angle_deg" else _fmt(mean))
         method, preset, iters = key
-        name = NAMES.get(method) or (f"refine (`{preset}`) {iters}" if method == "finetune" and preset == "fast"
-                                     else f"paper's fine-tune (`paper`) {iters}" if method == "finetune"
-                                     and preset == "paper" else f"{method} `{preset}` {iters}")
+        name = NAMES.get(method) or (f"generator fine-tune (`{preset}`) {iters}" if method == "finetune"
+                                     else f"one stage: from scratch (`{preset}`) {iters}" if method == "scratch"
+                                     else f"{method} `{preset}` {iters}")
         rows.append(f"| {name} | " + " | ".join(cells) + " |")
-    head = [f"{h} (n {counts.get(w, 0)})" if i in (0, 1, 3, 9, 10) else h for i, (h, _, w) in enumerate(COLUMNS)]
+    head = [f"{h} (n {counts.get(w, 0)})" if i in (0, 1, 3, 9, 10, 11) else h for i, (h, _, w) in enumerate(COLUMNS)]
     return "\n".join(["| method | " + " | ".join(head) + " |", "|---" * (len(COLUMNS) + 1) + "|", *rows])
 
 

@@ -36,8 +36,8 @@ from typing import Dict, Iterable, Iterator, Mapping, Optional, Tuple, Union
 import numpy as np
 
 from ..errors import MapError, SvbrdfError
-from .filters import all_finite
-from .relief import AO_STRENGTH, RELIEF_NAMES, Relief, relief_maps
+from .relief import AO_STRENGTH, RELIEF_NAMES, Relief
+from .relief import with_relief as _with_relief
 from .render_config import RenderConfig
 
 #: Map names in packing order.
@@ -180,13 +180,17 @@ class Maps:
             :func:`~svbrdf.runtime.inference.pipeline.estimate` and the CLIs; ``None`` = unknown). Writers describe it in
             the sidecar and the ``--target`` conversions use its diffuse weighting (``ZHAO`` when ``None``).
         relief: the height map and ambient occlusion derived from the normal map
-            (:class:`~svbrdf.runtime.core.relief.Relief`, made on demand by :meth:`with_relief`), written by every
-            writer when present; ``None`` = none. It must be the maps' size; :meth:`clipped` keeps it, the other
-            copies (crop, subset) drop it.
+            (:class:`~svbrdf.runtime.core.relief.Relief`, made on demand by
+            :func:`~svbrdf.runtime.core.relief.with_relief`), written by every writer when present; ``None`` = none.
+            It must be the maps' size; :meth:`clipped` keeps it, the other copies (crop, subset) drop it.
 
     A map that was not computed is ``None`` (at least one is present; :attr:`names` lists them). What needs
     every map (:meth:`pack`, rendering, the relit panel, the ``--target`` conversions) checks with
     :meth:`require`.
+
+    A plain value: the relief is made by :func:`~svbrdf.runtime.core.relief.with_relief` and a set is written by
+    :func:`~svbrdf.runtime.outputs.texture_set.write_texture_set` (or a ``--target``'s
+    :func:`~svbrdf.runtime.outputs.targets.write_target`).
     """
 
     diffuse: Optional[np.ndarray] = None
@@ -288,36 +292,13 @@ class Maps:
 
     def with_relief(self, *, tileable: bool = False, maps: Iterable[str] = RELIEF_NAMES,
                     ao_strength: float = AO_STRENGTH) -> "Maps":
-        """A copy with :attr:`relief`: the height map and ambient occlusion of the normal map, as written
-        (:func:`~svbrdf.runtime.core.relief.relief_maps`; ``maps`` picks ``"height"`` and/or ``"ao"``).
-
-        The normals are made unit length as the writers make them (:func:`normalize_normals`: a zero-length
-        normal becomes (0, 0, 1), the documented repair), strip by strip as their slopes are taken (``zero="unit"``
-        of :func:`~svbrdf.runtime.core.relief.normal_slopes`), so the height's slopes are those of the written normal
-        map. ``tileable``: the maps repeat (the height is integrated across the wrap). ``ao_strength``: the AO is that
-        of the height times it (default :data:`~svbrdf.runtime.core.relief.AO_STRENGTH`,
-        docs/decisions/002-ao-strength.md; 1 = the normal map's own depth).
-
-        Raises:
-            SvbrdfError: no normal map, NaN/Inf normals, or unknown names.
-        """
-        if self.normal is None:
-            raise SvbrdfError(f"the height and AO need the normal map; this texture set has only "
-                              f"{', '.join(self.names)}")
-        if not all_finite(self.normal):
-            raise SvbrdfError("normal map: NaN or infinite values; the height and AO need finite normals")
-        relief = relief_maps(self.normal, tileable=tileable, maps=maps, ao_strength=ao_strength, zero="unit")
-        return self._with(dict(self.items()), relief=relief)
+        """Compatibility call: ``with_relief(self, ...)`` of :mod:`svbrdf.runtime.core.relief` (its doc gives the
+        arguments), which new code calls."""
+        return _with_relief(self, tileable=tileable, maps=maps, ao_strength=ao_strength)
 
     def _with(self, arrays: Mapping[str, np.ndarray], relief: Optional[Relief] = None) -> "Maps":
         """A set of these arrays with a copy of this set's meta and its render config (and ``relief``)."""
         return Maps(**arrays, meta=dict(self.meta), render_config=self.render_config, relief=relief)
-
-    def save(self, out_dir, name: str, **kwargs):
-        """Write this texture set (only the maps present); see :func:`svbrdf.runtime.outputs.texture_set.write_texture_set`."""
-        from ..outputs.texture_set import write_texture_set
-
-        return write_texture_set(self, out_dir, name, **kwargs)
 
 
 __all__ = [

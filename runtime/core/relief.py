@@ -39,7 +39,7 @@ Everything here imports numpy and the project's error type only.
 from __future__ import annotations
 
 from concurrent.futures import ThreadPoolExecutor
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any, Callable, Dict, Optional, Tuple
 
 import numpy as np
@@ -51,7 +51,7 @@ from .stats import pearson
 __all__ = ["MAX_SLOPE", "MIN_NORMAL_LENGTH", "LOW_CUT", "LOW_ORDER", "BROAD_SHARE", "BROAD_FLOOR", "AO_RADIUS",
            "AO_DIRECTIONS", "AO_MAX_SIZE", "height_from_normals", "normalise", "denormalise", "ambient_occlusion",
            "slope_correlation", "normal_slopes", "clamped_slopes", "SLOPE_MIN_NZ", "RELIEF_NAMES", "Relief",
-           "relief_maps", "AO_STRENGTH"]
+           "relief_maps", "with_relief", "AO_STRENGTH"]
 
 #: Steepest slope a normal is integrated with (rise over run; 10 = a tilt of 84.3 deg); steeper normals, and
 #: normals with z <= 0, are clamped to this tilt in their own azimuth.
@@ -1089,3 +1089,26 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
     ao = ambient_occlusion(height, tileable=tileable, strength=ao_strength) if "ao" in names else None
     h01, scale = _normalise(height, out=height)  # the height itself is not kept
     return Relief(h01 if "height" in names else None, scale, ao, bool(tileable), ao_strength, low_cut, taken)
+
+
+def with_relief(texture_set, /, *, tileable: bool = False, maps=RELIEF_NAMES, ao_strength: float = AO_STRENGTH):
+    """A copy of a texture set (a :class:`~svbrdf.runtime.core.maps.Maps`) with its ``relief``: the height map and
+    ambient occlusion of its normal map, as written (:func:`relief_maps`; ``maps`` picks ``"height"`` and/or
+    ``"ao"``). The copy has the same arrays, a copy of the meta and the same render config.
+
+    The normals are made unit length as the writers make them (``normalize_normals``: a zero-length normal becomes
+    (0, 0, 1), the documented repair), strip by strip as their slopes are taken (``zero="unit"`` of
+    :func:`normal_slopes`), so the height's slopes are those of the written normal map. ``tileable``: the maps
+    repeat (the height is integrated across the wrap). ``ao_strength``: the AO is that of the height times it
+    (default :data:`AO_STRENGTH`, docs/decisions/002-ao-strength.md; 1 = the normal map's own depth).
+
+    Raises:
+        SvbrdfError: no normal map, NaN/Inf normals, or unknown names.
+    """
+    if texture_set.normal is None:
+        raise SvbrdfError(f"the height and AO need the normal map; this texture set has only "
+                          f"{', '.join(texture_set.names)}")
+    if not all_finite(texture_set.normal):
+        raise SvbrdfError("normal map: NaN or infinite values; the height and AO need finite normals")
+    relief = relief_maps(texture_set.normal, tileable=tileable, maps=maps, ao_strength=ao_strength, zero="unit")
+    return replace(texture_set, meta=dict(texture_set.meta), relief=relief)

@@ -20,7 +20,7 @@ every file, and the material document written next to the textures (layouts and 
 * ``ambientcg``: the CC0 libraries' set: ``_Color``, ``_NormalGL`` and ``_NormalDX``, ``_Roughness``, ``_Specular``,
   ``_Displacement``, ``_AmbientOcclusion``, ``<n>.mtlx``.
 
-Height and AO (when ``maps.relief`` is set, :meth:`~svbrdf.runtime.core.maps.Maps.with_relief`): ``generic``
+Height and AO (when ``maps.relief`` is set, :func:`~svbrdf.runtime.core.relief.with_relief`): ``generic``
 ``_height``/``_ao``; ``gltf`` the AO in the ORM red channel (``occlusionTexture``); ``blender`` ``_disp``/``_ao``;
 ``unreal`` the AO in the ORM, ``_Height``; ``unity`` ``_MaskMap`` (G = AO, A = smoothness) and ``_Height``; ``usd``,
 ``mtlx``, ``ambientcg`` ``_Displacement``/``_AmbientOcclusion``, wired into the USD and MaterialX documents

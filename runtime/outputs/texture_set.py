@@ -20,8 +20,8 @@ file                    content                                      encoding
 
 ``<ext>`` is ``png`` (16-bit) by default or ``exr`` (32-bit float). Maps are clipped to their valid range
 (:meth:`Maps.clipped`) before writing. The height and AO files are written when the maps carry their relief
-(:meth:`Maps.with_relief`, what ``svbrdf-preview`` does by default); the base colour is never darkened by the
-AO. A :class:`Maps` holding a subset of the maps writes only their files;
+(:func:`~svbrdf.runtime.core.relief.with_relief`, what ``svbrdf-preview`` does by default); the base colour is never
+darkened by the AO. A :class:`Maps` holding a subset of the maps writes only their files;
 the sidecar's ``"maps"`` lists the maps written.
 
 How it is written: a layout (this module's :func:`generic_layout`, or a ``--target`` preset of
@@ -275,7 +275,7 @@ def write_layout(
         layout: ``layout(maps, config) -> Layout`` with ``config`` the maps' render config (``ZHAO`` when
             ``maps.render_config`` is ``None``).
         relit: the relit panel, or a function that returns it (called on a writer thread).
-        relief: a function returning ``maps`` with their relief (``lambda m: m.with_relief()``), called on the
+        relief: a function returning ``maps`` with their relief (``lambda m: with_relief(m)``), called on the
             calling thread while the layout's files of ``maps`` are written; the files the layout adds for the
             relief, the sidecar and the relit panel follow.
             The layout must only add files for the relief (the project's own layout does; a target that packs the
@@ -382,7 +382,7 @@ def _write_beside_relief(maps: Maps, out_dir: Path, name: str, layout, config: R
             if any(r not in plan.files or plan.files[r].file != f.file or plan.files[r].pixels is not f.pixels
                    for r, f in first.items()):
                 raise ValueError("this layout changes its other files with the relief: give it maps that carry "
-                                 "their relief (Maps.with_relief) instead of relief=")
+                                 "their relief (core.relief.with_relief) instead of relief=")
             added = {r: f for r, f in plan.files.items() if r not in first}
             with staged_write(out_dir, [f.file for f in added.values()], force=force, error=ImageError) as more:
                 try:
@@ -423,8 +423,8 @@ def write_texture_set(
     Args:
         maps: the texture set (all four maps or a subset: only the maps present are written); ``maps.meta``
             is copied into the sidecar and ``maps.render_config`` selects the BRDF it describes (default:
-            ``ZHAO``); ``maps.relief`` (:meth:`Maps.with_relief`) adds the height and AO files and the sidecar's
-            ``relief`` entry (height scale, method, AO parameters).
+            ``ZHAO``); ``maps.relief`` (:func:`~svbrdf.runtime.core.relief.with_relief`) adds the height and AO
+            files and the sidecar's ``relief`` entry (height scale, method, AO parameters).
         out_dir: output folder, created (with parents) if missing.
         name: base name of the files (no path separators).
         normal: normal-map convention on disk, ``"opengl"`` (default, +y up) or ``"dx"`` (+y down).
@@ -433,7 +433,7 @@ def write_texture_set(
         extra_meta: more metadata for the sidecar (e.g. model sha256, timings); overrides ``maps.meta`` keys.
         relit: optional (h, w, 3) float image, already sRGB-encoded in [0, 1] (e.g. :func:`relit_panel`),
             written as ``<name>_relit.png``; or a function returning it, called on a writer thread.
-        relief: a function returning ``maps`` with their relief (e.g. ``lambda m: m.with_relief()``), called while
+        relief: a function returning ``maps`` with their relief (e.g. ``lambda m: with_relief(m)``), called while
             the four maps' files are written (:func:`write_layout`); instead of maps that carry it.
 
     Returns:

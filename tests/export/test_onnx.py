@@ -41,6 +41,7 @@ def exported(tmp_path_factory):
     return out, generator, report
 
 
+@pytest.mark.integration
 def test_onnxruntime_matches_torch(exported):
     out, generator, report = exported
     assert [p["size"] for p in report["parity"]] == [list(s) for s in SIZES]
@@ -57,6 +58,7 @@ def test_onnxruntime_matches_torch(exported):
         np.testing.assert_allclose(got, ref, atol=1e-4, rtol=0)
 
 
+@pytest.mark.integration
 def test_graph_contract(exported):
     out, _, report = exported
     model = onnx.load(str(out))
@@ -70,6 +72,7 @@ def test_graph_contract(exported):
         "tiny.diffuse_specular.onnx", "tiny.json", "tiny.normal_roughness.onnx", "tiny.onnx"]
 
 
+@pytest.mark.integration
 def test_metadata_and_manifest(exported):
     out, _, report = exported
     manifest = json.loads(out.with_suffix(".json").read_text())
@@ -96,6 +99,7 @@ def _channels(maps):
     return own
 
 
+@pytest.mark.integration
 def test_parts_are_one_decoder_each_and_match_the_full_graph(exported):
     out, generator, report = exported
     manifest = json.loads(out.with_suffix(".json").read_text())
@@ -136,6 +140,7 @@ def test_parts_follow_the_generator_decoders():
     assert all(tuple(n for n in MAP_NAMES if n in maps) == maps for maps in PARTS.values())  # packing order
 
 
+@pytest.mark.integration
 def test_refuses_to_overwrite(exported):
     out, generator, _ = exported
     before = out.read_bytes()
@@ -155,6 +160,7 @@ def test_an_existing_part_file_blocks_the_whole_export(tmp_path):
     assert mine.read_bytes() == b"my own file"
 
 
+@pytest.mark.integration
 def test_part_parity_failure_writes_nothing(tmp_path, monkeypatch):
     real = export_onnx._parity
 
@@ -170,6 +176,7 @@ def test_part_parity_failure_writes_nothing(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.integration
 def test_parity_failure_writes_nothing(tmp_path, monkeypatch):
     monkeypatch.setattr(export_onnx, "PARITY_ATOL", 0.0)  # any float difference now fails
     with warnings.catch_warnings():
@@ -179,6 +186,7 @@ def test_parity_failure_writes_nothing(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
+@pytest.mark.integration
 def test_cli(tmp_path, capsys):
     ckpt_path = tmp_path / "run" / "ck.pt"
     config = resolve("tiny")
@@ -208,6 +216,7 @@ def test_cli(tmp_path, capsys):
     assert main(["--opset"]) == 2
 
 
+@pytest.mark.integration
 def test_a_stage_ones_network_input_travels_to_the_manifest_the_preview_and_the_fine_tune(tmp_path):
     from svbrdf.runtime.inference import session as session_module
     from svbrdf.runtime.inference.pipeline import estimate
@@ -241,6 +250,7 @@ def test_a_stage_ones_network_input_travels_to_the_manifest_the_preview_and_the_
     assert finetune_config(resolve("fast"), load_checkpoint(raw))[0].even_lighting == resolve("fast").even_lighting
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("width", [0.0, 0.25])
 def test_a_fine_tuned_models_network_input_reaches_the_runtime(tmp_path, width):
     """A fine-tune records its input in ``train_config.post.even_lighting`` (TrainConfig.post); the runtime reads a
@@ -259,6 +269,7 @@ def test_a_fine_tuned_models_network_input_reaches_the_runtime(tmp_path, width):
     assert session_module.load_session(tmp_path / "ft.onnx", threads=1).input_lighting(0.5) == (width or None)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("height", ["tanh", "linear"])
 def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path, height):
     from svbrdf.trainer.models import GeneratorConfig
@@ -282,6 +293,7 @@ def test_the_unet_candidate_exports_with_its_parts_and_matches_torch(tmp_path, h
     np.testing.assert_allclose(sess.run(None, {"image": x})[0], want, atol=export_onnx.PARITY_ATOL)
 
 
+@pytest.mark.integration
 def test_the_shipped_checkpoint_builds_its_class_and_exports_the_shipped_graph(tmp_path):
     # Golden check of the generator classes: the packaged checkpoint, rebuilt by the factory and exported again, gives
     # what the packaged ONNX graph (exported from it before the classes were split) gives, and so does torch.

@@ -52,7 +52,7 @@ def _photo(kind: str, h: int, w: int, seed: int) -> np.ndarray:
     return photo.astype(np.float32)
 
 
-pytestmark = pytest.mark.usefixtures("one_torch_thread")
+pytestmark = [pytest.mark.usefixtures("one_torch_thread"), pytest.mark.integration]  # exports a generator
 
 
 @pytest.fixture(scope="module")

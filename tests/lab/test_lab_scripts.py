@@ -48,18 +48,21 @@ def _run(script: str, tmp_path: Path, *args: str) -> dict:
     return json.loads(out.read_text())
 
 
+@pytest.mark.integration
 def test_relief_gap_probe_runs_on_a_tiny_input(tmp_path):
     doc = _run("relief_gap_probe.py", tmp_path, "2", "0.5")
     assert len(doc["A"]) == len(doc["B"]) == 1 and len(doc["C"]) == len(doc["D"]) == 2
     assert len(doc["summary"]) == 4 and all(np.isfinite(r["angle"]) for r in doc["B"] + doc["D"])
 
 
+@pytest.mark.integration
 def test_normal_bound_runs_on_a_tiny_input(tmp_path):
     doc = _run("normal_bound.py", tmp_path)
     assert [r["case"] for r in doc["rows"]] == ["Des19/1_tiny"]
     assert set(doc["rows"][0]["angle"]) == {"0.0", "0.5", "1.0", "1.5", "2.0", "3.0", "4.0", "6.0"}
 
 
+@pytest.mark.integration
 def test_network_size_probe_runs_on_a_tiny_input(tmp_path):
     data = tmp_path / "data"
     _des19_set(data / "Des19" / "1_tiny.png")
@@ -91,7 +94,8 @@ def test_the_network_size_probes_detail_ratio():
 def test_the_readme_table_of_a_results_json(tmp_path):
     rec = dict(case="a", kind="synthetic", seconds=1.0, rerender_rmse=0.1, grazing_rmse=0.2, diffuse_rmse=0.3,
                specular_rmse=0.4, roughness_rmse=0.5, normal_angle_deg=9.123, burn_in=0.6)
-    photo = dict(case="b/00", kind="photo", seconds=3.0, capture_rmse=0.15, capture_ssim=0.5, burn_in=0.9)
+    photo = dict(case="b/00", kind="photo", seconds=3.0, capture_rmse=0.15, capture_ssim=0.5, burn_in=0.9,
+                 foreign_colour=4.25)
     records = [dict(r, method="preview", preset=None, iterations=None) for r in (rec, photo)]
     records += [dict(r, method="finetune", preset="fast", iterations=150) for r in (rec, photo)]
     (tmp_path / "results.json").write_text(json.dumps({"records": records}))
@@ -99,8 +103,8 @@ def test_the_readme_table_of_a_results_json(tmp_path):
                        capture_output=True, text=True, check=True)
     lines = r.stdout.splitlines()
     assert lines[0].startswith("| method | seconds (n 2) | capture relit ↓ (n 1) |") and len(lines) == 4
-    assert lines[2] == "| preview | 2 | 0.15 | 0.5 | 0.1 | 0.2 | 0.3 | 0.4 | 0.5 | 9.12 | 0.6 | 0.9 |"
-    assert lines[3].startswith("| refine (`fast`) 150 | 2 |")
+    assert lines[2] == "| preview | 2 | 0.15 | 0.5 | 0.1 | 0.2 | 0.3 | 0.4 | 0.5 | 9.12 | 0.6 | 0.9 | 4.25 |"
+    assert lines[3].startswith("| generator fine-tune (`fast`) 150 | 2 |")
 
 
 def _photo(path: Path, side: int = 96) -> Path:
@@ -120,6 +124,7 @@ def _script(args, tmp_path: Path) -> None:
     assert r.returncode == 0, r.stderr[-2000:]
 
 
+@pytest.mark.integration
 def test_the_speed_stage_timer_runs_on_a_tiny_photo(tmp_path):
     out = tmp_path / "stages.json"
     _script([LAB / "speed" / "stages.py", _photo(tmp_path / "p.png"), "--threads", "1", "--repeats", "1",
@@ -128,6 +133,7 @@ def test_the_speed_stage_timer_runs_on_a_tiny_photo(tmp_path):
     assert "load" in doc and doc["result"]
 
 
+@pytest.mark.integration
 def test_the_guided_path_agreement_script_runs_on_a_tiny_photo(tmp_path):
     out = tmp_path / "agreement.json"
     _script([LAB / "speed" / "agreement.py", _photo(tmp_path / "p.png"), "--max-size", "4096", "--json", out],
@@ -135,6 +141,7 @@ def test_the_guided_path_agreement_script_runs_on_a_tiny_photo(tmp_path):
     assert json.loads(out.read_text())
 
 
+@pytest.mark.integration
 def test_the_size_benchmark_runs_both_versions_on_a_tiny_photo(tmp_path):
     """docs/results/sizes.py with ``--before HEAD``: both versions (HEAD and the working tree, "now") run, taking
     turns; the table, the records and the plot are written, and its git worktree is gone afterwards."""

@@ -213,6 +213,7 @@ def test_speedup_vs_paper_needs_the_paper_burn_in_too():
     assert report.summarize(never, ["fast", "paper"])["speedup_vs_paper"] is None
 
 
+@pytest.mark.integration
 def test_methods_restricted_to_presets(tmp_path):
     pytest.importorskip("torch")
     data = tmp_path / "data"
@@ -251,6 +252,7 @@ def _make_data(root):
     write_image(root / "photo (1).png", photo, bits=8, srgb_encode=True)
 
 
+@pytest.mark.integration
 def test_cli_quick_writes_every_output(tmp_path, capsys):
     data, out = tmp_path / "data", tmp_path / "out"
     _make_data(data)
@@ -330,6 +332,7 @@ def test_cli_quick_writes_every_output(tmp_path, capsys):
         assert err.count("\n") == 1 and str(bad) in err and "Traceback" not in err
 
 
+@pytest.mark.integration
 def test_time_budget_truncates_without_extrapolating(tmp_path):
     pytest.importorskip("torch")
     data = tmp_path / "data"
@@ -358,6 +361,7 @@ def test_bad_input_is_a_clear_error(tmp_path, capsys):
     assert "no image found" in capsys.readouterr().err
 
 
+@pytest.mark.integration
 def test_shared_data_one_case(shared_data, tmp_path):
     out = tmp_path / "out"
     code = main(["--data", str(shared_data), "--cases", "1", "--methods", "baseline", "--size", "64",

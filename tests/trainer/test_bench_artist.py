@@ -165,6 +165,7 @@ def test_capture_calibration_versions_and_errors(tmp_path):
         read_capture_calibration(tmp_path / "bad")
 
 
+@pytest.mark.integration
 def test_shared_bath_tile_capture(shared_data):
     folder = shared_data / "guo-svbrdf-diff-renderer" / "bath_tile"
     if not folder.is_dir():
@@ -208,6 +209,7 @@ def test_a_capture_with_missing_views_is_read_with_the_views_on_disk(tmp_path):
         read_capture_calibration(folder)
 
 
+@pytest.mark.integration
 def test_a_copy_of_the_shared_capture_without_some_views(shared_data, tmp_path):
     import shutil
 

@@ -185,6 +185,7 @@ def test_normal_curl_ratio_separates_the_y_conventions():
 
 # ---- the third-party files (skipped when ../shared/data is absent) ----
 
+@pytest.mark.integration
 def test_shared_data_formats_and_conventions(shared_data):
     cases = find_cases(shared_data)
     by_folder = {}

@@ -49,6 +49,7 @@ def test_the_curves_are_kornias_without_importing_it():
     assert torch.equal(srgb_to_linear(x), kornia.color.rgb_to_linear_rgb(x))
 
 
+@pytest.mark.integration
 def test_the_prior_imports_without_kornia_and_openimageio():
     import subprocess
     import sys

@@ -14,8 +14,9 @@ import pytest
 ROOT = Path(__file__).resolve().parents[2]
 SCRIPT = ROOT / "trainer" / "tools" / "gpu_bench.sh"
 
-pytestmark = pytest.mark.skipif(shutil.which("bash") is None or shutil.which("timeout") is None,
-                                reason="needs bash and timeout")
+pytestmark = [pytest.mark.skipif(shutil.which("bash") is None or shutil.which("timeout") is None,
+                                 reason="needs bash and timeout"),
+              pytest.mark.integration]  # runs the device script in bash
 
 
 def test_runs_come_back_as_one_archive_and_failures_are_counted(tmp_path):

@@ -159,6 +159,7 @@ def test_a_fine_tune_from_a_stage_one_with_a_refine_record_runs_its_recipe(tmp_p
     assert any(n.startswith("fine-tune settings taken from the initial checkpoint") for n in tuned.notes)
 
 
+@pytest.mark.integration
 def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_path, anchored_start):
     ckpt, photo_b, start = anchored_start
     drift = {}
@@ -183,6 +184,7 @@ def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_
     assert resumed.step == 4 and torch.allclose(resumed.anchor, start, atol=2e-3)
 
 
+@pytest.mark.integration
 def test_anchor_maps_pull_only_the_named_maps(anchored_start):
     ckpt, photo_b, start = anchored_start
     drift = {}

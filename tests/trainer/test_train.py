@@ -109,6 +109,7 @@ def test_resolve_overrides_and_errors():
 
 
 # ------------------------------------------------------------------ learning
+@pytest.mark.integration
 @pytest.mark.parametrize("schedule", ["alternating", "joint"])
 def test_tiny_run_losses_finite_and_decreasing(schedule):
     # A structured photo: on white noise the guessed diffuse is noise too, and L_d need not fall in 30 iterations
@@ -221,6 +222,7 @@ def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch,
             torch.testing.assert_close(got, want, rtol=1e-4, atol=1e-7)
 
 
+@pytest.mark.integration
 def test_learned_vignetting_follows_a_darkened_border():
     """With the networks held still, the learned camera darkens its border for a photo with a known vignetting
     and lightens it for the same photo without; the strength is saved; a fine-tune starts it anew (0.05).
@@ -247,6 +249,7 @@ def test_learned_vignetting_follows_a_darkened_border():
     assert float(again.vignetting().detach()) == pytest.approx(0.05)  # per photo: not inherited
 
 
+@pytest.mark.integration
 def test_learned_offsets_move_a_saturated_output():
     """A specular output pinned near 0 by its pre-tanh value: with learned offsets a fine-tune lifts its level,
     without them it stays (the saturated tanh passes ~1 % of the gradient)."""
@@ -266,6 +269,7 @@ def test_learned_offsets_move_a_saturated_output():
     assert levels[False][2] == -4.0  # not trained without learn_offsets
 
 
+@pytest.mark.integration
 def test_highlight_free_terms_are_logged_finite_and_the_render_term_falls():
     photo, _ = synthetic_scene(size=48)
     trainer = Trainer(photo, resolve("tiny", iters_fit=40, eval_every=5, **HIGHLIGHT_FREE), threads=1)
@@ -279,6 +283,7 @@ def test_highlight_free_terms_are_logged_finite_and_the_render_term_falls():
     assert "nr/render" not in off.history[0] and "nr/flash" not in off.history[0]
 
 
+@pytest.mark.integration
 def test_seeded_runs_are_deterministic():
     photo = random_photo()
     runs = [Trainer(photo, resolve("tiny", iters_fit=3, seed=s), threads=1) for s in (5, 5, 6)]

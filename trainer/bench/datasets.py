@@ -379,8 +379,8 @@ def read_capture_calibration(folder: PathLike) -> Optional[CaptureCalibration]:
     calibration file naming them.
 
     Raises:
-        ImageError: the JSON is unreadable or inconsistent, or none of the views it lists is on disk (one line,
-            with the file).
+        ImageError: the JSON is unreadable or inconsistent (lists of different lengths, a view listed twice, a width
+            of 0 or below), or none of the views it lists is on disk (one line, with the file).
     """
     folder = Path(folder)
     path = next((folder / n for n in CAPTURE_CALIBRATIONS if (folder / n).is_file()), None)
@@ -397,6 +397,10 @@ def read_capture_calibration(folder: PathLike) -> Optional[CaptureCalibration]:
     if not (len(cams) == len(lights) == len(idx)) or any(len(p) != 3 for p in cams + lights) or width <= 0:
         raise ImageError(f"{path}: camera_pos, light_pos and idx must list one (x, y, z) per view, and the "
                          f"image size must be > 0")
+    twice = sorted({i for i in idx if idx.count(i) > 1})
+    if twice:
+        raise ImageError(f"{path}: idx lists view{'s' if len(twice) > 1 else ''} {_ranges(twice)} more than once: "
+                         f"each view has one camera and one light")
     listed = {i: (c, l) for i, c, l in zip(idx, cams, lights)}
     views = {i: v for i, v in listed.items() if capture_view_file(folder, i) is not None}
     missing = tuple(sorted(set(listed) - set(views)))

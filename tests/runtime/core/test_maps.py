@@ -109,9 +109,10 @@ def test_unpack_validation():
         Maps.unpack(np.zeros((8, 4, 4)))
 
 
-def test_save_delegates_to_texture_set(tmp_path):
-    paths = _random_maps().save(tmp_path, "m")
-    assert paths["sidecar"] == tmp_path / "m.json" and paths["basecolor"].exists()
+def test_maps_is_a_plain_value():
+    # Writing is runtime.outputs' (write_texture_set), the relief core.relief's (with_relief, the method a
+    # one-line compatibility call of it, tests/runtime/core/test_relief.py).
+    assert not hasattr(Maps, "save")
 
 
 # ------------------------------------------------------------------------------------------ subsets

@@ -473,3 +473,31 @@ def test_low_cut_is_checked_and_zero_is_the_plain_integration():
     h01, scale = normalise(height_from_normals(n, low_cut=0)[0])
     assert plain.low_cut == 0.0 and plain.scale == scale and np.array_equal(plain.height, h01)
     assert "broader" not in plain.info()["height"]["method"]
+
+
+def test_with_relief_is_a_copy_with_the_relief_of_the_normal_map_and_the_method_calls_it():
+    from svbrdf.runtime.core.maps import Maps, normalize_normals
+    from svbrdf.runtime.core.relief import relief_maps, with_relief
+    from svbrdf.runtime.core.render import DESCHAINTRE
+
+    n, _, _ = _flash_dome(32, 40)
+    n[3, 5] = 0.0  # zero-length: made (0, 0, 1), as written
+    rough = np.full((32, 40, 1), 0.5, np.float32)
+    maps = Maps(roughness=rough, normal=n, meta={"source": "x.png"}, render_config=DESCHAINTRE)
+    out = with_relief(maps, tileable=True, maps=["height"], ao_strength=2.0)
+    assert out is not maps and maps.relief is None and out.names == maps.names
+    assert out.roughness is maps.roughness and out.normal is maps.normal  # the same arrays
+    assert out.meta == maps.meta and out.meta is not maps.meta and out.render_config is DESCHAINTRE
+    want = relief_maps(normalize_normals(n), tileable=True, maps=["height"], ao_strength=2.0)
+    assert out.relief.ao is None and out.relief.tileable and out.relief.ao_strength == 2.0
+    assert out.relief.scale == want.scale and np.array_equal(out.relief.height, want.height)
+    same = maps.with_relief(tileable=True, maps=["height"], ao_strength=2.0)  # the compatibility method
+    assert np.array_equal(same.relief.height, out.relief.height) and same.relief.scale == out.relief.scale
+    full = with_relief(maps)
+    assert full.relief.names == ("height", "ao") and not full.relief.tileable
+    with pytest.raises(SvbrdfError, match="need the normal map; this texture set has only roughness"):
+        with_relief(Maps(roughness=rough))
+    bad = n.copy()
+    bad[0, 0, 0] = np.nan
+    with pytest.raises(SvbrdfError, match="NaN or infinite"):
+        with_relief(Maps(normal=bad))

@@ -20,11 +20,13 @@ import pytest
 
 from svbrdf.runtime.core.colour import srgb_to_linear
 from svbrdf.runtime.core.maps import Maps, decode_normal, normalize_normals
+from svbrdf.runtime.core.relief import with_relief
 from svbrdf.runtime.core.render import DESCHAINTRE, ZHAO
 from svbrdf.runtime.outputs import blender as bl
 from svbrdf.runtime.outputs import conversions as cv
 from svbrdf.runtime.outputs.blender_addon import preview, sets
 from svbrdf.runtime.outputs.targets import TARGETS, write_target
+from svbrdf.runtime.outputs.texture_set import write_texture_set
 
 EXAMPLE = Path(__file__).resolve().parents[3] / "runtime" / "examples" / "carved_wood.png"
 PREVIEW = Path(sys.executable).parent / "svbrdf-preview"
@@ -121,7 +123,7 @@ def test_a_set_within_eight_percent_needs_no_scale_node_wrangler_reads_it_as_is(
 
 
 def test_the_blender_target_writes_height_and_ao(tmp_path, maps):
-    p = write_target(maps.with_relief(), tmp_path, "m", "blender")
+    p = write_target(with_relief(maps), tmp_path, "m", "blender")
     assert p["height"].name == "m_disp.png" and p["ao"].name == "m_ao.png"
     plan = sets.read_set(p["sidecar"])
     assert plan["height"]["file"] == str(p["height"]) and plan["ao"]["file"] == str(p["ao"])
@@ -135,13 +137,13 @@ def test_the_blender_target_writes_height_and_ao(tmp_path, maps):
 def test_the_addon_reads_every_target_as_our_maps(tmp_path, maps, target):
     """The plan of each target's set, evaluated as the node graph evaluates it, gives the Principled inputs of our
     maps: base colour = rho_d w_d, F0 = rho_s, roughness, OpenGL normals (Unreal: the approximate metal-rough)."""
-    p = write_target(maps.with_relief(), tmp_path, "m", target)
+    p = write_target(with_relief(maps), tmp_path, "m", target)
     plan = sets.read_set(p["sidecar"])
     got = _principled_inputs(plan)
     q = 8e-3 if target == "gltf" else 5e-4  # gltf's data maps are 8-bit
     np.testing.assert_allclose(got["roughness"], maps.roughness, atol=q)
     np.testing.assert_allclose(got["normal"], maps.normal, atol=4 * q + 1e-3)
-    relief = maps.with_relief().relief
+    relief = with_relief(maps).relief
     np.testing.assert_allclose(_source(plan["ao"]), relief.ao[..., None], atol=q)  # ORM red, mask green, file
     if target == "gltf":  # glTF has no displacement
         assert plan["height"] is None
@@ -160,7 +162,7 @@ def test_the_addon_reads_every_target_as_our_maps(tmp_path, maps, target):
 
 def test_a_generic_set_of_the_deschaintre_convention_and_a_directx_normal(tmp_path, maps):
     maps.render_config = DESCHAINTRE
-    p = maps.save(tmp_path, "m", normal="dx")
+    p = write_texture_set(maps, tmp_path, "m", normal="dx")
     got = _principled_inputs(sets.read_set(p["sidecar"]))
     np.testing.assert_allclose(got["base"], maps.diffuse * (1.0 - maps.specular), atol=6e-3)
     np.testing.assert_allclose(got["normal"], maps.normal, atol=1e-3)  # the green flipped back
@@ -191,7 +193,7 @@ def test_bad_sets_are_one_line_errors(tmp_path, maps, case, expected):
     if case == "not_json":
         side.write_text("{ nope")
     elif case == "subset":
-        side = maps.subset(("diffuse", "normal", "roughness")).save(tmp_path, "m")["sidecar"]
+        side = write_texture_set(maps.subset(("diffuse", "normal", "roughness")), tmp_path, "m")["sidecar"]
     elif case == "file_gone":
         p = write_target(maps, tmp_path, "m", "blender")
         p["roughness"].unlink()
@@ -275,6 +277,7 @@ def test_a_failing_preview_is_its_one_error_line(tmp_path):
         preview.run_preview(exe, tmp_path / "none.png")
 
 
+@pytest.mark.integration
 def test_the_real_preview_on_a_photo_that_cannot_be_read(tmp_path):
     photo = tmp_path / "broken.jpg"
     photo.write_bytes(b"\xff\xd8\xff\xe0 not a jpeg")
@@ -385,12 +388,13 @@ print("RESULT " + json.dumps(res))
 '''
 
 
+@pytest.mark.integration
 def test_the_addon_installs_and_both_operators_make_a_material_on_the_example_photo(tmp_path, maps, blender):
     zip_path = bl.write_addon_zip(tmp_path)
     broken = tmp_path / "broken.jpg"
     broken.write_bytes(b"\xff\xd8\xff\xe0 not a jpeg")
-    subset = maps.subset(("diffuse", "normal")).save(tmp_path / "subset", "m")["sidecar"]
-    relief = maps.with_relief()
+    subset = write_texture_set(maps.subset(("diffuse", "normal")), tmp_path / "subset", "m")["sidecar"]
+    relief = with_relief(maps)
     ambientcg = write_target(relief, tmp_path / "acg", "m", "ambientcg")["sidecar"]
     unreal = write_target(relief, tmp_path / "ue", "m", "unreal")["sidecar"]
     out = tmp_path / "wood"
@@ -467,6 +471,7 @@ def _principled_3x(maps: Maps, light, config) -> np.ndarray:
     return (irradiance * burley * shadow / math.pi)[..., None] * maps.diffuse + spec[..., None]
 
 
+@pytest.mark.integration
 def test_cycles_renders_our_sets_as_our_renderer_does_and_wrong_conventions_do_not(blender, tmp_path):
     """The proof (docs/results/blender.json): the synthetic maps and the bundled example's set, written with
     --target blender, rendered by Cycles in our scene and by ours under the flash and two other lights. What is
@@ -493,6 +498,7 @@ def test_cycles_renders_our_sets_as_our_renderer_does_and_wrong_conventions_do_n
     assert figures["sets"]["synthetic"]["specular_range"][1] > 0.08  # Specular past 1 rendered right
 
 
+@pytest.mark.integration
 def test_cycles_renders_every_exact_target_as_the_blender_target(tmp_path, blender):
     """The add-on's materials of the other targets' files (generic, gltf, unity, usd, mtlx, ambientcg) render in
     Cycles as the blender target's does; Unreal's metal-rough set only approximately."""
@@ -519,8 +525,9 @@ def test_cycles_renders_every_exact_target_as_the_blender_target(tmp_path, blend
     print({t: round(e, 5) for t, e in err.items()})
 
 
+@pytest.mark.integration
 def test_the_blend_command_saves_the_material(tmp_path, maps, blender, capsys):
-    side = write_target(maps.with_relief(), tmp_path, "m", "blender")["sidecar"]
+    side = write_target(with_relief(maps), tmp_path, "m", "blender")["sidecar"]
     out = tmp_path / "m.blend"
     assert bl.main(["blend", str(side), "-o", str(out), "--ao", "multiply"]) == 0
     assert out.read_bytes()[:7] == b"BLENDER"

@@ -11,6 +11,7 @@ import pytest
 
 from svbrdf.runtime.outputs.contact_sheet import render_html, write_contact_sheet
 from svbrdf.runtime.core.maps import Maps, normalize_normals
+from svbrdf.runtime.outputs.texture_set import write_texture_set
 from svbrdf.runtime.outputs.viewer import VIEWER_FILE, write_viewer
 
 #: A name that needs quoting in a URL (space and '#').
@@ -51,7 +52,7 @@ def _set(root: Path, name: str) -> Path:
     maps = Maps(diffuse=np.stack([0.2 + 0.6 * xx / w, 0.3 + 0.4 * yy / h, np.full((h, w), 0.5)], -1),
                 specular=np.full((h, w, 1), 0.04), roughness=(0.2 + 0.6 * yy / h)[..., None],
                 normal=normalize_normals(np.stack([0.3 * np.sin(xx / 3), np.zeros((h, w)), np.ones((h, w))], -1)))
-    maps.save(root / name, name)
+    write_texture_set(maps, root / name, name)
     return root / name / f"{name}.json"
 
 
@@ -81,6 +82,7 @@ def test_a_view_link_where_the_page_exists_relative_to_the_index(library):
     assert not [cls for cls, _, _ in _links(render_html(root, records)) if cls == "view"]
 
 
+@pytest.mark.integration
 def test_the_view_link_opens_the_viewer_from_disk(library, browser):
     root, records = library
     index = write_contact_sheet(root, records)["html"]

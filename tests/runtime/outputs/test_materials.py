@@ -21,6 +21,7 @@ import numpy as np
 import pytest
 
 from svbrdf.runtime.core.maps import Maps, normalize_normals
+from svbrdf.runtime.core.relief import with_relief
 from svbrdf.runtime.outputs.materials import gltf_document, mtlx_document, usd_identifier, usda_document
 from svbrdf.runtime.outputs.targets import write_target
 
@@ -43,8 +44,8 @@ def written(tmp_path_factory):
     rng = np.random.default_rng(0)
     n = rng.normal(size=(H, W, 3)).astype(np.float32)
     n[..., 2] = np.abs(n[..., 2]) + 1.0
-    maps = Maps(rng.uniform(0.05, 0.5, (H, W, 3)), rng.uniform(0.02, 0.5, (H, W, 1)),
-                rng.uniform(0.1, 0.9, (H, W, 1)), normalize_normals(n)).with_relief()
+    maps = with_relief(Maps(rng.uniform(0.05, 0.5, (H, W, 3)), rng.uniform(0.02, 0.5, (H, W, 1)),
+                            rng.uniform(0.1, 0.9, (H, W, 1)), normalize_normals(n)))
     root = tmp_path_factory.mktemp("targets")
     return {t: write_target(maps, root / t, "oak floor", t) for t in ("gltf", "usd", "mtlx", "ambientcg")}
 

@@ -11,6 +11,7 @@ from svbrdf.runtime.core.colour import srgb_to_linear
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.io.images import image_info, read_image
 from svbrdf.runtime.core.maps import Maps, normalize_normals
+from svbrdf.runtime.core.relief import with_relief
 from svbrdf.runtime.core.render import DESCHAINTRE, ZHAO, RenderConfig, render
 from svbrdf.runtime.outputs.targets import PRESETS, TARGETS, target_files, write_target
 from svbrdf.runtime.outputs.texture_set import write_texture_set
@@ -145,7 +146,7 @@ def test_generic_is_write_texture_set(tmp_path, maps):
 @pytest.mark.parametrize("target", [t for t in TARGETS if t != "generic"])
 def test_every_target_writes_its_files_and_sidecar(tmp_path, maps, target, relief):
     if relief:
-        maps = maps.with_relief()
+        maps = with_relief(maps)
     paths = write_target(maps, tmp_path, "mat", target, extra_meta={"model": "x"})
     names = target_files("mat", target, relief=("height", "ao") if relief else ())
     assert {r: p.name for r, p in paths.items()} == names
@@ -295,7 +296,7 @@ def test_failed_write_midway_leaves_nothing(tmp_path, maps, monkeypatch, existin
 @pytest.mark.parametrize("relief", [(), ("height",), ("height", "ao")])
 def test_files_are_listed_in_the_order_of_target_files(tmp_path, maps, relief):
     if relief:
-        maps = maps.with_relief(maps=relief)
+        maps = with_relief(maps, maps=relief)
     for target in TARGETS:
         paths = write_target(maps, tmp_path / target, "m", target, relit=np.zeros((H, W * 3, 3), np.float32))
         names = target_files("m", target, relit=True, relief=relief)
@@ -385,7 +386,7 @@ def _relief_maps(maps):
     yy, xx = np.mgrid[0:H, 0:W].astype(np.float64)
     hp = -4.0 * np.exp(-((xx - 8) ** 2 + (yy - 6) ** 2) / 6.0)
     n = np.stack([-np.gradient(hp, axis=1), np.gradient(hp, axis=0), np.ones_like(hp)], -1).astype(np.float32)
-    return Maps(maps.diffuse, maps.specular, maps.roughness, normalize_normals(n), meta=maps.meta).with_relief()
+    return with_relief(Maps(maps.diffuse, maps.specular, maps.roughness, normalize_normals(n), meta=maps.meta))
 
 
 def test_ao_goes_into_the_orm_red_channel_and_the_gltf_occlusion_texture(tmp_path, maps):
@@ -404,7 +405,7 @@ def test_ao_goes_into_the_orm_red_channel_and_the_gltf_occlusion_texture(tmp_pat
     plain = write_target(maps, tmp_path / "plain", "m", "gltf")
     assert "occlusionTexture" not in json.loads(plain["gltf"].read_text())["materials"][0]
     np.testing.assert_array_equal(_read_raw(plain["orm"])[..., 1:], _read_raw(
-        write_target(maps.with_relief(), tmp_path / "same", "m", "gltf")["orm"])[..., 1:])
+        write_target(with_relief(maps), tmp_path / "same", "m", "gltf")["orm"])[..., 1:])
     u = write_target(m, tmp_path / "unreal", "m", "unreal")
     orm = _read_raw(u["orm"])
     np.testing.assert_allclose(orm[..., :1], ao, atol=Q16)
@@ -441,7 +442,7 @@ def test_height_and_ao_files_of_the_library_targets(tmp_path, maps, target, heig
 
 
 def test_ambientcg_ships_both_normal_conventions(tmp_path, maps):
-    p = write_target(maps.with_relief(), tmp_path, "Ground 080", "ambientcg")
+    p = write_target(with_relief(maps), tmp_path, "Ground 080", "ambientcg")
     assert sorted(x.name for x in p.values()) == sorted(
         f"Ground 080{s}" for s in ("_Color.png", "_NormalGL.png", "_NormalDX.png", "_Roughness.png",
                                    "_Specular.png", "_Displacement.png", "_AmbientOcclusion.png", ".mtlx", ".json"))

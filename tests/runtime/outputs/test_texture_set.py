@@ -9,6 +9,7 @@ from svbrdf.runtime.core.colour import linear_to_srgb, srgb_to_linear
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.io.images import image_info, read_image
 from svbrdf.runtime.core.maps import Maps, normalize_normals
+from svbrdf.runtime.core.relief import with_relief
 from svbrdf.runtime.core.render import DESCHAINTRE, ZHAO, novel_lights, render
 from svbrdf.runtime.outputs.texture_set import relit_panel, write_texture_set
 
@@ -185,7 +186,7 @@ def test_relit_panel_auto_exposure_and_writing(tmp_path, maps):
 
 def test_a_subset_writes_only_its_maps(tmp_path, maps):
     part = maps.subset(["normal", "basecolor"])
-    paths = part.save(tmp_path, "m", fmt="exr")
+    paths = write_texture_set(part, tmp_path, "m", fmt="exr")
     assert set(paths) == {"basecolor", "normal", "sidecar"}
     assert sorted(p.name for p in tmp_path.iterdir()) == ["m.json", "m_basecolor.png", "m_normal.exr"]
     np.testing.assert_allclose(read_image(paths["normal"], raw=True), (maps.normal + 1) / 2, atol=1e-6)
@@ -344,7 +345,7 @@ def test_height_and_ao_files_follow_the_normal_map(tmp_path, fmt):
     from svbrdf.runtime.core.relief import denormalise, slope_correlation
 
     normal, _ = _bump_normals()
-    maps = Maps(normal=normal, roughness=np.full((48, 64, 1), 0.5, np.float32)).with_relief()
+    maps = with_relief(Maps(normal=normal, roughness=np.full((48, 64, 1), 0.5, np.float32)))
     paths = write_texture_set(maps, tmp_path, "m", fmt=fmt)
     assert set(paths) == {"normal", "roughness", "height", "ao", "sidecar"}
     assert paths["height"].name == f"m_height.{fmt}" and paths["ao"].name == f"m_ao.{fmt}"
@@ -370,7 +371,7 @@ def test_height_and_ao_files_follow_the_normal_map(tmp_path, fmt):
 def test_a_flat_normal_map_gives_a_flat_height_and_no_occlusion(tmp_path):
     flat = np.zeros((16, 20, 3), np.float32)
     flat[..., 2] = 1.0
-    maps = Maps(normal=flat).with_relief()
+    maps = with_relief(Maps(normal=flat))
     assert maps.relief.scale == 0.0
     paths = write_texture_set(maps, tmp_path, "flat")
     h01 = read_image(paths["height"], raw=True)
@@ -387,7 +388,7 @@ def test_tileable_relief_is_integrated_across_the_wrap(tmp_path):
     gx = (np.roll(hp, -1, 1) - np.roll(hp, 1, 1)) / 2
     gy = -(np.roll(hp, -1, 0) - np.roll(hp, 1, 0)) / 2
     normal = normalize_normals(np.stack([-gx, -gy, np.ones_like(gx)], -1).astype(np.float32))
-    maps = Maps(normal=normal).with_relief(tileable=True)
+    maps = with_relief(Maps(normal=normal), tileable=True)
     paths = write_texture_set(maps, tmp_path, "t")
     relief = json.loads(paths["sidecar"].read_text())["relief"]
     assert relief["tileable"] is True and "periodic" in relief["height"]["method"]
@@ -404,11 +405,11 @@ def test_relief_bad_input_is_one_line():
     assert svbrdf.runtime.relief_maps is relief_maps and svbrdf.runtime.Relief is Relief  # the public API
     normal, _ = _bump_normals(16, 16)
     with pytest.raises(SvbrdfError, match="needs the normal map|need the normal map"):
-        Maps(roughness=np.zeros((16, 16, 1))).with_relief()
+        with_relief(Maps(roughness=np.zeros((16, 16, 1))))
     bad = normal.copy()
     bad[3, 4] = np.nan
     with pytest.raises(SvbrdfError, match="NaN") as exc:
-        Maps(normal=bad).with_relief()
+        with_relief(Maps(normal=bad))
     assert "\n" not in str(exc.value)
     with pytest.raises(SvbrdfError, match=r"NaN or infinite \(first at row 3, column 4\)"):
         relief_maps(bad)
@@ -418,7 +419,7 @@ def test_relief_bad_input_is_one_line():
         relief_maps(zero)
     assert relief_maps(zero, zero="flat").height.shape == (16, 16)  # the documented repair
     # the texture set's own normals are made unit length first (as the writer does): a zero normal is flat there
-    assert Maps(normal=zero).with_relief().relief.height.shape == (16, 16)
+    assert with_relief(Maps(normal=zero)).relief.height.shape == (16, 16)
     # a normal map of another size than the other maps, or relief maps of another size
     with pytest.raises(SvbrdfError, match="'normal' is 16x16 px but the texture set's roughness map is 20x16 px"):
         Maps(roughness=np.zeros((16, 20, 1)), normal=normal)
@@ -434,10 +435,10 @@ def test_relief_bad_input_is_one_line():
 def test_relief_is_not_written_without_it_and_never_darkens_the_base_colour(tmp_path, maps):
     plain = write_texture_set(maps, tmp_path / "a", "m")
     assert "height" not in plain and "relief" not in json.loads(plain["sidecar"].read_text())
-    with_relief = write_texture_set(maps.with_relief(), tmp_path / "b", "m")
-    np.testing.assert_array_equal(read_image(plain["basecolor"], raw=True), read_image(with_relief["basecolor"],
+    relief_set = write_texture_set(with_relief(maps), tmp_path / "b", "m")
+    np.testing.assert_array_equal(read_image(plain["basecolor"], raw=True), read_image(relief_set["basecolor"],
                                                                                         raw=True))
-    only_height = write_texture_set(maps.with_relief(maps=["height"]), tmp_path / "c", "m")
+    only_height = write_texture_set(with_relief(maps, maps=["height"]), tmp_path / "c", "m")
     assert "height" in only_height and "ao" not in only_height
 
 
@@ -454,9 +455,9 @@ def test_ao_strength_is_the_depth_gain_of_the_ao_and_is_recorded(tmp_path):
     np.testing.assert_allclose(r1.ao, ambient_occlusion(height), atol=1e-6)
     np.testing.assert_allclose(rd.ao, ambient_occlusion(height * 8.0), atol=1e-6)
     assert rd.ao.mean() < r1.ao.mean() < 1.0
-    info = json.loads(write_texture_set(Maps(normal=normal).with_relief(), tmp_path, "m")["sidecar"].read_text())
+    info = json.loads(write_texture_set(with_relief(Maps(normal=normal)), tmp_path, "m")["sidecar"].read_text())
     assert info["relief"]["ao"]["strength"] == 8.0 and "0.12 x" in info["relief"]["ao"]["strength_reason"]
-    info = json.loads(write_texture_set(Maps(normal=normal).with_relief(ao_strength=1), tmp_path / "b", "m")[
+    info = json.loads(write_texture_set(with_relief(Maps(normal=normal), ao_strength=1), tmp_path / "b", "m")[
         "sidecar"].read_text())
     assert info["relief"]["ao"]["strength"] == 1.0
     for bad in (0, -1, float("nan"), "x"):
@@ -501,12 +502,12 @@ def _full_maps():
 def test_relief_beside_the_writes_gives_the_same_files(tmp_path, fmt):
     maps = _full_maps()
     panel = relit_panel(maps)
-    before = write_texture_set(maps.with_relief(), tmp_path / "a", "m", fmt=fmt, relit=panel)
+    before = write_texture_set(with_relief(maps), tmp_path / "a", "m", fmt=fmt, relit=panel)
     calls = []
 
     def relief(m):
         calls.append(m)
-        return m.with_relief()
+        return with_relief(m)
 
     beside = write_texture_set(maps, tmp_path / "b", "m", fmt=fmt, relit=lambda: panel, relief=relief)
     assert len(calls) == 1 and calls[0] is maps
@@ -534,7 +535,7 @@ def test_relief_beside_the_writes_fails_whole(tmp_path, monkeypatch):
     (tmp_path / "out").mkdir()
     (tmp_path / "out" / "m_ao.png").write_bytes(b"mine")
     with pytest.raises(ImageError, match="m_ao.png"):
-        write_texture_set(maps, tmp_path / "out", "m", relief=lambda m: m.with_relief())
+        write_texture_set(maps, tmp_path / "out", "m", relief=with_relief)
     assert [p.name for p in (tmp_path / "out").iterdir()] == ["m_ao.png"]
     assert (tmp_path / "out" / "m_ao.png").read_bytes() == b"mine"
     # a failing write of a relief file
@@ -547,7 +548,7 @@ def test_relief_beside_the_writes_fails_whole(tmp_path, monkeypatch):
 
     monkeypatch.setattr(texture_set, "write_image", failing)
     with pytest.raises(ImageError, match=r"m_height.png: disk full"):
-        write_texture_set(maps, tmp_path / "new", "m", relief=lambda m: m.with_relief())
+        write_texture_set(maps, tmp_path / "new", "m", relief=with_relief)
     assert not (tmp_path / "new").exists(), list((tmp_path / "new").rglob("*"))
     monkeypatch.undo()
     # a layout that packs the relief into the maps' files cannot write them first
@@ -556,6 +557,6 @@ def test_relief_beside_the_writes_fails_whole(tmp_path, monkeypatch):
 
     with pytest.raises(ValueError, match="changes its other files with the relief"):
         write_layout(maps, tmp_path / "gltf", "m", lambda m, c: targets._PLANS["gltf"](m, c, targets.PRESETS["gltf"], "m"),
-                     relief=lambda m: m.with_relief())
+                     relief=with_relief)
     assert not (tmp_path / "gltf").exists()
-    assert write_target(maps.with_relief(), tmp_path / "gltf", "m", "gltf")  # with maps that carry it
+    assert write_target(with_relief(maps), tmp_path / "gltf", "m", "gltf")  # with maps that carry it

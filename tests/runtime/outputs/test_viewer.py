@@ -20,8 +20,10 @@ import pytest
 from svbrdf.runtime.core.colour import linear_to_srgb
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.core.maps import Maps, normalize_normals
+from svbrdf.runtime.core.relief import with_relief
 from svbrdf.runtime.core.render import RenderConfig, render
 from svbrdf.runtime.post.tileable import tile_grid
+from svbrdf.runtime.outputs.texture_set import write_texture_set
 from svbrdf.runtime.outputs.viewer import read_texture_set, viewer_html, write_viewer
 
 EXAMPLE = Path(__file__).resolve().parents[3] / "runtime" / "examples" / "carved_wood.png"
@@ -66,7 +68,7 @@ def _synthetic_set(tmp_path, normal):
                 normal=n,
                 render_config=RenderConfig(fov_deg=50.0, falloff=True, diffuse_conservation=True,
                                            geometry="smith", fresnel="none"))
-    maps.save(tmp_path, "synth", normal=normal)
+    write_texture_set(maps, tmp_path, "synth", normal=normal)
     return tmp_path / "synth.json"
 
 
@@ -130,7 +132,7 @@ def test_write_viewer_rejects_what_is_not_a_generic_set(tmp_path):
     with pytest.raises(ImageError, match="not a texture-set sidecar"):
         write_viewer(tmp_path / "x.json")
     maps = Maps(normal=np.dstack([np.zeros((8, 8, 2)), np.ones((8, 8, 1))]))
-    maps.save(tmp_path, "only_normal")
+    write_texture_set(maps, tmp_path, "only_normal")
     with pytest.raises(ImageError, match="needs all four maps"):
         write_viewer(tmp_path / "only_normal.json")
 
@@ -144,6 +146,7 @@ def test_page_takes_its_settings_from_the_sidecar(tmp_path):
     assert "const float ALPHA_MIN = 0.001;" in page
 
 
+@pytest.mark.integration
 def test_shader_matches_numpy_render_on_the_example(browser, example_set, tmp_path):
     maps, config = read_texture_set(example_set)
     h, w = maps.shape
@@ -195,6 +198,7 @@ def _set_fragment(browser, fragment):
                      f" setTimeout(done, 0); }}, {{once: true}}); location.hash = {json.dumps(fragment)}; }})")
 
 
+@pytest.mark.integration
 def test_fragment_sets_light_and_exposure(browser, example_set):
     """``view.html#light=x,y,z&exposure=e`` opened from a file; changing the fragment re-renders; the caption is
     the link of the view shown."""
@@ -224,6 +228,7 @@ def test_fragment_sets_light_and_exposure(browser, example_set):
     assert browser.evaluate("window.svbrdfViewer.getLight()") == pytest.approx(light)
 
 
+@pytest.mark.integration
 def test_page_without_webgl_says_so_and_shows_the_maps(start_browser, example_set):
     """WebGL turned off (Firefox's ``webgl.disabled``): a message above the views, not blank canvases in silence,
     and the four maps still drawn."""
@@ -241,6 +246,7 @@ def test_page_without_webgl_says_so_and_shows_the_maps(start_browser, example_se
         assert mean > 5, name
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("normal", ["opengl", "dx"])
 def test_shader_matches_numpy_render_with_every_term(browser, tmp_path, normal):
     """Fall-off, exact Smith G, F = F0, diffuse conservation, fov 50, steep normals in both conventions."""
@@ -302,7 +308,7 @@ def _relief_set(tmp_path):
     maps = Maps(diffuse=np.stack([0.2 + 0.6 * (xx / w), 0.3 + 0.4 * (yy / h), 0.5 + 0.3 * np.sin(xx / 3)], -1),
                 specular=np.full((h, w, 1), 0.08), roughness=(0.3 + 0.4 * (yy / h))[..., None], normal=n,
                 render_config=RenderConfig(fov_deg=50.0))
-    maps.with_relief().save(tmp_path, "relief")
+    write_texture_set(with_relief(maps), tmp_path, "relief")
     return tmp_path / "relief.json"
 
 
@@ -339,6 +345,7 @@ def _expected_relief(sidecar, light, exposure, gain, ambient=0.0, use_ao=True):
     return np.rint(np.clip(linear_to_srgb(lin.astype(np.float32)), 0, 1) * 255).astype(np.int16)
 
 
+@pytest.mark.integration
 def test_relief_and_ambient_occlusion_in_the_page(browser, tmp_path):
     sidecar = _relief_set(tmp_path)
     page = write_viewer(sidecar)
@@ -383,6 +390,7 @@ def test_relief_and_ambient_occlusion_in_the_page(browser, tmp_path):
     assert a.std() > 10 and np.abs(a - b).mean() > 0.5
 
 
+@pytest.mark.integration
 def test_a_set_without_relief_has_no_relief_controls(browser, tmp_path):
     page = write_viewer(_synthetic_set(tmp_path, "opengl"))
     _open(browser, page)
@@ -391,6 +399,7 @@ def test_a_set_without_relief_has_no_relief_controls(browser, tmp_path):
         assert browser.evaluate(f"getComputedStyle(document.getElementById('{ctl}')).display") == "none", ctl
 
 
+@pytest.mark.integration
 def test_a_plain_browser_screenshot_shows_the_relit_views(example_set, chromium_path, tmp_path):
     """``chromium --headless --screenshot page.html`` (captured at the load event, no time budget) shows the
     relit views: the page inflates its maps and draws before the load event."""
