@@ -34,7 +34,7 @@ def frame_radius2(height: int, width: int, device=None) -> torch.Tensor:
 def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Tensor, shot: torch.Tensor,
                  read: torch.Tensor, generator: Optional[torch.Generator] = None,
                  quantize: bool = True, radius2_map: Optional[torch.Tensor] = None,
-                 white: Optional[torch.Tensor] = None) -> torch.Tensor:
+                 white: Optional[torch.Tensor] = None, check_white: bool = True) -> torch.Tensor:
     """The photos cameras record of ``radiance``.
 
     Args:
@@ -45,6 +45,9 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
         radius2_map: (B or 1, 1, H, W) squared distance from the frame's centre (:func:`svbrdf.runtime.core.camera.radius2`)
             of each pixel, for renderings that are crops of a larger frame; default: ``radiance`` is the frame.
         white: (B,) white points of the highlight roll-off (>= 1; None or all 1: none).
+        check_white: skip the roll-off when every ``white`` is 1 (a read-back of ``white``); False applies it
+            whenever ``white`` is given (a white point of 1 leaves a value as it is, to rounding): the device stream,
+            whose ``white`` stays on a GPU.
 
     Returns:
         (B, 3, H, W) float32 linear photos in [0, 1].
@@ -56,7 +59,7 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
     var = col(shot) * img.clamp_min(0.0) + col(read) ** 2
     noise = torch.randn(img.shape, generator=generator, device=img.device, dtype=img.dtype)
     img = img + noise * var.sqrt()
-    if white is not None and bool((white != 1.0).any()):
+    if white is not None and (not check_white or bool((white != 1.0).any())):
         img = roll_off(img.clamp_min(0.0), col(white))
     img = img.clamp(0.0, 1.0)
     if quantize:

@@ -122,10 +122,11 @@ def build_parser() -> argparse.ArgumentParser:
                    help="starting settings: v1 (default; the first procedural stage one's); v2 = the U-Net settings "
                         "built for a GPU, as the shipped run started (svbrdf.trainer.prior.PRIOR_PRESETS); the flags "
                         "below override either")
-    p.add_argument("--recipe", choices=("v2", "v3"),
+    p.add_argument("--recipe", choices=("v2", "v3", "v4"),
                    help="rebuild a stage one as it was trained: its starting settings and every setting changed on "
                         "the way, each applied at its iteration (svbrdf.trainer.prior.recipes): v2 = the shipped "
-                        "model (20000 iterations), v3 = the candidate (26000); --resume continues it. Only how the "
+                        "model (20000 iterations), v3 = the candidate (26000), v4 = the next candidate (not trained yet, "
+                        "the stream drawn on the device: docs/decisions/060-device-stream.md); --resume continues it. Only how the "
                         "run is kept (--checkpoint-every, --eval-every, --log-every, --minutes, --device, --threads, "
                         "--compile) may be given with it")
     p.add_argument("--iters", type=int, help="iterations (default 5000; with --resume: the new total)")

@@ -112,6 +112,7 @@ def test_prior_loss_is_zero_on_the_truth_and_has_every_term():
     assert errs["diffuse"] == 0 and errs["normal_deg"] < 0.1
 
 
+@pytest.mark.integration
 def test_training_lowers_the_loss_on_a_repeated_batch():
     cfg = tiny(lr=2e-3, lr_min=2e-3, iters=40)
     trainer = PriorTrainer(cfg, threads=1)
@@ -294,6 +295,7 @@ def test_batched_photos_follow_the_same_photo_model():
     assert crops.shape == (2, 3, 32, 32) and cmaps.shape == (2, 8, 32, 32)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("compact_ckpt", [False, True])
 def test_time_limited_and_resumed_run_reaches_the_same_step_and_schedule(tmp_path, compact_ckpt):
     cfg = tiny_v2(compact_checkpoint=compact_ckpt)
@@ -423,6 +425,7 @@ class _HostReads(TorchDispatchMode):
         return func(*args, **kwargs)
 
 
+@pytest.mark.integration
 def test_the_v2_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
     # The GPU chunks counted 73 host synchronisations per batch (CHANGELOG.md, study prior-v2): each
     # one stops the host until the GPU has run everything queued, so the batch cannot be built while the network
@@ -453,6 +456,40 @@ def test_the_v2_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
         assert probe.found == [], probe.found[:5]
         crops.add(info["crop"])
     assert crops == {True, False}  # crops of larger photos and whole photos
+
+
+@pytest.mark.integration
+def test_the_device_stream_batch_and_loss_never_make_a_gpu_wait(monkeypatch):
+    # The device stream (issue 64): every family, share and camera draw on the device, nothing read back.
+    generator = torch.Generator
+
+    class OnTheHostForMeta:  # torch.Generator(device="meta") does not exist; its draws are the host's
+        def __new__(cls, device=None):
+            return generator() if device is None or str(device) == "meta" else generator(device=device)
+
+    monkeypatch.setattr(torch, "Generator", OnTheHostForMeta)
+    autocast = torch.autocast
+    monkeypatch.setattr(torch, "autocast", lambda device_type=None, *a, **k: contextlib.nullcontext()
+                        if device_type == "meta" else autocast(device_type, *a, **k))
+    cfg = dataclasses.replace(prior_preset("v2"), stream="device", flat_share=0.3, black_share=0.3, coarse_share=0.3,
+                              camera={**prior_preset("v2").camera, "white": (1.0, 4.0)})
+    net = Generator(cfg.generator).to("meta")
+    adam = torch.optim.Adam(net.parameters(), lr=1e-3)
+    rng = generator().manual_seed(2)
+    crops, families = set(), set()
+    for _ in range(3):
+        with _HostReads() as probe:
+            photos, maps, info = sample_batch(cfg, rng, device="meta")
+            terms = prior_loss(net(photos).float(), maps, cfg, rng)
+            adam.zero_grad(set_to_none=True)
+            terms["total"].backward()
+            adam.step()
+        assert photos.device.type == "meta" and photos.shape == (cfg.batch, 3, cfg.size, cfg.size)
+        assert maps.shape == (cfg.batch, 8, cfg.size, cfg.size)
+        assert probe.found == [], probe.found[:5]
+        crops.add(info["crop"])
+        families.update(info["families"])
+    assert crops == {True, False} and len(families) >= 10
 
 
 def test_the_host_read_probe_sees_what_it_looks_for():
@@ -609,6 +646,7 @@ def _relit_inputs(requires_grad=True):
 
 @pytest.mark.skipif(not any(shutil.which(c) for c in ("g++", "c++", "clang++")),
                     reason="torch.compile on a CPU needs a C++ compiler")
+@pytest.mark.integration
 def test_the_compiled_relighting_equals_the_plain_one_with_its_gradient():
     from svbrdf.trainer.prior import CompiledRelit, relit_pair
 
@@ -680,6 +718,7 @@ def test_batched_crops_are_photographed_alone_and_equal_crops_of_the_whole_photo
         assert (crops[i] - ref).abs().max() < 1e-2 and (crops[i] - ref).abs().mean() < 1e-4  # (8-bit rounding)
 
 
+@pytest.mark.integration
 def test_v2_trains_a_linear_height_and_a_resume_converts_a_tanh_checkpoint_once(tmp_path, capsys):
     # The v2 run at 4745 iterations had its tanh height at a pre-activation of -2.5 (3 % of the normals' gradient
     # left); a resume with --height-activation linear switches it where it stands and the checkpoints keep it.
@@ -942,6 +981,7 @@ def test_the_moving_average_is_the_ema_of_the_trained_weights_and_what_the_check
     assert plain.averaged is None and plain.model is plain.generator and "generator_ema" not in plain.checkpoint()
 
 
+@pytest.mark.integration
 def test_a_resume_keeps_the_average_and_a_resume_that_turns_it_on_starts_it_at_the_resumed_weights(tmp_path):
     cfg = tiny_v2(ema=0.75, iters=4, compact_checkpoint=False)  # (compact: float16 weights, not exact)
     whole = PriorTrainer(cfg, threads=1)

@@ -338,6 +338,7 @@ def _train_all(h, w, iters, bf16):
         _assert_sane_run(trainer, history, name)
 
 
+@pytest.mark.integration
 @pytest.mark.parametrize("bf16", [False, True])  # bf16 falls back to float32 on CPUs without it
 def test_training_on_extreme_photos_fast(bf16):
     _train_all(32, 36, iters=8, bf16=bf16)

@@ -31,9 +31,18 @@ stage one's) and ``v2`` (the U-Net with all of the above, for a GPU, as the ship
 :data:`svbrdf.trainer.prior.recipes.RECIPES` are the shipped runs as trained (``v2``: the settings it changed
 along the way, each at its iteration).
 
+Device stream and data parallel (issue 64): ``stream="device"`` draws the materials and photos batched on the
+training device, every random number but one seed per draw from a generator there
+(:mod:`~svbrdf.trainer.prior.device_stream`; the same distributions as the host stream, reproducible on one device
+type only; the host stream stays the reference, identical on every device, and what v2 was trained on). Under
+``torchrun`` :class:`PriorTrainer` trains data-parallel (NCCL on GPUs, gloo on a CPU; each process its own share
+of every step, the gradients averaged). :mod:`~svbrdf.trainer.prior.chunk` trains one time-limited chunk of any
+recipe (``trainer/tools/gpu_v4.sh``, the device command for the v4 candidate).
+
 Modules: :mod:`~svbrdf.trainer.prior.config` (:class:`PriorConfig`), :mod:`~svbrdf.trainer.prior.photos` (the
 stream of materials and photos), :mod:`~svbrdf.trainer.prior.loss`, :mod:`~svbrdf.trainer.prior.trainer`
-(:class:`PriorTrainer`), :mod:`~svbrdf.trainer.prior.presets`, :mod:`~svbrdf.trainer.prior.recipes`.
+(:class:`PriorTrainer`), :mod:`~svbrdf.trainer.prior.presets`, :mod:`~svbrdf.trainer.prior.recipes`,
+:mod:`~svbrdf.trainer.prior.device_stream`, :mod:`~svbrdf.trainer.prior.chunk`.
 
 Weight averaging (``ema`` > 0): beside the weights it trains, the trainer keeps an exponential moving average of
 them (:class:`torch.optim.swa_utils.AveragedModel`, updated after every optimiser step); that average is the model:

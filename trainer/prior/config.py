@@ -93,6 +93,21 @@ class PriorConfig:
             (CHANGELOG.md, study prior-v2). Applied before ``flat_share``, so a flat material stays flat.
             0 = none (every run before 2026-11-27, eighth session): no draw is made, the stream is unchanged. The
             validation batch never has them.
+        stream: where the stream is drawn: "host" (every random number from the CPU generator, material by
+            material: the same stream on every device; every run before issue 64) or "device" (families vectorised
+            over the batch, random numbers from a generator on the training device seeded per draw:
+            :mod:`svbrdf.trainer.prior.device_stream`; reproducible on one device only; needs ``batched``).
+        print_share: fraction of the drawn materials given a print or inlay (device stream only,
+            :func:`svbrdf.trainer.prior.device_stream.add_prints`): inside a smooth blob or band mask the base colour,
+            the specular and the roughness are a second finish's own (ink, lacquer, inlaid veneer, worn varnish), so
+            the specular varies within the material independently of its family's classes; the relief is kept.
+            0 = none (every run before issue 64): nothing is drawn. The validation batch never has them.
+        block_mean: the network is shown photos as the preview shows a full-size photo, as ``block_mean`` x
+            ``block_mean`` block means (device stream only): the materials are drawn and photographed at
+            ``block_mean`` times the side and the photo and the maps are averaged in blocks (normals renormalised).
+            1 = no averaging (every run before issue 64).
+        block_share: fraction of the batches shown as block means when ``block_mean`` > 1 (the others as they are:
+            the preview shows photos up to its working size unaveraged).
     """
 
     generator: GeneratorConfig = field(default_factory=lambda: GeneratorConfig(width=0.25, train_encoder=True))
@@ -133,6 +148,10 @@ class PriorConfig:
     flat_share: float = 0.0
     black_share: float = 0.0
     coarse_share: float = 0.0
+    stream: str = "host"
+    print_share: float = 0.0
+    block_mean: int = 1
+    block_share: float = 1.0
 
     def __post_init__(self) -> None:
         self.betas = tuple(float(b) for b in self.betas)
@@ -179,6 +198,13 @@ class PriorConfig:
         need(0.0 <= self.flat_share < 1.0, f"flat_share must be in [0, 1), got {self.flat_share}")
         need(0.0 <= self.black_share < 1.0, f"black_share must be in [0, 1), got {self.black_share}")
         need(0.0 <= self.coarse_share <= 1.0, f"coarse_share must be in [0, 1], got {self.coarse_share}")
+        need(self.stream in ("host", "device"), f"stream must be 'host' or 'device', got {self.stream!r}")
+        need(self.stream == "host" or self.batched, "stream 'device' needs batched")
+        need(0.0 <= self.print_share < 1.0, f"print_share must be in [0, 1), got {self.print_share}")
+        need(self.block_mean in (1, 2, 4), f"block_mean must be 1, 2 or 4, got {self.block_mean}")
+        need(0.0 <= self.block_share <= 1.0, f"block_share must be in [0, 1], got {self.block_share}")
+        need(self.stream == "device" or (self.print_share == 0 and self.block_mean == 1),
+             "print_share and block_mean need stream 'device'")
         unknown = set(self.families or ()) - set(FAMILIES)
         need(not unknown, f"unknown families {sorted(unknown)}; expected some of {', '.join(FAMILIES)}")
         resolve(self.finetune_preset)  # raises on an unknown preset

@@ -175,7 +175,8 @@ def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int]
     """One training batch: ``(photos (B, 3, S, S), maps (B, 8, S, S), info)`` with ``S = config.size``.
 
     With ``config.batched`` it is built on ``device`` (default CPU) by :func:`simulate_photos_batched`; otherwise
-    on the CPU photo by photo (:func:`simulate_photos`, v1), whatever ``device``.
+    on the CPU photo by photo (:func:`simulate_photos`, v1), whatever ``device``. With ``config.stream`` "device"
+    everything is drawn and built on ``device`` (:mod:`svbrdf.trainer.prior.device_stream`).
     """
     return photograph(config, rng, *draw_materials(config, rng, batch, device))
 
@@ -183,7 +184,13 @@ def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int]
 def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None,
                    device: Optional[Union[str, torch.device]] = None) -> Tuple[torch.Tensor, List[str], bool]:
     """The materials of one batch (first half of :func:`sample_batch`): ``(maps, families, crop)``, the maps at
-    ``photo_size`` when the batch is cropped (``crop``), else at ``size``."""
+    ``photo_size`` when the batch is cropped (``crop``), else at ``size``. With ``config.stream`` "device":
+    :func:`svbrdf.trainer.prior.device_stream.draw_materials_device` (one seed from ``rng``, the rest drawn on
+    ``device``; its maps are ``block_mean`` times larger in a block-mean batch)."""
+    if config.stream == "device":
+        from svbrdf.trainer.prior.device_stream import draw_materials_device
+
+        return draw_materials_device(config, rng, batch, device)
     n = config.batch if batch is None else batch
     crop = _uniform(rng, 0.0, 1.0) < config.crop_share
     side = config.photo_size if crop else config.size
@@ -205,12 +212,14 @@ def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[in
 BLACK_LEVEL = (0.001, 0.01)
 
 
-def blacken_dielectrics(maps: torch.Tensor, chosen: torch.Tensor, level: torch.Tensor) -> torch.Tensor:
+def blacken_dielectrics(maps: torch.Tensor, chosen: torch.Tensor, level: torch.Tensor, check: bool = True
+                        ) -> torch.Tensor:
     """``maps`` (B, 8, H, W) with the base colour of each ``chosen`` dielectric material ((B,) bool, on the host;
     dielectric: a median specular below the middle of the gap between the dielectric and metal ranges of
     :data:`svbrdf.trainer.procedural.PARAMS`) scaled so that its mean is at most ``level`` ((B,) linear, on the
-    host); the others unchanged. Tensor ops on ``maps``' device only (nothing read back from a GPU)."""
-    if not bool(chosen.any()):
+    host); the others unchanged. Tensor ops on ``maps``' device only (nothing read back from a GPU). ``check``
+    False: ``chosen`` and ``level`` may be on the device (the device stream) and are not tested for "none chosen"."""
+    if check and not bool(chosen.any()):
         return maps
     metal_from = (PARAMS["spec_dielectric_tail"][1] + PARAMS["spec_metal"][0]) / 2.0
     d, sp = SLICES["diffuse"], SLICES["specular"]
@@ -266,7 +275,12 @@ def flatten_normals(maps: torch.Tensor, chosen: torch.Tensor) -> torch.Tensor:
 def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, families: List[str], crop: bool
                ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
     """Photos of materials from :func:`draw_materials` (second half of :func:`sample_batch`): ``(photos (B, 3, S,
-    S), maps (B, 8, S, S), info)`` with ``info`` = ``{"families", "crop", "draws"}``."""
+    S), maps (B, 8, S, S), info)`` with ``info`` = ``{"families", "crop", "draws"}``. With ``config.stream``
+    "device": :func:`svbrdf.trainer.prior.device_stream.photograph_device` (``draws`` then holds device tensors)."""
+    if config.stream == "device":
+        from svbrdf.trainer.prior.device_stream import photograph_device
+
+        return photograph_device(config, rng, maps, families, crop)
     simulate = simulate_photos_batched if config.batched else simulate_photos
     photos, maps, draws = simulate(maps, config, rng, crop=config.size if crop else None)
     return photos, maps, {"families": families, "crop": crop, "draws": draws}

@@ -28,6 +28,10 @@ iteration setting                                source
 21000     ``iters`` 26000, ``coarse_share`` 0.3   v3 only: /work/shared/checkpoints/prior-v3-coarse/README.md
 ========= ====================================== ==========================================================
 
+``v4`` (issue 64) is a candidate not trained yet: its settings are data (:func:`_v4_start`) and
+:data:`V4_EVIDENCE` says, choice by choice, what was measured and what was not; it trains on the device stream
+(:mod:`svbrdf.trainer.prior.device_stream`), so it is reproducible on one device type only.
+
 How the run is kept (``checkpoint_every``, ``eval_every``, ``log_every``), the device, the threads and
 ``--compile`` changed too; they do not change what is learned and are not part of a recipe (:data:`BOOKKEEPING`).
 """
@@ -80,12 +84,15 @@ class Recipe:
             run has done ``iteration`` iterations, before the next one. Settings are :class:`PriorConfig` fields,
             or ``"height_activation": "linear"`` (converts the generator's height where it stands).
         about: one line for ``--help``.
+        evidence: ``(choice, "measured: ..." or "not measured: ...")`` for each choice of a recipe not yet trained
+            (v4): which choices a measurement made and which are guesses still to be measured.
     """
 
     name: str
     base: Callable[[], PriorConfig]
     changes: Tuple[Change, ...] = ()
     about: str = ""
+    evidence: Tuple[Tuple[str, str], ...] = ()
 
     def __post_init__(self) -> None:
         its = [it for it, _ in self.changes]
@@ -126,7 +133,7 @@ class Recipe:
             at = max(round(it * factor), changes[-1][0] + 1 if changes else 1)
             settings = {k: (max(1, round(v * factor)) if k == "iters" else v) for k, v in settings.items()}
             changes.append((at, settings))
-        return Recipe(self.name, scaled_base, tuple(changes), self.about)
+        return Recipe(self.name, scaled_base, tuple(changes), self.about, self.evidence)
 
     def to_record(self) -> Dict[str, Any]:
         """JSON-safe ``{"name", "changes": [[iteration, {setting: value}], ...]}``, what a checkpoint keeps so that
@@ -156,6 +163,40 @@ _V2_CHANGES: Tuple[Change, ...] = (
     (18589, {"black_share": 0.05}),
 )
 
+def _v4_start() -> PriorConfig:
+    """The v4 candidate's settings (issue 64; see :data:`V4_EVIDENCE`): v2's network and loss with every setting v2
+    switched on along the way on from the start, on the device stream, with the stream changes of issue 64."""
+    config = prior_preset("v2")
+    return dataclasses.replace(config, iters=20000, lambda_slope=1.0, ema=0.995, flat_share=0.1, black_share=0.05,
+                               stream="device", fov_deg=(20.0, 75.0), print_share=0.2, block_mean=2,
+                               block_share=0.25)
+
+
+#: Which choices of v4 are measured and which are not (yet). Nothing of v4 is trained: it is the recipe a lent GPU
+#: trains first (trainer/tools/gpu_prior.sh), and each "not measured" line is a CPU-proxy comparison still to run
+#: (issue 64, item 3) before v4 may ship.
+V4_EVIDENCE: Tuple[Tuple[str, str], ...] = (
+    ("stream='device'", "measured: the same distributions as the host stream (tests/trainer/test_prior_stream.py, "
+                        "256 materials a stream) and faster per training step on the CPU "
+                        "(docs/results/gpu-throughput-cpu.json); not yet measured on a GPU"),
+    ("generator, loss, lr, batch 32 at 256 px crops of 512 px", "v2's (measured by v2's training, issue 26); "
+                                                                "not measured: a larger network within the preview's "
+                                                                "1 s budget, a larger batch for the card"),
+    ("lambda_slope 1, ema 0.995, flat_share 0.1, black_share 0.05 from iteration 0",
+     "measured in v2 (switched on along its run, CHANGELOG.md study prior-v2); not measured from the start"),
+    ("material_reuse 1", "not measured: v2's 5 made up for the host stream's cost, which the device stream removes"),
+    ("fov_deg (20, 75)", "not measured: the published captures' field of view is about 23 deg (issue 64), v2's "
+                         "stream 45-75 deg"),
+    ("print_share 0.2", "not measured: specular varying within a material independently of its classes "
+                        "(device_stream.add_prints); the share is a guess"),
+    ("block_mean 2 on 25 % of the batches", "not measured: the preview shows a 1024 px photo to the network as "
+                                            "512 px block means (issue 54); the share is a guess"),
+    ("metal and near-black shares", "not measured: v2's (metal classes from the metal families and "
+                                    "random_metal_class_p 0.04; black_share 0.05); no knob for the metal share yet"),
+    ("coarse relief", "not built: relief tied to the families' own cells and tiles (v3's independent coarse "
+                      "relief, coarse_share, was not better than v2 on the checking part, issue 53): 0"),
+)
+
 #: The recipes by name (see the module docstring for where each change comes from).
 RECIPES: Dict[str, Recipe] = {
     "v2": Recipe("v2", _v2_start, _V2_CHANGES,
@@ -163,6 +204,9 @@ RECIPES: Dict[str, Recipe] = {
     "v3": Recipe("v3", _v2_start, _V2_CHANGES + ((20000, {"iters": 21000}), (21000, {"iters": 26000,
                                                                                        "coarse_share": 0.3})),
                  "the v3 candidate: v2 continued to 21000, then to 26000 with a coarse relief on 30 % of the materials"),
+    "v4": Recipe("v4", _v4_start, (), "the v4 candidate (issue 64, not trained yet): v2's network on the device "
+                 "stream, fields of view 20-75 deg, prints on 20 %, block means on 25 % of the batches",
+                 V4_EVIDENCE),
 }
 
 
@@ -177,4 +221,4 @@ def recipe(name: str) -> Recipe:
     return RECIPES[name]
 
 
-__all__ = ["Recipe", "RECIPES", "recipe", "apply_settings", "pending", "BOOKKEEPING", "Change"]
+__all__ = ["Recipe", "RECIPES", "recipe", "apply_settings", "pending", "BOOKKEEPING", "Change", "V4_EVIDENCE"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import os
 import time
 from pathlib import Path
 from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
@@ -42,19 +43,39 @@ class PriorTrainer(TrainingLoop):
         recipe: settings to change along the run (a :class:`~svbrdf.trainer.prior.recipes.Recipe`, or its
             checkpoint record): :meth:`run` applies each change when ``step`` reaches its iteration (:meth:`apply`),
             the checkpoint keeps the record and a resume goes on with it. ``config`` is then the recipe's start.
+        combine: draw this many processes' shares of a data-parallel step in this one process (the reference a
+            data-parallel run of that many processes equals; 1 = the single-process stream as it always was).
+
+    Data parallel (issue 64): under ``torchrun`` (``WORLD_SIZE`` > 1 in the environment, or a process group already
+    initialised) the trainer joins the process group (NCCL on CUDA, each process on ``cuda:LOCAL_RANK``; gloo on a
+    CPU), starts every process at rank 0's weights, and each process trains on its own share of every step:
+    ``config.batch`` materials per process (``batch`` x world size in all), drawn from a generator seeded with
+    one number of the common stream plus the rank (:meth:`_draw`). After the backward pass the gradients are
+    averaged over the processes (one all-reduce of all of them, flattened), so every process takes the same Adam
+    step: the update of one process with the combined batch (``combine`` = world size; checked by
+    ``tests/trainer/test_ddp_prior.py``), since every loss term is a mean over the batch's materials and the
+    relighting's random lights come from the common stream. A non-finite loss on any process skips the step on all.
+    Only rank 0 writes the log and the checkpoints; the time limit is agreed by all (the latest process decides). A
+    resume loads the same checkpoint in every process.
     """
 
     def __init__(self, config: PriorConfig, *, device: Optional[str] = None, threads: Optional[int] = None,
                  checkpoint_path: Optional[PathLike] = None, log_path: Optional[PathLike] = None,
                  callback: Optional[Callback] = None, compile: bool = False,
-                 recipe: Optional[Union[Recipe, Mapping[str, Any]]] = None):
+                 recipe: Optional[Union[Recipe, Mapping[str, Any]]] = None, combine: int = 1):
         config.validate()
         self.config = config
         self.device = pick_device(device)
         if self.device.type == "cpu":
             set_threads(threads)
-        self.checkpoint_path = None if checkpoint_path is None else Path(checkpoint_path)
-        self.log_path = None if log_path is None else Path(log_path)
+        self.rank, self.world = self._join()
+        if combine < 1 or (combine > 1 and self.world > 1):
+            raise ValueError(f"combine must be >= 1 and is for a single process, got {combine} in a world of "
+                             f"{self.world}")
+        #: The shares of each step this process draws (data parallel: its rank's; ``combine``: all of them).
+        self.shares: List[int] = [self.rank] if self.world > 1 else list(range(combine))
+        self.checkpoint_path = None if checkpoint_path is None or self.rank else Path(checkpoint_path)
+        self.log_path = None if log_path is None or self.rank else Path(log_path)
         self.callback = callback
         torch.manual_seed(config.seed)
         #: The networks' memory layout: channels-last on a CPU, where oneDNN's convolutions (forward and backward)
@@ -74,12 +95,77 @@ class PriorTrainer(TrainingLoop):
         self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
         self._materials: Optional[Tuple[torch.Tensor, List[str], bool]] = None
         self.averaged: Optional[torch.optim.swa_utils.AveragedModel] = None
+        if self.world > 1:  # every process starts at rank 0's weights
+            for t in self.generator.state_dict().values():
+                torch.distributed.broadcast(t, 0)
+        self._part_rngs: List[torch.Generator] = []
         self._average()
         #: The recipe's record (:meth:`~svbrdf.trainer.prior.recipes.Recipe.to_record`) or None.
         self.recipe: Optional[Dict[str, Any]] = (recipe.to_record() if isinstance(recipe, Recipe)
                                                  else None if recipe is None else dict(recipe))
         #: Called with a line for every change :meth:`apply` makes (the CLI prints them).
         self.say: Callable[[str], None] = lambda line: None
+
+    def _join(self) -> Tuple[int, int]:
+        """``(rank, world size)``: joins the process group ``torchrun`` describes (``WORLD_SIZE`` > 1; NCCL on CUDA
+        with this process on ``cuda:LOCAL_RANK``, else gloo) unless one is initialised; ``(0, 1)`` without one."""
+        import torch.distributed as dist
+
+        if not dist.is_available():
+            return 0, 1
+        if not dist.is_initialized() and int(os.environ.get("WORLD_SIZE", "1")) > 1:
+            if self.device.type == "cuda":
+                self.device = torch.device("cuda", int(os.environ.get("LOCAL_RANK", "0")))
+                torch.cuda.set_device(self.device)
+            dist.init_process_group("nccl" if self.device.type == "cuda" else "gloo")
+        if dist.is_initialized() and dist.get_world_size() > 1:
+            return dist.get_rank(), dist.get_world_size()
+        return 0, 1
+
+    def _draw(self) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
+        """This step's batch: new materials every ``material_reuse`` iterations, photographed anew every iteration.
+
+        One process, one share (``combine`` 1): the stream as it always was (materials and photos from ``rng``).
+        Several shares (data parallel, or ``combine``): at each new draw of materials one number ``s`` is drawn from
+        ``rng`` (the same in every process) and share ``k`` draws its materials and photos from a CPU generator
+        seeded ``s + k``; the shares are concatenated in order."""
+        if len(self.shares) == 1 and self.world == 1:
+            if self._materials is None or self.step % self.config.material_reuse == 0:
+                self._materials = draw_materials(self.config, self.rng, device=self.device)
+            return photograph(self.config, self.rng, *self._materials)
+        if self._materials is None or self.step % self.config.material_reuse == 0:
+            s = int(torch.randint(0, 2 ** 62, (), generator=self.rng))
+            self._part_rngs = [torch.Generator().manual_seed(s + k) for k in self.shares]
+            self._materials = [draw_materials(self.config, g, device=self.device) for g in self._part_rngs]
+        parts = [photograph(self.config, g, *m) for g, m in zip(self._part_rngs, self._materials)]
+        info = {"families": [f for _, _, i in parts for f in i["families"]], "crop": parts[0][2]["crop"],
+                "draws": [i["draws"] for _, _, i in parts]}
+        return torch.cat([p for p, _, _ in parts]), torch.cat([m for _, m, _ in parts]), info
+
+    def _all_reduce_grads(self, finite: torch.Tensor) -> torch.Tensor:
+        """Average the gradients over the processes (one flattened all-reduce); returns ``finite`` agreed by all
+        (every process's loss finite)."""
+        import torch.distributed as dist
+
+        params = [p for p in self.generator.parameters() if p.grad is not None]
+        flat = torch.cat([p.grad.reshape(-1).float() for p in params] + [(~finite).float().reshape(1)])
+        dist.all_reduce(flat)
+        flat[:-1] /= self.world
+        offset = 0
+        for p in params:
+            n = p.grad.numel()
+            p.grad.copy_(flat[offset:offset + n].view_as(p.grad))
+            offset += n
+        return flat[-1] == 0
+
+    def _time_up(self) -> bool:
+        """The loop's time limit; data parallel: reached when it is for any process (one all-reduce, every call)."""
+        up = super()._time_up()
+        if self.world == 1:
+            return up
+        flag = torch.tensor([float(up)], device=self.device)
+        torch.distributed.all_reduce(flag, op=torch.distributed.ReduceOp.MAX)
+        return bool(flag.item())
 
     def _average(self) -> None:
         """(Re)start the weights' moving average at the current weights (``config.ema`` > 0), else none."""
@@ -107,9 +193,7 @@ class PriorTrainer(TrainingLoop):
     def _step(self) -> Tuple[Dict[str, torch.Tensor], Dict[str, Any]]:
         """One optimiser step on a fresh batch: the (detached, on-device) loss terms and the host-side facts."""
         t0 = time.perf_counter()
-        if self._materials is None or self.step % self.config.material_reuse == 0:
-            self._materials = draw_materials(self.config, self.rng, device=self.device)
-        photos, maps, info = photograph(self.config, self.rng, *self._materials)
+        photos, maps, info = self._draw()
         t_data = time.perf_counter() - t0
         photos, maps = photos.to(self.device, memory_format=self.memory_format), maps.to(self.device)
         for group in self.optimizer.param_groups:
@@ -119,11 +203,13 @@ class PriorTrainer(TrainingLoop):
             pred = self.generator(photos)
         terms = prior_loss(pred.float(), maps, self.config, self.rng, relit=self._relit)
         self.optimizer.zero_grad(set_to_none=True)
-        if self.config.batched:
+        if self.config.batched or self.world > 1:
             # No read-back: a non-finite loss zeroes its gradients on the device (Adam then takes a step with a
             # zero gradient) and is counted at the next log record.
             finite = torch.isfinite(terms["total"])
             terms["total"].backward()
+            if self.world > 1:
+                finite = self._all_reduce_grads(finite)
             for p in self.generator.parameters():
                 if p.grad is not None:
                     p.grad = torch.where(finite, p.grad, torch.zeros_like(p.grad))
@@ -156,7 +242,8 @@ class PriorTrainer(TrainingLoop):
         ``iters`` in it, ``samples`` seen so far, ``seconds`` of wall time and ``s_per_iter``."""
         last = window[-1][1]
         rec: Dict[str, Any] = {"step": last["step"], "lr": last["lr"], "iters": len(window),
-                               "samples": last["step"] * self.config.batch, "seconds": seconds,
+                               "samples": last["step"] * self.config.batch * len(self.shares) * self.world,
+                               "seconds": seconds,
                                "s_per_iter": seconds / len(window),
                                "data_seconds": sum(f["data_seconds"] for _, f in window) / len(window),
                                "crop_share": sum(bool(f["crop"]) for _, f in window) / len(window)}
@@ -171,10 +258,12 @@ class PriorTrainer(TrainingLoop):
         return rec
 
     def eval_set(self) -> Tuple[torch.Tensor, torch.Tensor]:
-        """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch)."""
+        """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch), from
+        the host stream whatever ``stream`` (the same batch on every device)."""
         if self._eval_set is None:
             rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
-            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0, black_share=0.0, coarse_share=0.0)
+            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0, black_share=0.0, coarse_share=0.0,
+                                      stream="host", print_share=0.0, block_mean=1)
             photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch, device=self.device)
             self._eval_set = photos.to(self.device), maps.to(self.device)
         return self._eval_set

@@ -1,0 +1,100 @@
+"""One time-limited chunk of a recipe's prior run, started or resumed (the device command's trainer, issue 64).
+
+    python -m svbrdf.trainer.prior.chunk --recipe v4 --out runs/prior_v4 --minutes 6            # starts (or --force)
+    python -m svbrdf.trainer.prior.chunk --resume runs/prior_v4/checkpoint.pt --out runs/prior_v4 --minutes 6
+
+Any recipe of :data:`svbrdf.trainer.prior.recipes.RECIPES` (as ``svbrdf-train prior --recipe`` does; this adds ``--set``).
+``--set KEY=VALUE`` (a :class:`~svbrdf.trainer.prior.config.PriorConfig` field, value parsed as JSON) changes the
+recipe's start, for a dry run at test size (``--set size=32 --set photo_size=64 --set batch=1``) or a batch chosen
+for a card; the changes are recorded in the checkpoint's ``prior_config`` like every setting. Writes
+``OUT/checkpoint.pt`` (resumable: :meth:`~svbrdf.trainer.prior.trainer.PriorTrainer.load_resume`) and
+``OUT/train_log.jsonl``; prints one line per log record. Data parallel under ``torchrun`` as
+:class:`~svbrdf.trainer.prior.trainer.PriorTrainer` is (rank 0 writes).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import sys
+from pathlib import Path
+from typing import Any, Dict, List, Optional
+
+CHECKPOINT = "checkpoint.pt"
+LOG = "train_log.jsonl"
+
+
+def _value(text: str) -> Any:
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        return text
+
+
+def main(argv: Optional[List[str]] = None) -> int:
+    from svbrdf.trainer import checkpoint as ckpt_io
+    from svbrdf.trainer.prior import PriorConfig, PriorTrainer
+    from svbrdf.trainer.prior.recipes import RECIPES
+
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--recipe", choices=tuple(RECIPES), help="start this recipe (a new run)")
+    ap.add_argument("--resume", type=Path, help="continue this checkpoint (its settings and recipe)")
+    ap.add_argument("--out", type=Path, required=True, help="folder of the checkpoint and the log")
+    ap.add_argument("--minutes", type=float, default=None, help="stop and save after this many minutes")
+    ap.add_argument("--iters", type=int, default=None, help="end of the schedule (a new run: the recipe's)")
+    ap.add_argument("--set", action="append", default=[], metavar="KEY=VALUE", help="a new run's setting")
+    ap.add_argument("--device", default=None)
+    ap.add_argument("--threads", type=int, default=None)
+    ap.add_argument("--force", action="store_true", help="start over in a used --out")
+    a = ap.parse_args(argv)
+    if bool(a.recipe) == bool(a.resume):
+        ap.error("give --recipe (a new run) or --resume (a checkpoint), one of them")
+    ckpt_path, log_path = a.out / CHECKPOINT, a.out / LOG
+    kw: Dict[str, Any] = {"device": a.device, "threads": a.threads, "checkpoint_path": ckpt_path,
+                          "log_path": log_path}
+    if a.resume:
+        if a.set:
+            ap.error("--set is for a new run (a resume takes the checkpoint's settings)")
+        ckpt = ckpt_io.load_checkpoint(a.resume)
+        config = PriorConfig.from_dict(ckpt["prior_config"])
+        if a.iters is not None:
+            config = dataclasses.replace(config, iters=a.iters)
+        trainer = PriorTrainer(config, **kw)
+        trainer.load_resume(ckpt, a.resume)
+        print(f"chunk: resuming {a.resume} at iteration {trainer.step}/{config.iters}", flush=True)
+    else:
+        if a.out.exists() and any(a.out.iterdir()) and not a.force:
+            ap.error(f"{a.out}: not empty (use --force to start over, or --resume)")
+        for p in (ckpt_path, log_path):
+            p.unlink(missing_ok=True)
+        chosen = RECIPES[a.recipe]
+        over = dict(s.split("=", 1) for s in a.set)
+        try:
+            config = dataclasses.replace(chosen.config_at(0), **{k: _value(v) for k, v in over.items()})
+            if a.iters is not None:
+                config = dataclasses.replace(config, iters=a.iters)
+        except (TypeError, ValueError) as e:
+            ap.error(str(e))
+        trainer = PriorTrainer(config, recipe=chosen, **kw)
+        print(f"chunk: starting recipe {a.recipe} ({config.iters} iterations of {config.batch} materials at "
+              f"{config.size} px, stream {config.stream})" + (f", settings {over}" if over else ""), flush=True)
+    a.out.mkdir(parents=True, exist_ok=True)
+    trainer.say = lambda line: print(f"chunk: {line}", flush=True)
+
+    def show(tr, rec) -> bool:
+        keys = ("step", "total", "render", "s_per_iter", "data_seconds")
+        print("chunk: " + ", ".join(f"{k} {rec[k]:.4g}" if isinstance(rec.get(k), float) else f"{k} {rec.get(k)}"
+                                    for k in keys if k in rec), flush=True)
+        return False
+
+    trainer.callback = show
+    trainer.run(None if a.minutes is None else 60.0 * a.minutes)
+    state = "timed out" if trainer.timed_out else "done"
+    print(f"chunk: {state} at iteration {trainer.step}/{trainer.config.iters}, device {trainer.device}, "
+          f"bf16 {trainer.bf16}, world {trainer.world}", flush=True)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
