@@ -11,7 +11,8 @@ position; :func:`svbrdf.trainer.bench.datasets.read_capture_calibration`) gives 
    the maps rendered with that view's camera and flash (inverse-square fall-off; one exposure per view, fitted in
    closed form as the bench does, :func:`svbrdf.trainer.bench.metrics.relight_view`; clipped pixels left out),
    plus :data:`PRIOR_WEIGHT` times the mean squared distance of the parameters from the prior's: where the views
-   say nothing (no highlight ever crossed a place), the maps stay the prior's.
+   say nothing (no highlight ever crossed a place), the maps stay the prior's. The physics, the parameterisation
+   and the loop are :mod:`svbrdf.trainer.fit`, shared with ``--refine``.
 
 A fit without the prior overfits (issue 68 reports per-pixel maps fitted to 8 of bath_tile's views reproducing them
 at 0.052 and relighting the ninth at 0.186). The figures of this fit, each view left out in turn:
@@ -31,18 +32,15 @@ from svbrdf.runtime.core.maps import Maps, normalize_normals
 from svbrdf.runtime.core.render import ZHAO, RenderConfig
 from svbrdf.trainer.bench.datasets import capture_view_file as view_file  # noqa: F401  (the views' files)
 from svbrdf.trainer.bench.datasets import read_capture_calibration as read_calibration  # noqa: F401
-from svbrdf.trainer.colour import linear_to_srgb as _srgb
-from svbrdf.trainer.render import FlashGeometry
+from svbrdf.trainer.fit import CLIP, adam_fit, make_view, pixel_maps, pixel_params, to_maps, view_rmse
 
 #: Adam steps of the fit and its learning rate (in the parameters' logit and slope units).
 ITERS = 200
 LR = 0.02
 #: Weight of the pull toward the prior (mean squared parameter distance).
 PRIOR_WEIGHT = 0.3
-#: Photo pixels with any channel at or above this (linear) are left out of the fit, as the bench leaves them out.
-CLIP = 0.98
 
-__all__ = ["ITERS", "LR", "PRIOR_WEIGHT", "average_maps", "fit_capture", "capture_fov", "read_calibration",
+__all__ = ["CLIP", "ITERS", "LR", "PRIOR_WEIGHT", "average_maps", "fit_capture", "capture_fov", "read_calibration",
            "view_file"]
 
 
@@ -57,11 +55,6 @@ def capture_fov(calibration) -> float:
     """The field of view (degrees) of the capture's mean camera height over its photographed width."""
     heights = [cam[2] for cam, _ in calibration.views.values()]
     return 2.0 * math.degrees(math.atan(calibration.width_cm / 2.0 / float(np.mean(heights))))
-
-
-def _logit(x: torch.Tensor) -> torch.Tensor:
-    x = x.clamp(1e-3, 1 - 1e-3)
-    return torch.log(x / (1 - x))
 
 
 def fit_capture(photos: Dict[int, np.ndarray], calibration, prior: Maps, *, iters: int = ITERS, lr: float = LR,
@@ -87,44 +80,16 @@ def fit_capture(photos: Dict[int, np.ndarray], calibration, prior: Maps, *, iter
     size = prior.shape
     if any(p.shape[:2] != size for p in photos.values()):
         raise ValueError(f"every view must be {size[1]}x{size[0]} px like the prior")
-    cfg = config.replace(falloff=True)
-    p0 = torch.from_numpy(prior.pack()).permute(2, 0, 1)[None]
-    start = [_logit(p0[:, 0:3]), _logit(p0[:, 3:4]), _logit(p0[:, 4:5]), p0[:, 5:7] / p0[:, 7:8].clamp(min=0.05)]
-    params = [t.clone().requires_grad_() for t in start]
-    views = []
-    for i, photo in sorted(photos.items()):
-        cam, light = calibration.scene_units(i)
-        target = torch.from_numpy(np.ascontiguousarray(photo, np.float32)).permute(2, 0, 1)[None]
-        ok = (target.amax(1, keepdim=True) < CLIP).float()
-        views.append((FlashGeometry(size[0], size[1], cfg, light_pos=light, camera_pos=cam), target,
-                      _srgb(target.clamp(0, 1)), ok, ok.sum().clamp(min=1.0) * 3))
-    opt = torch.optim.Adam(params, lr=lr)
+    params = pixel_params(prior)
+    views = [make_view(photo, config, *calibration.scene_units(i)) for i, photo in sorted(photos.items())]
+
+    def objective() -> torch.Tensor:
+        maps = pixel_maps(params)
+        return sum(view_rmse(maps, view) for view in views) / len(views)
+
     t0 = time.perf_counter()
-    photo_loss = float("nan")
-    for step in range(1, iters + 1):
-        opt.zero_grad()
-        maps = _maps(params)
-        loss = 0.0
-        for geometry, target, target_srgb, ok, n in views:
-            r = geometry.render(maps)
-            k = ((r * target * ok).sum() / (r * r * ok).sum().clamp(min=1e-12)).detach()  # the view's exposure
-            err = (_srgb((k * r).clamp(0, 1)) - target_srgb) * ok
-            loss = loss + torch.sqrt((err * err).sum() / n)
-        loss = loss / len(views)
-        pull = sum(((p - s) ** 2).mean() for p, s in zip(params, start))
-        (loss + prior_weight * pull).backward()
-        opt.step()
-        photo_loss = float(loss.detach())
-        if callback is not None:
-            callback(step, photo_loss)
+    _, photo_loss = adam_fit(params, objective, iters=iters, lr=lr, prior_weight=prior_weight, callback=callback)
     with torch.no_grad():
-        out = _maps(params)[0].permute(1, 2, 0).numpy()
-    return Maps.unpack(out, meta={"capture": {"views": sorted(photos), "iterations": iters, "loss": photo_loss,
-                                              "prior_weight": prior_weight, "seconds": time.perf_counter() - t0}})
-
-
-def _maps(params) -> torch.Tensor:
-    d, s, r, slopes = params
-    n = torch.cat([slopes, torch.ones_like(slopes[:, :1])], 1)
-    n = n / n.norm(dim=1, keepdim=True)
-    return torch.cat([torch.sigmoid(d), torch.sigmoid(s), torch.sigmoid(r), n], 1)
+        out = pixel_maps(params)
+    return to_maps(out, meta={"capture": {"views": sorted(photos), "iterations": iters, "loss": photo_loss,
+                                          "prior_weight": prior_weight, "seconds": time.perf_counter() - t0}})

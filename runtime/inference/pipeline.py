@@ -503,30 +503,26 @@ class PhotoOptions:
 
 
 def _refine(refine, image, session, config, options: "PhotoOptions", name: str):
-    """Fine-tune the model's training checkpoint on ``image`` ((H, W, 3) linear), or with ``--quality auto`` keep
-    the preview when it already explains the photo; returns the Maps (``meta["refine"]`` says which)."""
-    from ..progress import Progress, loss_postfix
-    from .manifest import find_checkpoint
+    """The preview of ``image`` ((H, W, 3) linear), then ``refine`` (:func:`svbrdf.trainer.refine.refine`) with the
+    photo's ``config`` (its field of view); returns the Maps, the refined ones or the preview
+    (``meta["refine"]["kept"]`` says which)."""
+    from ..progress import Progress
 
-    preview = None
-    if options.quality == "auto":  # the skip rule compares the instant preview with the photo
-        with warnings.catch_warnings():  # the photo itself was checked (and named) by the caller
-            warnings.simplefilter("ignore", ImageWarning)
-            preview = estimate(image, session, max_size=options.max_size, tile=options.tile, maps=MAP_NAMES,
-                               post=options.post)
-
+    with warnings.catch_warnings():  # the photo itself was checked (and named) by the caller
+        warnings.simplefilter("ignore", ImageWarning)
+        preview = estimate(image, session, max_size=options.max_size, tile=options.tile, maps=MAP_NAMES,
+                           post=options.post, upsampling=options.upsampling)
     bar = None
 
-    def progress(trainer, record):  # the Progress is made at the first iteration, when the length is known
+    def progress(step, total, error):  # the Progress is made at the first step, when the length is known
         nonlocal bar
         if bar is None:
-            bar = Progress(trainer.iters, f"refine {name}", quiet=options.quiet, initial=record["step"] - 1)
-        bar.update(record["step"], **loss_postfix(record))
+            bar = Progress(total, f"refine {name}", quiet=options.quiet, initial=step - 1)
+        bar.update(step, rmse=f"{error:.4f}")
 
     try:
-        return refine(image, lambda: find_checkpoint(session.info), quality=options.quality or "fixed",
-                      iters=options.iters, threads=options.threads, name=name, callback=progress, preview=preview,
-                      render_config=config)
+        return refine(image, preview, config, quality=options.quality or "fixed", iters=options.iters,
+                      threads=options.threads, callback=progress)
     finally:
         if bar is not None:
             bar.close()
@@ -571,12 +567,16 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         warn_if_greyscale(image, str(photo))
         maps = _refine(refine, image, session, config, options, name or photo.name)
         record = maps.meta["refine"]
-        if record.get("skipped"):
-            detail = f"refine skipped: the preview explains the photo (RMSE {record['preview_input_rmse']:.3f}, " \
-                     f"burn-in {record['preview_burn_in']:.2f})"
+        if record["kept"] == "refined":
+            detail = f"refined ({record['iterations']} it): held-out error {record['heldout_rmse_refined']:.3f} " \
+                     f"vs the preview's {record['heldout_rmse_preview']:.3f}"
         else:
-            detail = f"refined {record['iterations']} it"
-        # The fine-tune trains (and its losses render) every map; only the requested ones are written.
+            detail = f"refine kept the preview: held-out error {record['heldout_rmse_refined']:.3f} vs the " \
+                     f"preview's {record['heldout_rmse_preview']:.3f}"
+            if record["reason"] == "burn-in":
+                detail += f", but its burn-in {record['burn_in_refined']:.4f} is above the preview's " \
+                          f"{record['burn_in_preview']:.4f}"
+        # The refine fits (and renders) every map; only the requested ones are written.
         maps = maps.subset(options.maps)
         maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256},
                          maps=list(options.maps))
@@ -622,8 +622,9 @@ def process_capture(folder: Path, options: PhotoOptions, session: PreviewSession
         capture's ``camera`` (the field of view of its mean camera height, ``fov_source`` ``"calibration"``).
 
     Raises:
-        SvbrdfError: no calibration in ``folder``, none of its views on disk, views of different sizes or a view
-            that cannot be read (one line naming the file).
+        SvbrdfError: no calibration in ``folder``, none of its views on disk, a view photo on disk that the
+            calibration does not list, views of different sizes or not square, or a view that cannot be read (one
+            line naming the file).
     """
     from ..outputs.texture_set import relit_panel
 
@@ -633,6 +634,12 @@ def process_capture(folder: Path, options: PhotoOptions, session: PreviewSession
     calib = capture.read_calibration(folder)
     if calib is None:
         raise SvbrdfError(f"{folder}: not a calibrated capture (no parameters.json or optim.json beside the views)")
+    unlisted = sorted(p.name for p in folder.iterdir() if p.stem.isdigit() and int(p.stem) not in calib.views
+                      and int(p.stem) not in calib.missing and capture.view_file(folder, int(p.stem)) == p)
+    if unlisted:
+        raise SvbrdfError(f"{folder}: {', '.join(unlisted)} {'is' if len(unlisted) == 1 else 'are'} not in "
+                          f"{calib.path.name} (it lists views {', '.join(str(i) for i in sorted(calib.views))}): a view "
+                          f"without its camera and light cannot be fitted; add it to the calibration or move it away")
     with warnings.catch_warnings(record=True) as caught:  # said once for all the views, not once per view
         warnings.simplefilter("always")
         photos = {i: read_image(capture.view_file(folder, i), max_size=options.max_size) for i in sorted(calib.views)}
@@ -646,6 +653,10 @@ def process_capture(folder: Path, options: PhotoOptions, session: PreviewSession
     if len(sizes) > 1:
         raise SvbrdfError(f"{folder}: the views are of different sizes ({', '.join(f'{w}x{h}' for h, w in sorted(sizes))}); "
                           f"a capture's views are rectified to one square of the plane")
+    (h, w), = sizes
+    if h != w:
+        raise SvbrdfError(f"{folder}: the views are {w}x{h} px, not square: {calib.path.name} gives the camera and "
+                          f"light over one square of the plane {calib.width_cm:g} cm wide, which a view shows whole")
     previews = [estimate(p, session, max_size=options.max_size, tile=options.tile, post=options.post,
                          upsampling=options.upsampling) for p in photos.values()]
     prior = capture.average_maps(previews)
@@ -671,19 +682,67 @@ def process_capture(folder: Path, options: PhotoOptions, session: PreviewSession
     return maps, functools.partial(relit_panel, maps, config) if maps.complete else None, detail
 
 
-def photo_camera(photo: Path, fov: Optional[float], default: float) -> dict:
+#: The photo's long side (pixels) at which :func:`photo_camera` estimates the field of view from the fall-off.
+CAMERA_ESTIMATE_SIZE = 256
+
+
+def photo_camera(photo: Path, fov: Optional[float], default: float, image: Optional[np.ndarray] = None) -> dict:
     """The camera of ``photo`` for every physical step (the relit panel, the viewer, the refine's renderer):
-    ``{"fov_deg", "fov_source", "how"}``, the field of view across the photo's width from ``fov`` (``"option"``),
-    else the file's EXIF record (``"exif"``, :func:`svbrdf.runtime.io.exif.exif_camera`), else ``default`` (the
-    model's, ``"default"``). An absurd EXIF record is a warning and the default."""
+    ``{"fov_deg", "fov_source", "how"}``, the field of view across the photo's width, from the first of
+
+    1. ``fov`` (``"option"``);
+    2. the file's EXIF record (``"exif"``, :func:`svbrdf.runtime.io.exif.exif_camera`; an absurd record is a
+       warning and goes on to 3.);
+    3. the flash's fall-off in the photo (``"estimated"``, :func:`svbrdf.runtime.core.falloff.estimate_fov` on the
+       photo at :data:`CAMERA_ESTIMATE_SIZE` px, or on ``image`` when given), where the estimate is reliable;
+    4. ``default`` (the model's, ``"default"``; ``how`` says why the estimate was not used).
+
+    In cases 3 and 4 the fit also says where the flash was (``FovEstimate.out_of_frame``), recorded as
+    ``"highlight"`` (``"out of frame"`` or ``"absent"``: no fall-off at all); a highlight out of frame is also one
+    :class:`ImageWarning` naming the photo and the camera assumed. Its maps are made as any other's.
+
+    Args:
+        photo: the photo file.
+        fov: ``--fov`` (degrees) or None.
+        default: the model's field of view (degrees).
+        image: the photo already read (linear (H, W, 3), any size), to save reading it again.
+
+    Raises:
+        ImageError: the photo cannot be read (step 3 reads it; one line naming the file).
+    """
     if fov is not None:
         return {"fov_deg": float(fov), "fov_source": "option", "how": "--fov"}
+    from ..core.falloff import estimate_fov
     from ..io.exif import exif_camera
 
     exif = exif_camera(photo)
     if exif is not None:
         return {"fov_deg": round(exif.fov_deg, 3), "fov_source": "exif", "how": exif.how}
-    return {"fov_deg": float(default), "fov_source": "default", "how": "the model's training camera (no EXIF focal length)"}
+    if image is None:
+        with warnings.catch_warnings():  # the photo itself is read (and its problems said) by the caller
+            warnings.simplefilter("ignore", ImageWarning)
+            image = read_image(photo, max_size=CAMERA_ESTIMATE_SIZE)
+    elif max(image.shape[:2]) > 2 * CAMERA_ESTIMATE_SIZE:
+        image = resize_long_side(image, CAMERA_ESTIMATE_SIZE)
+    try:
+        found, why = estimate_fov(image), ""
+    except ValueError as exc:  # a photo too small for the grid
+        found, why = None, str(exc)
+    if found is not None and found.reliable:
+        camera = {"fov_deg": round(found.fov_deg, 3), "fov_source": "estimated",
+                  "how": f"the flash's fall-off ({found.cells[0]} of {found.cells[1]} cells, fall-off "
+                         f"{found.contrast:.1f} sigma, foot point ({found.centre[0]:.2f}, {found.centre[1]:.2f}))"}
+    else:
+        why = found.reason if found is not None else why
+        camera = {"fov_deg": float(default), "fov_source": "default",
+                  "how": f"the model's training camera (no EXIF focal length; no estimate from the fall-off: {why})"}
+    if found is not None and found.out_of_frame:
+        camera["highlight"] = found.out_of_frame
+    if camera.get("highlight") == "out of frame":
+        warnings.warn(ImageWarning(f"{photo}: the flash highlight is out of frame; the maps assume a camera of "
+                                   f"{camera['fov_deg']:.1f} deg ({camera['fov_source']}) with the flash above the "
+                                   f"photo's centre"), stacklevel=2)
+    return camera
 
 
 def _with_relief(maps: Maps, options: PhotoOptions) -> Maps:

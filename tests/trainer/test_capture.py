@@ -63,6 +63,7 @@ def _rmse(maps, capture, view):
     return math.sqrt(float(np.mean((relit[ok] - ref[ok]) ** 2)))
 
 
+@pytest.mark.integration
 def test_the_fit_relights_a_view_it_did_not_see_better_than_its_prior(tmp_path):
     photos = _capture(tmp_path / "cap")
     calib = read_capture_calibration(tmp_path / "cap")

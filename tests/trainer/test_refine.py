@@ -1,83 +1,125 @@
-"""svbrdf.trainer.refine: the fine-tune behind ``svbrdf-preview --refine`` and its ``--quality auto`` skip rule."""
+"""svbrdf.trainer.refine: the refine behind ``svbrdf-preview --refine``: one specular and one roughness level fitted
+to the photo, and the held-out test that keeps the preview when the fit does not win."""
 
 import numpy as np
 import pytest
-import torch
 
-from svbrdf.runtime.quality import preview_check
 from svbrdf.runtime.core.maps import Maps
 from svbrdf.runtime.core.render import ZHAO, render
-from svbrdf.trainer.checkpoint import build_checkpoint, save_checkpoint
-from svbrdf.trainer.config import resolve
-from svbrdf.trainer.models import Generator
-from svbrdf.trainer.refine import refine, refine_config
+from svbrdf.trainer import refine as refine_module
+from svbrdf.trainer.refine import MARGIN, holdout_mask, refine
+
+S = 64
+CONFIG = ZHAO.replace(fov_deg=50.0)
 
 
-@pytest.fixture
-def tiny_ckpt(tmp_path):
-    config = resolve("tiny")
-    torch.manual_seed(0)
-    ckpt = build_checkpoint(generator=Generator(config.generator), discriminator=None,
-                            train_config=config.to_dict(), stage="pretrain", step=1, iters=1)
-    return save_checkpoint(tmp_path / "tiny.pt", ckpt)
-
-
-def _photo_and_preview(size=48):
-    rng = np.random.default_rng(0)
+def _maps(specular: float, roughness: float, tint=(1.0, 1.0, 1.0), size: int = S) -> Maps:
+    yy, xx = (np.mgrid[0:size, 0:size] + 0.5) / size
+    grain = 0.5 + 0.15 * np.sin(23 * xx + 3 * np.sin(7 * yy))
+    diffuse = np.stack([grain * 0.9, grain * 0.6, grain * 0.35], -1) * np.asarray(tint)
     normal = np.zeros((size, size, 3), np.float32)
     normal[..., 2] = 1.0
-    maps = Maps(diffuse=rng.uniform(0.2, 0.8, (size, size, 3)).astype(np.float32),
-                specular=np.full((size, size, 1), 0.04, np.float32),
-                roughness=np.full((size, size, 1), 0.5, np.float32), normal=normal,
-                meta={"burn_in": {"burn_in": 0.1}})
-    return np.clip(render(maps, None, ZHAO), 0, 1), maps
+    return Maps(diffuse=diffuse.astype(np.float32), specular=np.full((size, size, 1), specular, np.float32),
+                roughness=np.full((size, size, 1), roughness, np.float32), normal=normal)
 
 
-def test_refine_runs_the_checkpoint_preset(tiny_ckpt):
-    photo, _ = _photo_and_preview()
-    steps = []
-    maps = refine(photo, tiny_ckpt, iters=2, threads=1, name="p.png",
-                  callback=lambda trainer, rec: steps.append(rec["step"]))
-    assert maps.shape == (48, 48) and steps == [1, 2]
-    assert maps.meta["refine"] == {"checkpoint": str(tiny_ckpt), "iterations": 2, "stopped_early": False,
-                                   "notes": maps.meta["refine"]["notes"]}
-    assert 0.0 <= maps.meta["burn_in"]["burn_in"]
+def _photo(truth: Maps, exposure: float = 0.6) -> np.ndarray:
+    """The truth's flash photo with the refine's physics: the camera above the centre, inverse-square fall-off."""
+    return np.clip(render(truth, None, CONFIG.replace(falloff=True)) * exposure, 0, 1).astype(np.float32)
 
 
-def test_quality_auto_skips_when_the_preview_explains_the_photo(tiny_ckpt, monkeypatch):
-    photo, preview = _photo_and_preview()
-    no_lookup = lambda: pytest.fail("a skipped fine-tune must not look up its checkpoint")  # noqa: E731
-    out = refine(photo, no_lookup, quality="auto", preview=preview, render_config=ZHAO)
-    assert out is preview and out.meta["refine"]["skipped"] is True
-    assert out.meta["refine"]["preview_input_rmse"] == pytest.approx(0.0, abs=1e-6)
-    monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", 0.05)  # a burnt-in preview is refined
-    photo, preview = _photo_and_preview()
-    out = refine(photo, lambda: tiny_ckpt, quality="auto", iters=1, threads=1, preview=preview, render_config=ZHAO)
-    assert out is not preview and out.meta["refine"]["iterations"] == 1
-    assert out.meta["refine"]["preview_burn_in"] == 0.1 and "preview_input_rmse" in out.meta["refine"]
+def test_the_refine_recovers_the_gloss_of_a_wrong_preview(monkeypatch):
+    truth = _maps(0.3, 0.3)
+    preview = _maps(0.05, 0.6)  # too dull, too rough
+    monkeypatch.setattr(refine_module, "PRIOR_WEIGHT", 0.001)  # the photo's evidence alone: the truth comes back
+    out = refine(_photo(truth), preview, CONFIG, threads=1)
+    assert out.meta["refine"]["kept"] == "refined"
+    assert abs(float(out.specular.mean()) - 0.3) < 0.03 and abs(float(out.roughness.mean()) - 0.3) < 0.03
+    monkeypatch.undo()
+    steps = []  # the default pull toward the preview: part of the way, in the truth's direction
+    out = refine(_photo(truth), preview, CONFIG, threads=1, callback=lambda s, n, e: steps.append((s, n, e)))
+    rec = out.meta["refine"]
+    assert rec["kept"] == "refined" and rec["reason"] is None and out is not preview
+    assert rec["heldout_rmse_refined"] < rec["heldout_rmse_preview"] * (1 - MARGIN)
+    assert rec["shifts"]["specular_logit"] > 0 > rec["shifts"]["roughness_logit"]
+    assert float(out.specular.mean()) > 0.05 and float(out.roughness.mean()) < 0.6
+    # The base colour and the normals are the preview's: no highlight baked in, nothing flattened.
+    np.testing.assert_array_equal(out.diffuse, preview.diffuse)
+    np.testing.assert_array_equal(out.normal, preview.normal)
+    assert [s[0] for s in steps] == list(range(1, refine_module.ITERS + 1)) and steps[0][1] == refine_module.ITERS
+    assert set(rec) >= {"kept", "heldout_rmse_preview", "heldout_rmse_refined", "iterations", "seconds",
+                        "burn_in_preview", "burn_in_refined", "shifts"}
+    assert rec["iterations"] == refine_module.ITERS and rec["seconds"] > 0 and "burn_in" in out.meta
 
 
-def test_refine_argument_errors(tiny_ckpt):
-    photo, preview = _photo_and_preview()
+def test_a_photo_the_fit_cannot_explain_keeps_the_preview():
+    rng = np.random.default_rng(1)
+    photo = rng.uniform(0.05, 0.9, (S, S, 3)).astype(np.float32)  # grey noise: nothing a gloss level explains
+    preview = _maps(0.04, 0.5, tint=(1 / 0.9, 1 / 0.6, 1 / 0.35))  # grey, as the noise is on average
+    out = refine(photo, preview, CONFIG, iters=40, threads=1)
+    rec = out.meta["refine"]
+    assert out is preview and rec["kept"] == "preview" and rec["reason"] == "held-out error"
+    assert not rec["heldout_rmse_refined"] < rec["heldout_rmse_preview"] * (1 - MARGIN)
+
+
+def test_a_refine_that_raises_the_burn_in_keeps_the_preview(monkeypatch):
+    monkeypatch.setattr(refine_module, "BURN_GUARD", -10.0)  # any burn-in is too much
+    preview = _maps(0.05, 0.6)
+    out = refine(_photo(_maps(0.3, 0.3)), preview, CONFIG, iters=30, threads=1)
+    assert out is preview and out.meta["refine"]["kept"] == "preview" and out.meta["refine"]["reason"] == "burn-in"
+
+
+def test_a_photo_larger_than_the_fit_is_fitted_on_block_means_and_returned_whole(monkeypatch):
+    monkeypatch.setattr(refine_module, "FIT_SIDE", 32)
+    monkeypatch.setattr(refine_module, "PRIOR_WEIGHT", 0.001)
+    preview = _maps(0.05, 0.6, size=80)
+    out = refine(_photo(_maps(0.3, 0.3, size=80)), preview, CONFIG, iters=60, threads=1)
+    assert out.shape == (80, 80) and out.meta["refine"]["fit_size"] == [27, 27]
+    assert out.meta["refine"]["kept"] == "refined" and float(out.specular.mean()) > 0.1
+
+
+def test_quality_auto_stops_when_the_fit_stops_improving():
+    photo, preview = _photo(_maps(0.04, 0.5)), _maps(0.04, 0.5)  # the preview is the truth: nothing to fit
+    out = refine(photo, preview, CONFIG, quality="auto", iters=500, threads=1)
+    assert out.meta["refine"]["stopped_early"] and out.meta["refine"]["iterations"] < 500
+
+
+def test_holdout_mask_is_a_fixed_share_of_blocks():
+    m = holdout_mask(64, 48, block=16)
+    assert m.shape == (64, 48) and m.sum() == 3 * 16 * 16  # 12 blocks, a quarter held out
+    np.testing.assert_array_equal(m, holdout_mask(64, 48, block=16))
+    assert holdout_mask(8, 8, block=16).all()  # at least one block
+
+
+def test_refine_argument_errors():
+    photo, preview = _photo(_maps(0.3, 0.3)), _maps(0.05, 0.6)
     with pytest.raises(ValueError, match="unknown quality"):
-        refine(photo, tiny_ckpt, quality="best")
-    with pytest.raises(ValueError, match="render_config"):
-        refine(photo, tiny_ckpt, quality="auto", preview=preview)
+        refine(photo, preview, CONFIG, quality="best")
+    with pytest.raises(ValueError, match="iters"):
+        refine(photo, preview, CONFIG, iters=0)
+    with pytest.raises(ValueError, match="the preview is 64x64 px, the photo 32x32"):
+        refine(photo[:32, :32], preview, CONFIG)
+    with pytest.raises(ValueError):
+        refine(photo, preview.subset("normal"), CONFIG)
 
 
-def test_refine_config_uses_this_versions_preset_or_the_recorded_settings():
-    recorded = resolve("tiny", iters_finetune=99, lr=1e-3).to_dict()
-    assert refine_config({"train_config": recorded}).iters_finetune == resolve("tiny").iters_finetune
-    cfg = refine_config({"train_config": recorded}, "auto", iters=5)
-    assert cfg.quality == "auto" and cfg.iters_finetune == 5
-    unknown = {**recorded, "preset": "retired"}
-    assert refine_config({"train_config": unknown}).lr == 1e-3
+def test_the_bench_method_runs_the_runtime_refine_with_the_cases_camera():
+    from svbrdf.trainer.bench.cases import BenchCase, CaptureViews
+    from svbrdf.trainer.bench.datasets import CaptureCalibration
+    from svbrdf.trainer.bench.methods import METHODS, BenchOptions, case_render_config
 
-
-def test_the_fine_tune_renders_with_the_photos_camera(tiny_ckpt):
-    photo, _ = _photo_and_preview()
-    seen = []
-    refine(photo, tiny_ckpt, iters=1, threads=1, render_config=ZHAO.replace(fov_deg=23.0),
-           callback=lambda trainer, rec: seen.append((trainer.config.render["fov_deg"], trainer.geometry.config.fov_deg)))
-    assert seen == [(23.0, 23.0)]
-    assert refine_config({"train_config": resolve("tiny").to_dict()}, fov_deg=31.0).render["fov_deg"] == 31.0
+    method = METHODS["refine"]
+    opts = BenchOptions(threads=1, repeats=1)
+    if method.unavailable(opts):
+        pytest.skip(method.unavailable(opts))
+    photo = _photo(_maps(0.3, 0.3))
+    case = BenchCase("p", "p.png", "photo", "photo", photo, None, (32.0, 32.0))
+    points = []
+    run = method.run(case, opts, None, points.append)
+    (point,) = points
+    assert point.maps.shape == (S, S) and point.maps.meta["refine"] is run["refine"]
+    assert run["fov_deg"] == opts.config.fov_deg and point.train_seconds == run["refine"]["seconds"]
+    # A view of a calibrated capture: the field of view of that view's camera height over the capture's width.
+    calib = CaptureCalibration(path=None, width_cm=10.0, views={0: ((1.0, 0.0, 11.0), (1.0, 0.0, 11.0))})
+    view = BenchCase("v", "v.png", "photo", "photo", photo, None, (32.0, 32.0), capture=CaptureViews(calib, 0, {}))
+    assert case_render_config(view, opts.config).fov_deg == pytest.approx(2 * np.degrees(np.arctan(5.0 / 11.0)))

@@ -11,6 +11,10 @@ preview       the ONNX generator through the runtime (:func:`svbrdf.runtime.infe
               time recorded separately as ``load_seconds``). Needs a model.
 preview-full  the same with the network at the photo's own size at any size (photos above 512 px otherwise run
               it at half size or less and get their detail back from the photo: :mod:`svbrdf.runtime.inference.guided`).
+refine        what ``svbrdf-preview --refine`` runs (:func:`svbrdf.runtime.inference.pipeline._refine`: the preview,
+              then :func:`svbrdf.trainer.refine.refine`), with the case's camera: the benchmark's render settings,
+              and for a view of a calibrated capture the field of view of that view's camera height; one run,
+              ``seconds`` = preview + refine (``eval_seconds`` the preview's share). Needs a model and torch.
 finetune      stage two of the trainer from a stage-one checkpoint (``--init``, default the one the preview
               model was exported from, :func:`svbrdf.trainer.checkpoint.default_checkpoint`), one run per case
               and preset, evaluated at every requested iteration count.
@@ -207,6 +211,51 @@ class Preview(Method):
                 "threads": maps.meta.get("threads")}
 
 
+def case_render_config(case: BenchCase, config: RenderConfig) -> RenderConfig:
+    """The render settings of ``case``'s camera: ``config``, with the field of view of the view's calibrated camera
+    height over the capture's width when the case is a view of a calibrated capture."""
+    if case.capture is None:
+        return config
+    import math
+
+    calib = case.capture.calibration
+    height = calib.views[case.capture.index][0][2]
+    return config.replace(fov_deg=2.0 * math.degrees(math.atan(calib.width_cm / 2.0 / height)))
+
+
+class Refine(Method):
+    """``refine``: the runtime's ``--refine`` path on the case's photo (the module docstring)."""
+
+    name = "refine"
+
+    def __init__(self) -> None:
+        self._preview = Preview()
+        self._warm = False
+
+    def unavailable(self, opts, preset=None):
+        if not torch_available():
+            return "torch is not installed"
+        return self._preview.unavailable(opts)
+
+    def run(self, case, opts, preset, on_point):
+        from svbrdf.runtime.inference.pipeline import PhotoOptions, _refine, estimate
+        from svbrdf.runtime.inference.refine import load_refine
+
+        session = self._preview._load(opts)
+        refine = load_refine()
+        config = case_render_config(case, opts.config)
+        options = PhotoOptions(threads=opts.threads, quiet=True)
+        if not self._warm:  # one untimed warm-up (torch's and onnxruntime's one-off costs)
+            _refine(refine, case.photo, session, config, options, case.name)
+            self._warm = True
+        t = time.perf_counter()
+        maps = _refine(refine, case.photo, session, config, options, case.name)
+        seconds = time.perf_counter() - t
+        record = maps.meta["refine"]
+        on_point(Point(maps, None, record["seconds"], seconds - record["seconds"]))
+        return {"threads": opts.threads, "fov_deg": config.fov_deg, "refine": record}
+
+
 class Training(Method):
     """``finetune`` (from a stage-one checkpoint) or ``scratch`` (random weights)."""
 
@@ -341,9 +390,10 @@ class Training(Method):
 
 
 #: The registry, in report order.
-METHODS: Dict[str, Method] = {m.name: m for m in (Baseline(), Preview(), Preview("preview-full"), Training("finetune"),
-                                                   Training("scratch"))}
+METHODS: Dict[str, Method] = {m.name: m for m in (Baseline(), Preview(), Preview("preview-full"), Refine(),
+                                                   Training("finetune"), Training("scratch"))}
 
 
-__all__ = ["Point", "BenchOptions", "Method", "Baseline", "Preview", "Training", "METHODS", "BASELINE_ROUGHNESS",
+__all__ = ["Point", "BenchOptions", "Method", "Baseline", "Preview", "Refine", "Training", "METHODS",
+           "case_render_config", "BASELINE_ROUGHNESS",
            "BASELINE_SPECULAR", "torch_available"]

@@ -257,11 +257,17 @@ def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
     code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "out", "--refine", "--iters", "1",
                           "--threads", "1")
     assert code == 0, err
-    assert "refined 1 it" in out
     meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
-    assert meta["refine"]["iterations"] == 1 and meta["refine"]["checkpoint"] == str(tiny_model.with_suffix(".pt"))
-    # stderr is not a terminal here: one plain progress line with the iteration, ETA and losses
-    assert err.strip().splitlines()[-1].startswith("refine wood.png: 1/1 [") and "nr " in err and "\r" not in err
+    rec = meta["refine"]
+    assert rec["iterations"] == 1 and rec["kept"] in ("refined", "preview")
+    assert {"heldout_rmse_preview", "heldout_rmse_refined", "seconds"} <= set(rec)
+    # The terminal line says which maps were kept and both held-out figures.
+    figures = f"{rec['heldout_rmse_refined']:.3f} vs the preview's {rec['heldout_rmse_preview']:.3f}"
+    assert (("refined (1 it): held-out error " if rec["kept"] == "refined" else "refine kept the preview: held-out "
+             "error ") + figures) in out
+    # stderr is not a terminal here: one plain progress line with the step, ETA and the fit's error
+    lines = err.strip().splitlines()
+    assert any(line.startswith("refine wood.png: 1/1 [") and "rmse " in line for line in lines) and "\r" not in err
     code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "out", "--refine", "--iters", "1",
                           "--threads", "1", "--quiet", "--force")
     assert code == 0 and out == "" and err == ""
@@ -298,40 +304,23 @@ def test_target_ambientcg_writes_the_library_set_with_height_and_ao(photo, tiny_
     assert json.loads((gltf / "wood.gltf").read_text())["materials"][0]["occlusionTexture"] == {"index": 2}
 
 
-def test_refine_quality_auto_skips_when_the_preview_explains_the_photo(photo, tiny_model, tmp_path, capsys,
-                                                                         monkeypatch):
+def test_refine_quality_auto_and_the_kept_preview_on_the_terminal(photo, tiny_model, tmp_path, capsys,
+                                                                    monkeypatch):
     pytest.importorskip("torch")
-    from svbrdf.runtime.quality import preview_check
+    from svbrdf.trainer import refine as refine_module
 
-    monkeypatch.setattr(preview_check, "SKIP_REFINE_RMSE", 10.0)  # any preview passes the error test
-    monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", 100.0)  # ... and the burn-in test
+    monkeypatch.setattr(refine_module, "MARGIN", 1.0)  # no fit can win: the preview is kept, and said so
     code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "a", "--refine", "--quality", "auto",
                           "--threads", "1")
     assert code == 0, err
-    assert "refine skipped" in out and "burn-in" in out
     meta = json.loads((tmp_path / "a" / "wood.json").read_text())["meta"]
-    assert meta["refine"]["skipped"] is True and meta["refine"]["preview_input_rmse"] <= 10.0
-    # The rule reads the network's burn-in, before the flash trend was removed from the delivered maps.
-    assert meta["burn_in_model"]["burn_in"] == pytest.approx(meta["refine"]["preview_burn_in"])
-    assert "before flash-trend removal" in out and meta["flash_trend"]["removed"]
-
-    monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", -1.0)  # a burnt-in preview is refined, however low
-    #                                                                   its error
-    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "c", "--refine", "--quality", "auto",
-                          "--threads", "1")
-    assert code == 0, err
-    assert "refined" in out
-    meta = json.loads((tmp_path / "c" / "wood.json").read_text())["meta"]
-    assert meta["refine"]["preview_burn_in"] >= 0.0 and set(meta["burn_in"]) >= {"burn_in", "burn_diffuse", "centre"}
-    monkeypatch.setattr(preview_check, "SKIP_REFINE_BURN_IN", 100.0)
-
-    monkeypatch.setattr(preview_check, "SKIP_REFINE_RMSE", 0.0)  # no preview passes: the fine-tune runs
-    code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "b", "--refine", "--quality", "auto",
-                          "--threads", "1")
-    assert code == 0, err
-    assert "refined" in out
-    meta = json.loads((tmp_path / "b" / "wood.json").read_text())["meta"]
-    assert meta["refine"]["preview_input_rmse"] > 0.0 and meta["refine"]["iterations"] >= 1
+    rec = meta["refine"]
+    assert rec["kept"] == "preview" and rec["reason"] == "held-out error" and rec["iterations"] >= 1
+    assert f"refine kept the preview: held-out error {rec['heldout_rmse_refined']:.3f} vs the preview's " \
+           f"{rec['heldout_rmse_preview']:.3f}" in out
+    # The kept maps are the preview's: the same files as without --refine.
+    assert _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "b", "--threads", "1")[0] == 0
+    assert (tmp_path / "a" / "wood_roughness.png").read_bytes() == (tmp_path / "b" / "wood_roughness.png").read_bytes()
 
 
 # ------------------------------------------------------------------------------------------ --maps
@@ -473,3 +462,55 @@ def test_a_truncated_jpeg_is_one_error_line_exit_1_and_nothing_written(tiny_mode
                         "--threads", "1", "-q")
     assert code == 0, err
     assert (tmp_path / "out" / "good_basecolor.png").is_file()
+
+
+# --- the camera (issue 68): the field of view from the flash's fall-off, a flash out of frame, --fov 0 ----------
+
+def _plane_photo(path, fov, light=None, n=256):
+    """A textured diffuse plane rendered with fall-off at ``fov``, the flash above the centre or at ``light``."""
+    from svbrdf.runtime.core.maps import Maps
+    from svbrdf.runtime.core.render import ZHAO, physical_config, render
+
+    noise = np.random.default_rng(0).normal(0.0, 1.0, (n // 8, n // 8, 1)).repeat(8, 0).repeat(8, 1)
+    maps = Maps(diffuse=np.clip(np.array([0.45, 0.3, 0.2]) * np.exp(0.3 * noise), 0, 1).astype(np.float32),
+                specular=np.zeros((n, n, 1), np.float32), roughness=np.full((n, n, 1), 0.5, np.float32),
+                normal=np.dstack([np.zeros((n, n, 2)), np.ones((n, n, 1))]).astype(np.float32))
+    img = render(maps, light, physical_config(ZHAO.replace(fov_deg=fov)))
+    write_image(path, np.clip(img / np.percentile(img, 99.5) * 0.9, 0, 1).astype(np.float32), bits=8,
+                srgb_encode=True)
+    return path
+
+
+def test_the_sidecar_records_an_estimated_camera(tiny_model, tmp_path, capsys):
+    photo = _plane_photo(tmp_path / "plane.png", 70.0)
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "o")
+    assert code == 0 and "warning" not in err, err
+    sidecar = json.loads((tmp_path / "o" / "plane.json").read_text())
+    camera = sidecar["camera"]
+    assert camera["fov_source"] == "estimated" and abs(camera["fov_deg"] - 70.0) < 7.0, camera
+    assert sidecar["brdf"]["render_config"]["fov_deg"] == camera["fov_deg"]
+    # --fov overrides the estimate
+    code, _, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "f", "--fov", "40")
+    assert code == 0 and json.loads((tmp_path / "f" / "plane.json").read_text())["camera"]["fov_source"] == "option"
+
+
+def test_a_flash_out_of_frame_is_one_warning_and_the_maps(tiny_model, tmp_path, capsys):
+    import math
+
+    photo = _plane_photo(tmp_path / "side.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "o")
+    assert code == 0, err
+    warnings = [line for line in err.splitlines() if "warning" in line]
+    assert len(warnings) == 1 and "Traceback" not in err
+    assert warnings[0].startswith(f"svbrdf-preview: warning: {photo}: the flash highlight is out of frame; the maps "
+                                  "assume a camera of ")
+    for suffix in SET_FILES:
+        assert (tmp_path / "o" / f"side{suffix}").is_file(), suffix
+    camera = json.loads((tmp_path / "o" / "side.json").read_text())["camera"]
+    assert camera["highlight"] == "out of frame" and f"{camera['fov_deg']:.1f} deg" in warnings[0]
+
+
+@pytest.mark.parametrize("fov", ["0", "-5", "0.5", "171", "nan"])
+def test_a_zero_or_absurd_fov_is_refused(fov, capsys):
+    code, out, err = _run(capsys, "p.png", "--fov", fov)
+    assert code == 2 and out == "" and "--fov must be in [1, 170] degrees" in err and "Traceback" not in err

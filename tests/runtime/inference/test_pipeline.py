@@ -8,7 +8,7 @@ import sys
 import numpy as np
 import pytest
 
-from svbrdf.runtime.io.images import write_image
+from svbrdf.runtime.io.images import ImageWarning, write_image
 
 pytest.importorskip("onnxruntime")
 from svbrdf.runtime.inference.pipeline import PhotoOptions, estimate, process_photo  # noqa: E402
@@ -129,3 +129,128 @@ def test_reuse_memory_keeps_freed_arrays_in_the_process_up_to_its_size():
     assert r.returncode == 0, r.stderr[-2000:]
     kept, returned = map(int, r.stdout.split())
     assert kept < 4 * 2**20 and returned > 36 * 2**20  # bytes given back by the free
+
+
+# --- the camera: --fov, EXIF, the fall-off estimate, the default (photo_camera) ---------------------------------
+
+def _flash_plane(path, fov, light=None, n=256, seed=0):
+    """A textured diffuse plane rendered with fall-off at ``fov`` (flash above the centre or at ``light``), as an
+    8-bit sRGB PNG (or a JPEG by its suffix); returns ``path``."""
+    from svbrdf.runtime.core.maps import Maps
+    from svbrdf.runtime.core.render import ZHAO, physical_config, render
+
+    rng = np.random.default_rng(seed)
+    noise = rng.normal(0.0, 1.0, (n // 8, n // 8, 1)).repeat(8, 0).repeat(8, 1)
+    maps = Maps(diffuse=np.clip(np.array([0.45, 0.3, 0.2]) * np.exp(0.3 * noise), 0, 1).astype(np.float32),
+                specular=np.zeros((n, n, 1), np.float32), roughness=np.full((n, n, 1), 0.5, np.float32),
+                normal=np.dstack([np.zeros((n, n, 2)), np.ones((n, n, 1))]).astype(np.float32))
+    img = render(maps, light, physical_config(ZHAO.replace(fov_deg=fov)))
+    write_image(path, np.clip(img / np.percentile(img, 99.5) * 0.9, 0, 1).astype(np.float32), bits=8,
+                srgb_encode=True)
+    return path
+
+
+def test_photo_camera_option_then_estimate_then_default(tmp_path):
+    import math
+    import warnings
+
+    from svbrdf.runtime.inference.pipeline import photo_camera
+
+    plane = _flash_plane(tmp_path / "plane.png", 70.0)
+    assert photo_camera(plane, 30.0, 66.0) == {"fov_deg": 30.0, "fov_source": "option", "how": "--fov"}
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a photo with its flash in frame: no warning
+        cam = photo_camera(plane, None, 66.0)
+    assert cam["fov_source"] == "estimated" and abs(cam["fov_deg"] - 70.0) < 0.1 * 70.0, cam
+    assert "fall-off" in cam["how"] and "highlight" not in cam
+    # the same photo read already (any size): the same answer
+    from svbrdf.runtime.io.images import read_image
+
+    assert photo_camera(plane, None, 66.0, image=read_image(plane))["fov_deg"] == pytest.approx(cam["fov_deg"], rel=0.02)
+    # a photo without fall-off: the default, with the reason, and no flash seen
+    flat = tmp_path / "flat.png"
+    write_image(flat, np.random.default_rng(0).uniform(0.1, 0.6, (48, 64, 3)).astype(np.float32), bits=8,
+                srgb_encode=True)
+    cam = photo_camera(flat, None, 66.0)
+    assert cam["fov_source"] == "default" and cam["fov_deg"] == 66.0
+    assert "no estimate from the fall-off" in cam["how"] and cam.get("highlight") == "absent"
+    # the flash beside the photo: a warning naming the photo and the camera assumed
+    off = _flash_plane(tmp_path / "off.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
+    with pytest.warns(ImageWarning, match="off.png: the flash highlight is out of frame; the maps assume a camera of"):
+        cam = photo_camera(off, None, 66.0)
+    assert cam["highlight"] == "out of frame"
+
+
+def test_an_absurd_exif_focal_length_is_a_warning_and_then_the_estimate(tmp_path):
+    import OpenImageIO as oiio
+
+    from svbrdf.runtime.inference.pipeline import photo_camera
+
+    src = oiio.ImageBuf(str(_flash_plane(tmp_path / "plane.png", 70.0)))
+    src.specmod().attribute("Exif:FocalLengthIn35mmFilm", 0)
+    src.specmod().attribute("compression", "jpeg:98")
+    assert src.write(str(tmp_path / "zero.jpg"))
+    with pytest.warns(ImageWarning, match="FocalLengthIn35mmFilm 0 is not a plausible camera"):
+        cam = photo_camera(tmp_path / "zero.jpg", None, 66.0)
+    assert cam["fov_source"] == "estimated" and abs(cam["fov_deg"] - 70.0) < 0.1 * 70.0, cam
+
+
+def test_process_photo_renders_with_the_estimated_camera(session, tmp_path):
+    plane = _flash_plane(tmp_path / "plane.png", 70.0)
+    maps, relit, _ = process_photo(plane, PhotoOptions(threads=1), session)
+    assert maps.meta["camera"]["fov_source"] == "estimated"
+    assert maps.render_config.fov_deg == maps.meta["camera"]["fov_deg"]
+
+
+def _fake_capture():
+    from types import SimpleNamespace
+
+    from svbrdf.trainer.bench.datasets import capture_view_file, read_capture_calibration
+
+    return SimpleNamespace(read_calibration=read_capture_calibration, view_file=capture_view_file)
+
+
+def _calibrated(folder, n=3, size=(32, 32)):
+    import json
+
+    folder.mkdir()
+    for i in range(n):
+        write_image(folder / f"{i:02d}.png", np.full((*size, 3), 0.4, np.float32), bits=8, srgb_encode=True)
+    (folder / "parameters.json").write_text(json.dumps({
+        "image_size": 10.0, "idx": list(range(n)), "camera_pos": [[0.0, 0.0, 11.0]] * n}))
+    return folder
+
+
+def test_a_capture_view_the_calibration_does_not_list_is_refused(tmp_path):
+    from svbrdf.runtime.errors import SvbrdfError
+    from svbrdf.runtime.inference.pipeline import process_capture
+
+    cap = _calibrated(tmp_path / "cap")
+    write_image(cap / "07.png", np.full((32, 32, 3), 0.4, np.float32), bits=8, srgb_encode=True)
+    with pytest.raises(SvbrdfError, match=r"cap: 07.png is not in parameters.json \(it lists views 0, 1, 2\)") as err:
+        process_capture(cap, PhotoOptions(), None, _fake_capture())
+    assert "\n" not in str(err.value)
+
+
+def test_capture_views_that_are_not_square_are_refused(tmp_path):
+    from svbrdf.runtime.errors import SvbrdfError
+    from svbrdf.runtime.inference.pipeline import process_capture
+
+    cap = _calibrated(tmp_path / "cap", size=(32, 48))
+    with pytest.raises(SvbrdfError, match="the views are 48x32 px, not square: parameters.json gives") as err:
+        process_capture(cap, PhotoOptions(), None, _fake_capture())
+    assert "\n" not in str(err.value)
+
+
+def test_a_calibration_listing_a_view_twice_is_refused(tmp_path):
+    import json
+
+    from svbrdf.runtime.errors import SvbrdfError
+    from svbrdf.runtime.inference.pipeline import process_capture
+
+    cap = _calibrated(tmp_path / "cap")
+    (cap / "parameters.json").write_text(json.dumps({"image_size": 10.0, "idx": [0, 1, 1],
+                                                      "camera_pos": [[0.0, 0.0, 11.0]] * 3}))
+    with pytest.raises(SvbrdfError, match="parameters.json: idx lists view 1 more than once") as err:
+        process_capture(cap, PhotoOptions(), None, _fake_capture())
+    assert "\n" not in str(err.value)
