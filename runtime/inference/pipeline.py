@@ -251,6 +251,7 @@ def estimate(
     maps: Union[None, str, Iterable[str]] = None,
     post: PostProcess = PostProcess(),
     upsampling: Upsampling = Upsampling(),
+    fov_deg: Optional[float] = None,
 ) -> Maps:
     """SVBRDF maps of one flash photo: all four, or only ``maps`` (running only the decoder they need).
 
@@ -273,6 +274,9 @@ def estimate(
             :func:`~svbrdf.runtime.inference.guided.guided_upsample` (the photo's detail; better maps than the
             network at 1024 px, in half the time: :mod:`svbrdf.runtime.inference.guided`);
             ``Upsampling(network_size=None)``: the network at the photo's size (in tiles above ``tile``) at any size.
+        fov_deg: the photo's field of view across its width, degrees (:func:`photo_camera`): the camera of the
+            corrections that model the flash (the highlight's shoulder) and of the returned ``render_config``;
+            None: the session's (the model's training camera).
 
     Returns:
         :class:`Maps` at the processed size with the requested maps (the others ``None``): diffuse (H, W, 3)
@@ -287,7 +291,7 @@ def estimate(
         the network's maps before the flash trend was removed (``post.flash_trend``; what the skip rule of
         ``--quality auto`` reads), ``flash_trend`` what was removed and ``uniform_specular`` the specular level
         (``post.uniform_specular``). ``render_config`` is the
-        session's (the model's training renderer).
+        session's (the model's training renderer), with ``fov_deg`` when given.
 
     Raises:
         ImageError: unreadable photo, bad array, or an image smaller than 8 px (before or after downsizing).
@@ -310,7 +314,8 @@ def estimate(
     streamed = None if info is None else _streamed(photo, info, max_size, upsampling)
     if streamed is not None:  # a large photo file: only its block means and luminance are read into memory
         timings["read"], timings["resize"] = time.perf_counter() - t, 0.0
-        return _estimate_guided(str(photo), streamed, timings, session, names, tile, overlap, post, upsampling)
+        return _estimate_guided(str(photo), streamed, timings, session, names, tile, overlap, post, upsampling,
+                                fov_deg)
     name, image, (in_h, in_w) = _as_image(photo, max_size, info)
     if min(in_h, in_w) < MIN_SIZE:
         raise ImageError(f"{name}: image is {in_w}x{in_h} pixels; the model needs at least {MIN_SIZE}x{MIN_SIZE}")
@@ -331,7 +336,7 @@ def estimate(
         reduced = (network_photo(image, upsampling.factor((h, w))), luminance(image), (in_h, in_w))
         del image  # only the luminance is needed from here: the full-size photo is freed before the maps are made
         timings["resize"] += time.perf_counter() - t
-        return _estimate_guided(name, reduced, timings, session, names, tile, overlap, post, upsampling)
+        return _estimate_guided(name, reduced, timings, session, names, tile, overlap, post, upsampling, fov_deg)
 
     t = time.perf_counter()
     width = session.input_lighting(post.even_lighting)
@@ -360,7 +365,8 @@ def estimate(
         "overlap": overlap,
         "threads": session.threads,
     }
-    out = apply_post(Maps.unpack(packed, meta, maps=names, render_config=session.render_config).clipped(), image,
+    config = session.render_config if fov_deg is None else session.render_config.replace(fov_deg=float(fov_deg))
+    out = apply_post(Maps.unpack(packed, meta, maps=names, render_config=config).clipped(), image,
                      post)
     timings["post"] = time.perf_counter() - t
     out.meta["timings"] = timings
@@ -390,7 +396,7 @@ def _streamed(photo, info: dict, max_size: int, upsampling: Upsampling) -> Optio
     return small, guide, (h, w)
 
 
-def _estimate_guided(name, reduced, timings, session, names, tile, overlap, post, upsampling) -> Maps:
+def _estimate_guided(name, reduced, timings, session, names, tile, overlap, post, upsampling, fov_deg) -> Maps:
     """:func:`estimate` of a photo larger than the network's size: the maps of the photo in k x k pixel blocks, brought
     back to its size by :func:`guided_upsample`. ``reduced``: ``(block means (h, w, 3), luminance (H, W), input size
     before max_size)``."""
@@ -400,7 +406,7 @@ def _estimate_guided(name, reduced, timings, session, names, tile, overlap, post
     with warnings.catch_warnings():  # the photo itself was checked (and named) above
         warnings.simplefilter("ignore", ImageWarning)
         low = estimate(small, session, max_size=max(small.shape[:2]), tile=tile, overlap=overlap, maps=names,
-                       post=post, upsampling=Upsampling(network_size=None))
+                       post=post, upsampling=Upsampling(network_size=None), fov_deg=fov_deg)
     t = time.perf_counter()
     out = guided_upsample(low, guide_low, guide, upsampling)
     timings.update({k: v for k, v in low.meta["timings"].items() if k not in ("read", "resize")})
@@ -511,7 +517,7 @@ def _refine(refine, image, session, config, options: "PhotoOptions", name: str):
     with warnings.catch_warnings():  # the photo itself was checked (and named) by the caller
         warnings.simplefilter("ignore", ImageWarning)
         preview = estimate(image, session, max_size=options.max_size, tile=options.tile, maps=MAP_NAMES,
-                           post=options.post, upsampling=options.upsampling)
+                           post=options.post, upsampling=options.upsampling, fov_deg=config.fov_deg)
     bar = None
 
     def progress(step, total, error):  # the Progress is made at the first step, when the length is known
@@ -582,7 +588,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
                          maps=list(options.maps))
     else:
         maps = estimate(photo, session, max_size=options.max_size, tile=options.tile, maps=options.maps,
-                        post=options.post, upsampling=options.upsampling)
+                        post=options.post, upsampling=options.upsampling, fov_deg=config.fov_deg)
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config

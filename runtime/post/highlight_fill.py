@@ -140,7 +140,7 @@ def _component(mask: np.ndarray, seed: Tuple[int, int]) -> np.ndarray:
 
 
 def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = None,
-                   shoulder: bool = True) -> np.ndarray:
+                   shoulder: bool = True, fov_deg: Optional[float] = None) -> np.ndarray:
     """The region of the maps that a flash highlight leaves unknown (see the module docstring, step 1).
 
     The clipped highlight is the connected patch of clipped pixels nearest the highlight centre (within
@@ -154,6 +154,8 @@ def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = No
         centre: (row, column) of the highlight in pixels (default :func:`highlight_centre` of the small copy).
         shoulder: join the shoulder at :data:`SHOULDER` (when that is not None); False: the clipped highlight
             alone.
+        fov_deg: the photo's field of view across its width, for the shoulder's matte fall-off (None:
+            :data:`SHOULDER_GEOMETRY`'s).
 
     Returns:
         (H, W) bool, True where the maps should be filled (all False without a clipped highlight or a shoulder).
@@ -167,17 +169,18 @@ def highlight_mask(photo: np.ndarray, centre: Optional[Tuple[float, float]] = No
     core = _clipped_highlight(photo, centre, k)
     if not shoulder or SHOULDER is None:
         return core
-    region = core | shoulder_mask(photo, centre, SHOULDER)
+    region = core | shoulder_mask(photo, centre, SHOULDER, fov_deg)
     return region if region.sum() <= MAX_SHARE * h * w else core
 
 
-def shoulder_mask(photo: np.ndarray, centre: Tuple[float, float], ratio: float) -> np.ndarray:
+def shoulder_mask(photo: np.ndarray, centre: Tuple[float, float], ratio: float,
+                  fov_deg: Optional[float] = None) -> np.ndarray:
     """The highlight's shoulder: the connected pixels around ``centre`` where the photo is more than ``ratio``
     times as bright as a matte material would be there.
 
     On a block-mean copy no longer than :data:`SEARCH_MAX_SIDE`: the photo's luminance (mean of the linear
     channels) box-blurred over :data:`SHOULDER_BLUR` of the width, divided by the diffuse weight of a flat matte
-    plane under :data:`SHOULDER_GEOMETRY`'s flash (:func:`svbrdf.runtime.core.render.shade`: cosine and inverse-square
+    plane under :data:`SHOULDER_GEOMETRY`'s flash with the photo's field of view ``fov_deg`` (:func:`svbrdf.runtime.core.render.shade`: cosine and inverse-square
     fall-off), is compared with ``ratio`` times its median between :data:`SHOULDER_LEVEL_RADII` of the width from
     ``centre`` (the photo's level where the highlight has faded); the 8-connected part above it that holds
     ``centre``, at full size.
@@ -186,6 +189,7 @@ def shoulder_mask(photo: np.ndarray, centre: Tuple[float, float], ratio: float) 
         photo: (H, W, 3) linear photo.
         centre: (row, column) of the highlight in pixels.
         ratio: brightness over the matte level that counts as the highlight's (:data:`SHOULDER`).
+        fov_deg: the photo's field of view across its width, degrees (None: :data:`SHOULDER_GEOMETRY`'s).
 
     Returns:
         (H, W) bool (all False when the centre itself is not that bright).
@@ -195,10 +199,11 @@ def shoulder_mask(photo: np.ndarray, centre: Tuple[float, float], ratio: float) 
     small = block_mean(np.asarray(photo, np.float32), k, partial=True)
     hs, ws = small.shape[:2]
     lum = box_mean(small.mean(axis=-1, keepdims=True), max(1, round(SHOULDER_BLUR * ws)))[..., 0]
-    v, l, d2 = light_vectors(hs, ws, None, SHOULDER_GEOMETRY)
+    geometry = SHOULDER_GEOMETRY if fov_deg is None else SHOULDER_GEOMETRY.replace(fov_deg=float(fov_deg))
+    v, l, d2 = light_vectors(hs, ws, None, geometry)
     one = np.ones((hs, ws), np.float32)
     matte, _ = shade((0 * one, 0 * one, one), (v[..., 0], v[..., 1], v[..., 2]), (l[..., 0], l[..., 1], l[..., 2]),
-                     0 * one, one, SHOULDER_GEOMETRY, d2[..., 0])
+                     0 * one, one, geometry, d2[..., 0])
     rel = lum / np.maximum(matte, 1e-6)
     r = np.hypot((np.arange(hs)[:, None] + 0.5) * k - centre[0], (np.arange(ws)[None, :] + 0.5) * k - centre[1]) / w
     far = (r >= SHOULDER_LEVEL_RADII[0]) & (r <= SHOULDER_LEVEL_RADII[1])
@@ -417,7 +422,8 @@ def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optiona
     Args:
         maps: a texture set (H, W), any subset of the four maps.
         photo: (H, W, 3) linear photo the maps were estimated from (for the region; not needed with ``mask``).
-        mask: (H, W) bool region to fill (default :func:`highlight_mask` of ``photo``).
+        mask: (H, W) bool region to fill (default :func:`highlight_mask` of ``photo``, its shoulder with the field of
+            view of ``maps.render_config``, the photo's camera, when the maps carry one).
         centre: (row, column) of the highlight, for :func:`highlight_mask`.
         patches: fill a region wider than :data:`PATCH_SIDE` patch by patch (False: always one copy).
 
@@ -433,7 +439,8 @@ def fill_highlight(maps: Maps, photo: Optional[np.ndarray] = None, mask: Optiona
     if mask is None:
         if photo is None:
             raise ValueError("fill_highlight needs the photo or a mask")
-        mask = highlight_mask(photo, centre)
+        camera = maps.render_config
+        mask = highlight_mask(photo, centre, fov_deg=None if camera is None else camera.fov_deg)
     mask = np.asarray(mask, dtype=bool)
     if mask.shape != (h, w):
         raise ValueError(f"mask of {mask.shape[1]}x{mask.shape[0]} px for maps of {w}x{h} px")

@@ -204,7 +204,8 @@ class Preview(Method):
         from svbrdf.runtime.inference.pipeline import estimate
 
         session = self._load(opts)
-        maps, seconds = _timed_median(lambda: estimate(case.photo, session, upsampling=self.upsampling),
+        fov = case_render_config(case, opts.config).fov_deg  # the photo's camera, as svbrdf-preview takes it
+        maps, seconds = _timed_median(lambda: estimate(case.photo, session, upsampling=self.upsampling, fov_deg=fov),
                                       opts.repeats)
         on_point(Point(maps, None, 0.0, seconds))
         return {"load_seconds": self._load_seconds, "model": str(session.path),

@@ -254,3 +254,20 @@ def test_a_calibration_listing_a_view_twice_is_refused(tmp_path):
     with pytest.raises(SvbrdfError, match="parameters.json: idx lists view 1 more than once") as err:
         process_capture(cap, PhotoOptions(), None, _fake_capture())
     assert "\n" not in str(err.value)
+
+
+def test_estimate_models_the_flash_with_the_photos_camera(session):
+    """``fov_deg`` is the camera of the corrections that model the flash (the highlight's shoulder, filled) and of
+    the maps' render_config; without it, the session's."""
+    from svbrdf.runtime.post import highlight_fill as hf
+
+    n = 96
+    yy, xx = np.mgrid[0:n, 0:n].astype(np.float32)
+    lobe = np.exp(-((yy - n / 2) ** 2 + (xx - n / 2) ** 2) / (2 * 10.0 ** 2))[..., None]
+    photo = np.clip(0.25 + 0.6 * lobe + 0.01 * np.sin(xx / 2)[..., None], 0, 1).astype(np.float32) * [1, 0.9, 0.8]
+    photo = photo.astype(np.float32)
+    default, narrow = estimate(photo, session), estimate(photo, session, fov_deg=20.0)
+    assert default.render_config.fov_deg == session.render_config.fov_deg and narrow.render_config.fov_deg == 20.0
+    assert default.meta["highlight_fill"]["pixels"] == int(hf.highlight_mask(photo).sum())
+    assert narrow.meta["highlight_fill"]["pixels"] == int(hf.highlight_mask(photo, fov_deg=20.0).sum())
+    assert hf.highlight_mask(photo, fov_deg=20.0).sum() != hf.highlight_mask(photo).sum()

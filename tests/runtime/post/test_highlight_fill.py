@@ -275,3 +275,43 @@ def test_the_offset_search_cost_is_the_weighted_ssd_at_every_offset():
             shifted = np.roll(xs, (-oy, -ox), axis=(0, 1))  # shifted[p] = xs[p + o]
             want = float(np.einsum("hw,hwc,c->", b, (target - shifted) ** 2, wts))
             assert got[oy, ox] == pytest.approx(want, rel=1e-9, abs=1e-9)
+
+
+def _glossy_plane(fov: float, n: int = 128) -> np.ndarray:
+    """A uniform glossy plane photographed by the flash camera of field of view ``fov`` (no clipping)."""
+    from svbrdf.runtime.core.render import ZHAO, render
+
+    flat = np.dstack([np.zeros((n, n, 2)), np.ones((n, n, 1))]).astype(np.float32)
+    maps = Maps(np.full((n, n, 3), 0.4, np.float32), np.full((n, n, 1), 0.5, np.float32),
+                np.full((n, n, 1), 0.3, np.float32), flat)
+    img = render(maps, config=ZHAO.replace(falloff=True, fov_deg=fov))
+    return (img / img.max() * 0.9).astype(np.float32)
+
+
+def test_the_shoulder_is_judged_with_the_photos_own_camera():
+    """The matte fall-off the shoulder is measured against is the photo's: a narrow camera's flat fall-off read with
+    the default 66° camera hides part of the highlight's shoulder, a wide camera's steep one shows too much."""
+    n = 128
+    narrow, wide = _glossy_plane(20.0, n), _glossy_plane(90.0, n)
+    centre = (n / 2, n / 2)
+    own_narrow = hf.shoulder_mask(narrow, centre, hf.SHOULDER, 20.0).mean()
+    own_wide = hf.shoulder_mask(wide, centre, hf.SHOULDER, 90.0).mean()
+    assert own_narrow > 1.2 * hf.shoulder_mask(narrow, centre, hf.SHOULDER).mean() > 0
+    assert own_wide < 0.8 * hf.shoulder_mask(wide, centre, hf.SHOULDER).mean()
+    assert hf.shoulder_mask(narrow, centre, hf.SHOULDER, 66.0).mean() == hf.shoulder_mask(narrow, centre, hf.SHOULDER).mean()
+
+
+def test_the_fill_takes_the_camera_the_maps_carry():
+    from svbrdf.runtime.core.render import ZHAO
+
+    n = 128
+    photo = _glossy_plane(20.0, n)
+    rng = np.random.default_rng(0)
+    flat = np.dstack([np.zeros((n, n, 2)), np.ones((n, n, 1))]).astype(np.float32)
+    base = Maps(rng.uniform(0.2, 0.6, (n, n, 3)).astype(np.float32), np.full((n, n, 1), 0.5, np.float32),
+                rng.uniform(0.2, 0.6, (n, n, 1)).astype(np.float32), flat)
+    own = hf.fill_highlight(Maps(*[base.diffuse, base.specular, base.roughness, base.normal],
+                                 render_config=ZHAO.replace(fov_deg=20.0)), photo)
+    default = hf.fill_highlight(base, photo)
+    assert own.meta["highlight_fill"]["pixels"] > default.meta["highlight_fill"]["pixels"]
+    assert own.meta["highlight_fill"]["pixels"] == int(hf.highlight_mask(photo, fov_deg=20.0).sum())
