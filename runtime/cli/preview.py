@@ -33,7 +33,7 @@ examples:
   {PROG} photos/*.png -o maps/         a batch into one folder (files named after each photo)
   {PROG} tiles.png --normal dx --format exr --max-size 4096
   {PROG} wood.jpg --model my.onnx      a model of your own (or set SVBRDF_MODEL)
-  {PROG} wood.jpg --refine --iters 300 fine-tune the model on this photo first (needs torch)
+  {PROG} wood.jpg --refine      correct the preview's gloss by fitting this photo (needs torch)
   {PROG} wood.jpg --maps normal        only the normal map (runs only the normal/roughness decoder)
   {PROG} wood.jpg --tileable --view    maps that repeat without a seam, and wood_view.html to relight them
   {PROG} wood.jpg --maps height,ao     the normal map and its height and ambient occlusion

@@ -441,10 +441,10 @@ class PhotoOptions:
         tileable: make the maps repeat without a seam (:func:`svbrdf.runtime.post.tileable.make_tileable`).
         view: also write the viewer page (:func:`svbrdf.runtime.outputs.viewer.write_viewer`).
         force: overwrite existing files.
-        refine: fine-tune the model's training checkpoint on the photo first (torch).
-        iters: refine iterations (None: the checkpoint's).
-        quality: ``"auto"``: refine until the re-render error stops improving, or skip it when the preview already
-            explains the photo; None: ``iters``.
+        refine: fit the preview's specular and roughness to the photo, kept where the photo's held-out blocks say
+            it helps (:func:`svbrdf.trainer.refine.refine`, torch).
+        iters: the refine's fitting steps (None: :data:`svbrdf.trainer.refine.ITERS`).
+        quality: ``"auto"``: the refine's fit stops when it stops improving; None: ``iters`` steps.
         quiet: no refine progress bar.
         post: the corrections around the network (:class:`~svbrdf.runtime.post.PostProcess`).
         upsampling: how a photo longer than 512 px gets its maps (:class:`~svbrdf.runtime.inference.guided.Upsampling`:
@@ -554,7 +554,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
     Returns:
         ``(maps, relit, detail)``: the :class:`~svbrdf.runtime.core.maps.Maps` (the requested maps, at the processed
         size, ``render_config`` = ``config``), the relit panel (sRGB (h, 3 w, 3), None without all four maps) and a
-        short report (``"model 0.41 s"``, ``"refined 300 it"``, ...).
+        short report (``"model 0.41 s"``, ``"refined (100 it): held-out error ..."``, ...).
 
     Raises:
         SvbrdfError: the photo cannot be read or processed; with ``options.tileable``, maps smaller than

@@ -391,29 +391,6 @@ def test_preview_method_with_an_exported_model(tmp_path):
     assert doc["records"][0]["run"]["model"] == str(model)
 
 
-def test_skip_refine_summary_uses_the_cli_threshold():
-    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_RMSE
-
-    low, high = SKIP_REFINE_RMSE * 0.5, SKIP_REFINE_RMSE * 2
-    recs = [_rec("preview", None, None, 1.0, 0.2, case="a", input_rmse=low),
-            _rec("preview", None, None, 1.0, 0.3, case="b", input_rmse=high),
-            _rec("finetune", "fast", 0, 1.0, 0.2, case="a"), _rec("finetune", "fast", 100, 21.0, 0.1, case="a"),
-            _rec("finetune", "fast", 100, 19.0, 0.15, case="b")]
-    sk = report.summarize(recs, ["fast"])["details"]["skip_refine"]
-    assert (sk["cases"], sk["skipped"]) == (2, 1)
-    assert sk["saving"] == pytest.approx((21.0 - 1.0) / 40.0)
-    assert sk["error_ratio_on_skipped"] == pytest.approx(2.0)
-    # ... and the burn-in test: a preview whose network baked the flash in (burn_in_model above the threshold) is
-    # refined, whatever its error and its post-processed burn-in.
-    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_BURN_IN
-
-    recs[0] = {**recs[0], "burn_in": 0.01, "burn_in_model": SKIP_REFINE_BURN_IN + 0.1}
-    sk = report.summarize(recs, ["fast"])["details"]["skip_refine"]
-    assert (sk["skipped"], sk["threshold_burn_in"]) == (0, SKIP_REFINE_BURN_IN)
-    recs[0] = {**recs[0], "burn_in_model": SKIP_REFINE_BURN_IN - 0.1}
-    assert report.summarize(recs, ["fast"])["details"]["skip_refine"]["skipped"] == 1
-
-
 def test_markdown_early_stop_table_with_and_without():
     run = {"run_train_seconds": 100.0, "plateau": {"step": 150, "train_seconds": 40.0},
            "evals": [{"step": 150, "train_seconds": 40.0, "render_l1": 0.1, "map_change": None}]}

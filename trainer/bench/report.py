@@ -31,8 +31,6 @@ per-preset value is kept under ``details``. A value is null when the runs it nee
   the same run) would have saved: mean over cases of ``1 - t_plateau / t_run`` (0 when the rule never fired).
   ``details.early_stop_error_ratio`` gives the price: mean over cases of ``E`` at the first evaluation point at
   or after the plateau step divided by ``E`` at the end of the run.
-* ``details.skip_refine``: the ``--quality auto`` rule that skips the fine-tune when the preview already explains
-  the photo (:func:`_skip_refine`).
 * ``artist`` (:func:`artist_table`): the table a user reads first, one row per method (``baseline``,
   ``preview``, and every ``finetune`` preset at its largest evaluated iteration count): the relighting of real
   multi-view captures (mean ``capture_rmse`` and ``capture_ssim`` over the capture views), the grazing-light
@@ -224,43 +222,6 @@ def _ratio(a: Optional[float], b: Optional[float]) -> Optional[float]:
     return a / b
 
 
-def skip_rule_passes(record: Mapping[str, Any]) -> bool:
-    """Would ``--quality auto`` skip the fine-tune after this preview record: its input-flash RMSE at or below
-    ``SKIP_REFINE_RMSE`` and the burn-in of the network's maps (``burn_in_model`` where the record has it, else
-    ``burn_in``) at or below ``SKIP_REFINE_BURN_IN`` (:mod:`svbrdf.runtime.quality.preview_check`)."""
-    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
-
-    burn = record.get("burn_in_model", record.get("burn_in"))
-    return record.get("input_rmse") is not None and record["input_rmse"] <= SKIP_REFINE_RMSE and \
-        (burn is None or burn <= SKIP_REFINE_BURN_IN)
-
-
-def _skip_refine(records, kind: str, metric: str, preset: str) -> Optional[Dict[str, Any]]:
-    """What ``svbrdf-preview --refine --quality auto``'s skip rule (preview input-flash RMSE <= the CLI's
-    ``SKIP_REFINE_RMSE`` and the burn-in of the network's maps, ``burn_in_model`` where the record has it, else
-    ``burn_in``, <= ``SKIP_REFINE_BURN_IN``; label-free tests) does on these cases: how many it skips, the fine-tune
-    time it saves (fraction of the summed fine-tune seconds at each run's last point) and the error price on the
-    skipped cases (mean preview error / fine-tuned error)."""
-    from svbrdf.runtime.quality.preview_check import SKIP_REFINE_BURN_IN, SKIP_REFINE_RMSE
-
-    prev = {r["case"]: r for r in records if r["method"] == "preview" and r["kind"] == kind}
-    last: Dict[str, Mapping[str, Any]] = {}
-    for r in records:
-        if r["method"] == "finetune" and r.get("preset") == preset and r["kind"] == kind and r["case"] in prev:
-            if r["case"] not in last or r["iterations"] > last[r["case"]]["iterations"]:
-                last[r["case"]] = r
-    if not last:
-        return None
-    skipped = [c for c in last if skip_rule_passes(prev[c])]
-    total = sum(r["seconds"] for r in last.values())
-    saved = sum(last[c]["seconds"] - prev[c]["seconds"] for c in skipped)
-    prices = [prev[c][metric] / last[c][metric] for c in skipped if prev[c].get(metric) and last[c].get(metric)]
-    return {"threshold_input_rmse": SKIP_REFINE_RMSE, "threshold_burn_in": SKIP_REFINE_BURN_IN,
-            "cases": len(last), "skipped": len(skipped),
-            "saving": saved / total if total > 0 else None,
-            "error_ratio_on_skipped": float(np.mean(prices)) if prices else None}
-
-
 def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str],
               cases: Sequence[Mapping[str, Any]] = ()) -> Dict[str, Any]:
     """Headline numbers (see the module docstring); every value is a float or None, with ``details`` and the
@@ -308,10 +269,6 @@ def summarize(records: Sequence[Mapping[str, Any]], presets: Sequence[str],
         time_ratio, err_ratio = _ratio(prev[0][1], t_ft), _ratio(prev[0][2], e_ft)
         details["preview"] = {"reference_preset": ref, "preview_seconds": prev[0][1], "preview_error": prev[0][2],
                               "finetune_seconds": t_ft, "finetune_error": e_ft}
-
-    # skip the fine-tune when the preview explains the photo (svbrdf-preview --refine --quality auto)
-    if ref:
-        details["skip_refine"] = _skip_refine(records, kind, metric, ref)
 
     # early_stop_saving
     saving = None
@@ -499,6 +456,8 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
         f"{s['size']} px, {s.get('inputs', 'clean')} synthetic inputs (renderer `{s['renderer']}`"
         + (f", noise {s['noise']}, quantize {s['quantize']})" if s.get("inputs", "clean") == "clean" else
            "; a camera drawn per case: `cases[].simulation` in the JSON)"),
+        f"- model: " + (f"`{s['model']['file']}` ({s['model']['source']}), sha256 `{s['model']['sha256']}`"
+                        if isinstance(s.get("model"), Mapping) else "none recorded"),
         f"- render config of the metrics: {s['render_config']}",
         f"- iterations evaluated: {s['iters']}; time budget per run: {s['time_budget'] or 'none'}",
         "- cells: mean ± std over the cases (n); seconds = training + one full-photo prediction "
@@ -557,12 +516,6 @@ def markdown(doc: Mapping[str, Any], plot_name: Optional[str], legend: Sequence[
     if es:
         out.append(f"| early stop: runs stopped / error ratio at the stop | {es['fired']} of {es['cases']} / "
                    f"{_fmt(es['early_stop_error_ratio'])} |")
-    sk = det.get("skip_refine")
-    if sk:
-        out.append(f"| skip refine (preview input RMSE <= {sk['threshold_input_rmse']}, burn-in <= "
-                   f"{sk.get('threshold_burn_in', '-')}): cases skipped / time "
-                   f"saved / error ratio on them | {sk['skipped']} of {sk['cases']} / {_fmt(sk['saving'])} / "
-                   f"{_fmt(sk['error_ratio_on_skipped'])} |")
     for p, two in det.get("two_stage_speedup", {}).items():
         levels = [lv for lv in two.get("levels", []) if lv["speedup"] is not None]
         if levels:
@@ -703,4 +656,4 @@ def pareto_series(records: Sequence[Mapping[str, Any]]) -> Tuple[List[Dict[str, 
 
 
 __all__ = ["SCHEMA", "METRICS", "ARTIST_COLUMNS", "ARTIST_HEADS", "artist_table", "aggregate", "summarize", "markdown", "plot_pareto", "pareto_series",
-           "text_supported", "write_text", "write_json", "skip_rule_passes"]
+           "text_supported", "write_text", "write_json"]

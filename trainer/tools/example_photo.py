@@ -49,7 +49,6 @@ def make_photo(family: str, seed: int, size: int, ev: float) -> np.ndarray:
 
 def grid(photo: np.ndarray, threads: int = 1):
     """The rows (preview without and with the post-processing, default refine) and their burn-in scores."""
-    from svbrdf.runtime.inference.manifest import find_checkpoint
     from svbrdf.runtime.inference.pipeline import estimate
     from svbrdf.runtime.inference.session import load_session
     from svbrdf.runtime.post import PostProcess
@@ -62,9 +61,9 @@ def grid(photo: np.ndarray, threads: int = 1):
         maps = estimate(photo, session, post=PostProcess(flash_trend=flag, uniform_specular=flag))
         rows.append(row_image(photo, maps))
         scores[label] = maps.meta["burn_in"]["burn_in"]
-    maps = refine(photo, find_checkpoint(session.info), threads=threads, name="example")
+    maps = refine(photo, estimate(photo, session), session.render_config, threads=threads)
     rows.append(row_image(photo, maps))
-    scores[f"refine ({maps.meta['refine']['iterations']} it)"] = maps.meta["burn_in"]["burn_in"]
+    scores[f"refine ({maps.meta['refine']['kept']})"] = maps.meta["burn_in"]["burn_in"]
     return np.concatenate(rows, axis=0), scores
 
 
