@@ -21,7 +21,7 @@ A checkpoint is a plain dict of tensors, numbers, strings, lists and dicts only,
     perceptual_backend, notes   what actually ran (backend name, fallbacks)
     eval_maps                   maps of the fixed evaluation tiles at the last evaluation (for the map-change signal)
     camera                      the photo's learned camera ({"vignetting": tensor}) or None
-    anchor                      a fine-tune's starting maps of the whole photo (float16, ``lambda_anchor``) or None
+    anchor                      a fine-tune's starting maps of the whole photo (float16, ``losses.anchor``) or None
     versions, date              library versions, ISO date (UTC)
     network_input               a shipped stage one's {"mode", "even_lighting"}: what the runtime shows its network
                                 (set by :func:`clean_checkpoint`; absent: the runtime's default)
@@ -330,7 +330,7 @@ def load_init(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint")
     _load_models(trainer, ckpt, source)
     if ckpt.get("discriminator") is None:
         trainer.notes.append(f"{Path(source).name}: no discriminator weights; D starts from scratch")
-    if trainer.config.reset_optimizers:
+    if trainer.config.optim.reset_optimizers:
         trainer.notes.append("optimiser states reset")
     elif not ckpt.get("optimizers"):
         trainer.notes.append(f"{Path(source).name}: no optimiser states; Adam starts fresh")
@@ -345,7 +345,7 @@ def load_init(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint")
                 trainer.notes.append(f"optimiser {key!r} state not reusable ({str(e)[:80]}); started fresh")
             else:
                 for group in opt.param_groups:  # the new run's learning rate and betas win
-                    group["lr"], group["betas"] = trainer.config.lr, tuple(trainer.config.betas)
+                    group["lr"], group["betas"] = trainer.config.optim.lr, tuple(trainer.config.optim.betas)
     trainer.init = {"path": str(source), "stage": ckpt.get("stage"), "step": ckpt.get("step"),
                     "photo": dict(ckpt.get("photo") or {})}
     if trainer.config.needs_anchor:
@@ -388,7 +388,7 @@ def load_resume(trainer, ckpt: Mapping[str, Any], source: PathLike = "checkpoint
     anchor = ckpt.get("anchor")
     trainer.anchor = None if anchor is None else anchor.to(trainer.device, torch.float32)
     if trainer.anchor is None and trainer.stage == "finetune" and trainer.config.needs_anchor:
-        raise ModelError(f"{source}: a fine-tune that keeps its starting maps (lambda_anchor) but no stored anchor; "
+        raise ModelError(f"{source}: a fine-tune that keeps its starting maps (losses.anchor) but no stored anchor; "
                          f"cannot resume")
 
 

@@ -92,6 +92,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="train the encoder too (default: Zhao's frozen random encoder)")
     g.add_argument("--seed", type=int, help="random seed (default 24)")
     g.add_argument("--fov", type=float, metavar="DEG", help="camera field of view across the photo width (default 66)")
+    g.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="any training setting by its dotted name, e.g. --set losses.fourier=0.5 or --set "
+                        "post.even_lighting=0 (values read as JSON, else text; after the flags above); repeatable")
     g.add_argument("--quality", choices=("fixed", "auto"),
                    help="fixed: run every iteration; auto: stop early when the re-render error and the maps stop "
                         "changing (--iters is the maximum)")
@@ -172,6 +175,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--height-activation", choices=("tanh", "linear"),
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
                         "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="any prior setting of a new --preset run: a PriorConfig field or generator.<field>, e.g. "
+                        "--set lambda_grad=0.5 (values read as JSON, else text; after the flags above); repeatable")
     p.add_argument("--compile", action="store_true",
                    help="torch.compile the loss's renderings (a v2 step on one CPU thread: 11.8 -> 8.8 s after "
                         "1-2 minutes of compiling; falls back to eager if it fails; not measured on a GPU)")
@@ -190,23 +196,37 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _overrides(args: argparse.Namespace, preset) -> Dict[str, Any]:
-    """TrainConfig overrides from the flags that were given (None = keep the preset's value)."""
+    """TrainConfig overrides (dotted names) from the flags that were given (None = keep the preset's value), then
+    ``--set`` on top."""
     ov: Dict[str, Any] = {
-        f"iters_{args.stage}": args.iters, "tile": args.tile, "bf16": args.bf16, "seed": args.seed,
-        "fov_deg": args.fov, "quality": args.quality, "checkpoint_every": args.checkpoint_every,
-        "maps_every": args.maps_every, "reset_optimizers": args.reset_optimizers,
-        "train_encoder": args.train_encoder, "vgg_weights": args.vgg_weights,
+        f"optim.iters_{args.stage}": args.iters, "optim.tile": args.tile, "optim.bf16": args.bf16,
+        "optim.seed": args.seed, "render.fov_deg": args.fov, "monitor.quality": args.quality,
+        "monitor.checkpoint_every": args.checkpoint_every, "monitor.maps_every": args.maps_every,
+        "optim.reset_optimizers": args.reset_optimizers, "generator.train_encoder": args.train_encoder,
+        "losses.vgg_weights": args.vgg_weights,
     }
     if args.fourier == "off":
-        ov["lambda_fourier"] = 0.0
+        ov["losses.fourier"] = 0.0
     elif args.fourier:
         # Turning the loss on in a preset that has it off uses the paper's weight.
-        ov.update(fourier_mode=args.fourier, lambda_fourier=preset.lambda_fourier or 0.1)
+        ov.update({"losses.fourier_mode": args.fourier, "losses.fourier": preset.losses.fourier or 0.1})
     if args.perceptual == "off":
-        ov["lambda_perceptual"] = 0.0
+        ov["losses.perceptual"] = 0.0
     elif args.perceptual:
-        ov.update(perceptual=args.perceptual, lambda_perceptual=preset.lambda_perceptual or 0.2)
+        ov.update({"losses.perceptual_backend": args.perceptual,
+                   "losses.perceptual": preset.losses.perceptual or 0.2})
+    ov.update(_settings(args))
     return ov
+
+
+def _settings(args: argparse.Namespace) -> Dict[str, Any]:
+    """The ``--set NAME=VALUE`` settings (dotted names, :func:`svbrdf.trainer.config.parse_settings`)."""
+    from svbrdf.trainer.config import parse_settings, setting_name
+
+    try:
+        return {setting_name(k): v for k, v in parse_settings(args.set or []).items()}
+    except ValueError as e:
+        raise _Fail(f"--set: {e}") from None
 
 
 class _Callback:
@@ -223,7 +243,7 @@ class _Callback:
         from svbrdf.runtime.progress import loss_postfix
 
         cfg = trainer.config
-        if cfg.maps_every and rec["step"] % cfg.maps_every == 0 and rec["step"] < trainer.iters:
+        if cfg.monitor.maps_every and rec["step"] % cfg.monitor.maps_every == 0 and rec["step"] < trainer.iters:
             _write_maps(trainer, self.out / "maps" / f"step_{rec['step']:06d}", self.name, relit=False)
         self.progress.update(rec["step"], **loss_postfix(rec))
         return self.stop
@@ -267,22 +287,8 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     if args.recipe and learned and not args.resume:
         parser.error(f"--recipe {args.recipe} fixes what the run learns; leave out "
                      f"--{', --'.join(f.replace('_', '-') for f in learned)}")
-    for flag in ("iters", "batch", "size", "photo_size", "checkpoint_every", "log_every", "material_reuse"):
-        v = getattr(args, flag)
-        if v is not None and v < 1:
-            parser.error(f"--{flag.replace('_', '-')} must be >= 1, got {v}")
-    if args.slope_weight is not None and not args.slope_weight >= 0:
-        parser.error(f"--slope-weight must be >= 0, got {args.slope_weight}")
-    if args.ema is not None and not 0 <= args.ema < 1:
-        parser.error(f"--ema must be in [0, 1), got {args.ema}")
-    if args.flat_share is not None and not 0 <= args.flat_share < 1:
-        parser.error(f"--flat-share must be in [0, 1), got {args.flat_share}")
-    if args.black_share is not None and not 0 <= args.black_share < 1:
-        parser.error(f"--black-share must be in [0, 1), got {args.black_share}")
-    if args.coarse_share is not None and not 0 <= args.coarse_share <= 1:
-        parser.error(f"--coarse-share must be in [0, 1], got {args.coarse_share}")
-    if args.eval_every is not None and args.eval_every < 0:
-        parser.error(f"--eval-every must be >= 0, got {args.eval_every}")
+    if args.set and (args.resume or args.recipe):
+        parser.error("--set is for a new run from a --preset (a recipe and a resume have their own settings)")
     if args.minutes is not None and not args.minutes > 0:
         parser.error(f"--minutes must be > 0, got {args.minutes}")
     kw = dict(device=args.device, threads=args.threads, checkpoint_path=ckpt_path, log_path=out / LOG,
@@ -298,35 +304,25 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
             config = PriorConfig.from_dict(ckpt["prior_config"])
         except (TypeError, ValueError) as e:
             raise _Fail(f"{source}: bad prior settings ({e})") from None
-        if args.iters is not None:
-            config.iters = args.iters
-        if args.log_every is not None:
-            config.log_every = args.log_every
-        if args.eval_every is not None:
-            config.eval_every = args.eval_every
-        if args.material_reuse is not None:
-            config.material_reuse = args.material_reuse
-        if args.checkpoint_every is not None:  # how the run is kept, not what it learns: a resume may change it
-            config.checkpoint_every = args.checkpoint_every
-        if args.slope_weight is not None and args.slope_weight != config.lambda_slope:
-            log(f"note: the slope term's weight {config.lambda_slope:g} -> {args.slope_weight:g} from here on")
-            config.lambda_slope = args.slope_weight
-        if args.ema is not None and args.ema != config.ema:
-            log(f"note: the weights' moving average (decay {config.ema:g} -> {args.ema:g}) from here on; it is the "
-                "model the checkpoint gives")
-            config.ema = args.ema
-        if args.flat_share is not None and args.flat_share != config.flat_share:
-            log(f"note: the share of materials with flat normals {config.flat_share:g} -> {args.flat_share:g} from "
-                "here on")
-            config.flat_share = args.flat_share
-        if args.black_share is not None and args.black_share != config.black_share:
-            log(f"note: the share of near-black dielectric materials {config.black_share:g} -> {args.black_share:g} "
-                "from here on")
-            config.black_share = args.black_share
-        if args.coarse_share is not None and args.coarse_share != config.coarse_share:
-            log(f"note: the share of materials with a coarse relief {config.coarse_share:g} -> "
-                f"{args.coarse_share:g} from here on")
-            config.coarse_share = args.coarse_share
+        # How the run is kept may change on a resume; so may these learned settings, each with a note.
+        kept = {k: getattr(args, k) for k in ("iters", "log_every", "eval_every", "material_reuse", "checkpoint_every")
+                if getattr(args, k) is not None}
+        learned_now = {"lambda_slope": (args.slope_weight, "the slope term's weight {} -> {} from here on"),
+                       "ema": (args.ema, "the weights' moving average (decay {} -> {}) from here on; it is the model "
+                                         "the checkpoint gives"),
+                       "flat_share": (args.flat_share, "the share of materials with flat normals {} -> {} from here on"),
+                       "black_share": (args.black_share, "the share of near-black dielectric materials {} -> {} from "
+                                                         "here on"),
+                       "coarse_share": (args.coarse_share, "the share of materials with a coarse relief {} -> {} from "
+                                                           "here on")}
+        changed = {k: v for k, (v, _) in learned_now.items() if v is not None and v != getattr(config, k)}
+        try:
+            new_config = dataclasses.replace(config, **kept, **changed)  # validates
+        except ValueError as e:
+            parser.error(str(e))
+        for k, v in changed.items():
+            log("note: " + learned_now[k][1].format(f"{getattr(config, k):g}", f"{v:g}"))
+        config = new_config
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         ignored += [f for f in ("preset", "recipe") if getattr(args, f) is not None]
         if ignored:
@@ -379,6 +375,11 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                     if getattr(args, flag) is not None:
                         over[flag] = getattr(args, flag)
                 config = dataclasses.replace(config, **over)
+                if args.set:
+                    from svbrdf.trainer.config import parse_settings
+                    from svbrdf.trainer.prior.config import override
+
+                    config = override(config, parse_settings(args.set))
         except ValueError as e:
             parser.error(str(e))
         out.mkdir(parents=True, exist_ok=True)
@@ -490,7 +491,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         trainer = make_trainer(photo, args.stage, resume=ckpt_path, iters=args.iters, **kw)
         log(f"resuming {ckpt_path} at iteration {trainer.step}/{trainer.iters} (settings from the checkpoint)")
         ignored = [k for k, v in _overrides(args, trainer.config).items()
-                   if v is not None and k != f"iters_{args.stage}"]
+                   if v is not None and k != f"optim.iters_{args.stage}"]
         if ignored or args.preset is not None:
             log("note: training settings given with --resume are ignored (they come from the checkpoint)")
     else:
@@ -509,7 +510,8 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         created = not out.exists()
         out.mkdir(parents=True, exist_ok=True)
         try:
-            trainer = make_trainer(photo, args.stage, config, init=init, source=source, **kw)
+            trainer = make_trainer(photo, args.stage, config, init=init, source=source,
+                                   keep=list(_settings(args)) if init is not None else (), **kw)
         except BaseException:
             if created:  # a refused photo, setting or checkpoint leaves no empty folder behind
                 try:
@@ -522,7 +524,7 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
         f"{trainer.iters} iterations, tile {trainer.tile}, device {trainer.device}"
         f"{', bf16' if trainer.bf16 else ''}, out {out}")
     log(f"perceptual loss: {trainer.perceptual_backend or 'off'}; Fourier loss: "
-        f"{cfg.fourier_mode if cfg.lambda_fourier > 0 else 'off'}")
+        f"{cfg.losses.fourier_mode if cfg.losses.fourier > 0 else 'off'}")
     for note in trainer.notes:
         log(f"note: {note}")
 

@@ -33,104 +33,30 @@ SCHEDULES = ("alternating", "joint")
 
 
 @dataclass
-class TrainConfig:
-    """Training settings (JSON-safe through :meth:`to_dict` / :meth:`from_dict`).
+
+@dataclass(frozen=True)
+class Optimisation:
+    """How the networks are optimised.
 
     Attributes:
-        preset: name of the preset these settings started from (informative).
-        generator: generator architecture (``train_encoder`` lives there: a frozen random encoder by default).
-        discriminator: PatchGAN architecture.
         tile: side of the random square training tiles, pixels (clipped to the photo).
-        nr_updates, ds_updates, d_updates: optimiser steps per iteration of the normal/roughness decoder,
-            the diffuse/specular decoder (plus the encoder if trained) and the discriminator, each on a
-            fresh random tile (``schedule="alternating"``).
-        schedule: "alternating" (the published schedule above: every sub-step runs the generator on its own
-            tile) or "joint" (needs 1:1:1): one tile per iteration, one generator pass with both decoders
-            trained by one backward pass of ``L_GAN + L_d + L_F + L_P`` (the gradient each decoder receives is
-            that of its own published loss, since L_d does not depend on the normal/roughness decoder), then
-            the discriminator step on the same tile and the rendering already made. Same losses, two generator
-            passes per iteration instead of three (``git show 0b5a711:./trainer/bench/speed.py``, ``--variants
-            alternating,joint``).
+        nr_updates, ds_updates, d_updates: optimiser steps per iteration of the normal/roughness decoder, the
+            diffuse/specular decoder (plus the encoder if trained) and the discriminator, each on a fresh random tile
+            (``schedule="alternating"``).
+        schedule: "alternating" (the published schedule: every sub-step runs the generator on its own tile) or
+            "joint" (needs 1:1:1): one tile per iteration, one generator pass with both decoders trained by one
+            backward pass, then the discriminator step on the same tile and rendering
+            (``git show 0b5a711:./trainer/bench/speed.py``, ``--variants alternating,joint``).
         lr, betas: Adam settings shared by the three optimisers.
-        lambda_gan: weight of the generator GAN term in both decoder losses.
-        gan_steps: the GAN (the generator's term and the discriminator's update) runs for the first ``gan_steps``
-            iterations of a run only, then the run goes on without it (0 = every iteration, as in the paper). The
-            GAN term is what makes a fine-tune's maps drift after its first 150 iterations
-            (docs/decisions/020-fast-schedule.md); without it the later iterations are also faster.
-        lambda_fourier: weight of the Fourier loss L_F (0 = off); ``fourier_mode``: "complex" | "magnitude".
-        lambda_perceptual: weight of the perceptual loss L_P (0 = off); ``perceptual``: its backend;
-            ``vgg_weights``: optional VGG-19 state-dict file.
-        diffuse_target: "absolute" (the paper's L_d) or "normalized" (L_d on standardised tiles: the guessed
-            diffuse gives the pattern, not the level; :func:`svbrdf.trainer.losses.diffuse_loss`).
-        lambda_diffuse: weight of L_d (1 = the paper's; 0 = off: the diffuse map is then shaped by the photo terms
-            and the anchor alone).
-        lambda_render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`; 0 = off,
-            as in the paper).
-        lambda_specular_prior: weight of the dielectric prior on the specular albedo
-            (:func:`svbrdf.trainer.losses.specular_prior_loss`; 0 = off, as in the paper).
-        lambda_anchor: weight of the pull of a fine-tune towards its starting point: the initial checkpoint's
-            prediction of the whole photo (the preview), compared per map as the prior is trained
-            (:func:`svbrdf.trainer.losses.supervised_maps_loss`); keeps what the photo does not constrain where a
-            learned stage one put it (0 = off, as in the paper; only a fine-tune has a starting point).
-        anchor_maps: the maps that pull (names of :data:`svbrdf.runtime.core.maps.MAP_NAMES`, each with its
-            :data:`~svbrdf.trainer.losses.SUPERVISED_WEIGHTS` weight); the others are left to the photo.
-        lambda_flash: weight of the flash-correlation stationarity loss on both decoders
-            (:func:`svbrdf.trainer.losses.flash_correlation_loss`; 0 = off, as in the paper).
-        learn_vignetting: fit the photo's vignetting (a darkening ``1 - v r^2`` towards the corners, one scalar
-            ``v = 0.9 sigmoid(t)`` per photo, starting at 0.05) as part of the flash model of the photo terms, so
-            a radial darkening the maps must not explain is not painted into them.
-        learn_offsets: train the generator's six pre-tanh output offsets
-            (:attr:`svbrdf.trainer.models.Generator.out_offset`) at ``camera_lr``: the level of each map (and the
-            normal strength) can then move within a fine-tune even where the tanh output is saturated.
         camera_lr: learning rate (own Adam) of the learned camera and of the output offsets.
-        post: what is done around the generator, as the runtime does it (:class:`svbrdf.runtime.post.PostProcess`,
-            the runtime's own type; :data:`NO_POST` by default, as in the paper). ``post.even_lighting``: the
-            generator sees the photo divided by its own smooth lighting
-            (:attr:`svbrdf.runtime.post.PostProcess.even_lighting`: a low pass of this width, a fraction of the photo
-            width) in training and prediction, while the losses compare its renderings with the photo itself (0: the
-            photo). The map corrections (the photo's colour balance, the highlight fill, the flash-trend removal, one
-            specular level) apply to the final maps of :meth:`svbrdf.trainer.train.Trainer.predict_maps`
-            (:func:`svbrdf.runtime.post.apply`), as the preview applies them to its own. Overrides and records name
-            them ``post.<field>`` or, as before this field existed, by the field's name alone (:func:`resolve`,
-            :meth:`from_dict`).
-        flash_position: where the flash (with the camera, co-located) is over the photo, (x, y) in the renderer's
-            units (:func:`svbrdf.runtime.core.render.plane_positions`: x right, y up, 1 = half the photo width), at the
-            render config's camera distance; None = above the photo's centre (the paper's geometry).
-        saturate: the camera model of the photo terms: renderings are clipped to [0, 1] before the
-            discriminator, the perceptual loss and the progress signal, as the photo was by the sensor
-            (False: the paper's unclipped renderings).
-        perceptual_min_clipped: photos with a smaller fraction of clipped pixels
-            (:func:`svbrdf.trainer.losses.clipped_fraction`) train without L_P (0 = never skipped). ``fast``:
-            5e-5, i.e. photos without a saturated highlight, where L_P brought no gain for 21 % of the time
-            (docs/decisions/021-fast-highlight-free.md); L_F is kept there: it lowered error and burn-in.
+        gan_steps: the GAN (the generator's term and the discriminator's update) runs for the first ``gan_steps``
+            iterations of a run only (0 = every iteration, as in the paper; docs/decisions/020-fast-schedule.md).
         iters_pretrain, iters_finetune, iters_fit: iterations of each stage.
         seed: seeds weights and the tile sequence.
         bf16: bfloat16 autocast around the networks (falls back to fp32 where unsupported).
-        render: :class:`~svbrdf.runtime.core.render.RenderConfig` as a dict (see :attr:`render_config`).
-        checkpoint_every: iterations between checkpoints (0 = only at the end).
-        maps_every: iterations between full-photo map dumps by the CLI (0 = only at the end).
         reset_optimizers: finetune with fresh Adam states instead of the pretrained ones.
-        eval_every, eval_tiles: cadence and number of fixed tiles of the label-free progress signal
-            (re-render L1 vs the photo, mean map change between evaluations); 0 = off.
-        quality: "fixed" (run all iterations) or "auto" (stop early when the re-render L1 stops improving).
-        plateau_window, plateau_render_tol: the ``quality="auto"`` rule
-            (:meth:`svbrdf.trainer.train.Trainer.plateaued`): stop when the best re-render L1 of the last
-            ``plateau_window`` evaluations is not ``plateau_render_tol`` (relative) below the best before them.
-        guard_rollback_after: consecutive non-finite optimiser steps before rolling back to the last good
-            in-memory snapshot; ``guard_snapshot_every``: iterations between snapshots.
-        predict_max_side: photos with a longer side are predicted in overlapping tiles of this size;
-            ``predict_overlap``: their overlap.
-        photo_context: a U-Net generator (``generator.arch="unet"``) sees every training tile and every
-            prediction tile with the whole photo's flash spot and global vectors
-            (:class:`svbrdf.trainer.models.PhotoContext`), so what it learns on tiles is what it predicts for the
-            whole photo; refreshed (without gradient) every ``context_every`` iterations (5: 1.12x the time of an
-            iteration without the context, 1: 1.43x, the same maps on held-out procedural materials,
-            docs/decisions/066-unet-photo-context.md). No effect on ``"wen"``.
     """
 
-    preset: str = "paper"
-    generator: GeneratorConfig = field(default_factory=lambda: dataclasses.replace(MODEL_PRESETS["paper"]))
-    discriminator: DiscriminatorConfig = field(default_factory=lambda: dataclasses.replace(DISC_PRESETS["paper"]))
     tile: int = 256
     nr_updates: int = 5
     ds_updates: int = 1
@@ -138,55 +64,206 @@ class TrainConfig:
     schedule: str = "alternating"
     lr: float = 2e-5
     betas: Tuple[float, float] = (0.0, 0.9)
-    lambda_gan: float = 0.1
-    gan_steps: int = 0
-    lambda_fourier: float = 0.1
-    fourier_mode: str = "complex"
-    lambda_perceptual: float = 0.2
-    perceptual: str = "auto"
-    vgg_weights: Optional[str] = None
-    perceptual_min_clipped: float = 0.0
-    diffuse_target: str = "absolute"
-    lambda_diffuse: float = 1.0
-    lambda_render: float = 0.0
-    lambda_flash: float = 0.0
-    lambda_specular_prior: float = 0.0
-    lambda_anchor: float = 0.0
-    anchor_maps: Tuple[str, ...] = MAP_NAMES
-    saturate: bool = False
-    learn_vignetting: bool = False
-    learn_offsets: bool = False
     camera_lr: float = 5e-3
-    post: PostProcess = field(default_factory=lambda: NO_POST)
-    flash_position: Optional[Tuple[float, float]] = None
+    gan_steps: int = 0
     iters_pretrain: int = 10000
     iters_finetune: int = 3000
     iters_fit: int = 20000
     seed: int = 24
     bf16: bool = False
-    render: Dict[str, Any] = field(default_factory=ZHAO.to_dict)
+    reset_optimizers: bool = False
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "betas", tuple(float(b) for b in self.betas))
+
+
+@dataclass(frozen=True)
+class Losses:
+    """The loss terms: each weight (0 = off) and its options.
+
+    Attributes:
+        gan: weight of the generator GAN term in both decoder losses.
+        fourier: weight of the Fourier loss L_F; ``fourier_mode``: "complex" | "magnitude".
+        perceptual: weight of the perceptual loss L_P; ``perceptual_backend``: its backend; ``vgg_weights``: optional
+            VGG-19 state-dict file; ``perceptual_min_clipped``: photos with a smaller fraction of clipped pixels
+            (:func:`svbrdf.trainer.losses.clipped_fraction`) train without L_P (0 = never skipped;
+            docs/decisions/021-fast-highlight-free.md).
+        diffuse: weight of L_d (1 = the paper's); ``diffuse_target``: "absolute" (the paper's L_d) or "normalized"
+            (L_d on standardised tiles, :func:`svbrdf.trainer.losses.diffuse_loss`).
+        render: weight of the per-pixel re-render loss (:func:`svbrdf.trainer.losses.render_loss`).
+        flash: weight of the flash-correlation stationarity loss (:func:`svbrdf.trainer.losses.flash_correlation_loss`).
+        specular_prior: weight of the dielectric prior on the specular albedo
+            (:func:`svbrdf.trainer.losses.specular_prior_loss`).
+        anchor: weight of the pull of a fine-tune towards the initial checkpoint's prediction of the whole photo
+            (:func:`svbrdf.trainer.losses.supervised_maps_loss`; only a fine-tune has a starting point);
+            ``anchor_maps``: the maps that pull (names of :data:`svbrdf.runtime.core.maps.MAP_NAMES`).
+    """
+
+    gan: float = 0.1
+    fourier: float = 0.1
+    fourier_mode: str = "complex"
+    perceptual: float = 0.2
+    perceptual_backend: str = "auto"
+    vgg_weights: Optional[str] = None
+    perceptual_min_clipped: float = 0.0
+    diffuse: float = 1.0
+    diffuse_target: str = "absolute"
+    render: float = 0.0
+    flash: float = 0.0
+    specular_prior: float = 0.0
+    anchor: float = 0.0
+    anchor_maps: Tuple[str, ...] = MAP_NAMES
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "anchor_maps", tuple(self.anchor_maps))
+
+
+@dataclass(frozen=True)
+class PhotoModel:
+    """How the renderings are made comparable with the photo.
+
+    Attributes:
+        saturate: renderings are clipped to [0, 1] before the discriminator, the perceptual loss and the progress
+            signal, as the photo was by the sensor (False: the paper's unclipped renderings).
+        learn_vignetting: fit the photo's vignetting (``1 - v r^2``, ``v = 0.9 sigmoid(t)`` per photo, from 0.05).
+        learn_offsets: train the generator's six pre-tanh output offsets
+            (:attr:`svbrdf.trainer.models.Generator.out_offset`) at ``optim.camera_lr``.
+        flash_position: where the flash (with the camera) is over the photo, (x, y) in the renderer's units
+            (:func:`svbrdf.runtime.core.render.plane_positions`); None = above the photo's centre.
+    """
+
+    saturate: bool = False
+    learn_vignetting: bool = False
+    learn_offsets: bool = False
+    flash_position: Optional[Tuple[float, float]] = None
+
+    def __post_init__(self) -> None:
+        if self.flash_position is not None:
+            object.__setattr__(self, "flash_position", tuple(float(v) for v in self.flash_position))
+
+
+@dataclass(frozen=True)
+class Monitoring:
+    """Checkpoints, map dumps and the label-free progress signal.
+
+    Attributes:
+        checkpoint_every: iterations between checkpoints (0 = only at the end).
+        maps_every: iterations between full-photo map dumps by the CLI (0 = only at the end).
+        eval_every, eval_tiles: cadence and number of fixed tiles of the progress signal (re-render L1 vs the
+            photo, mean map change between evaluations); 0 = off.
+        quality: "fixed" (run all iterations) or "auto" (stop early when the re-render L1 stops improving).
+        plateau_window, plateau_render_tol: the ``quality="auto"`` rule (:meth:`svbrdf.trainer.train.Trainer.plateaued`).
+    """
+
     checkpoint_every: int = 500
     maps_every: int = 500
-    reset_optimizers: bool = False
     eval_every: int = 100
     eval_tiles: int = 4
     quality: str = "fixed"
     plateau_window: int = 4
     plateau_render_tol: float = 0.05
-    guard_rollback_after: int = 5
-    guard_snapshot_every: int = 50
-    predict_max_side: int = 1024
-    predict_overlap: int = 128
+
+
+@dataclass(frozen=True)
+class Guard:
+    """The non-finite step guard: roll back to the last in-memory snapshot after ``rollback_after`` consecutive
+    non-finite optimiser steps; a snapshot every ``snapshot_every`` iterations."""
+
+    rollback_after: int = 5
+    snapshot_every: int = 50
+
+
+@dataclass(frozen=True)
+class Prediction:
+    """How the whole photo is predicted.
+
+    Attributes:
+        max_side, overlap: photos with a longer side are predicted in overlapping tiles of this size and overlap.
+        photo_context: a U-Net generator sees every tile with the whole photo's flash spot and global vectors
+            (:class:`svbrdf.trainer.models.PhotoContext`), refreshed every ``context_every`` iterations
+            (docs/decisions/066-unet-photo-context.md). No effect on ``"wen"``.
+    """
+
+    max_side: int = 1024
+    overlap: int = 128
     photo_context: bool = True
     context_every: int = 5
 
+
+#: The groups of :class:`TrainConfig`, by attribute name (``post`` is the runtime's own :class:`PostProcess`); each is
+#: frozen, so copies of a config never share a mutable group (change one with :func:`resolve` or ``dataclasses.replace``).
+GROUPS: Dict[str, type] = {"optim": Optimisation, "losses": Losses, "photo": PhotoModel, "monitor": Monitoring,
+                           "guard": Guard, "predict": Prediction, "post": PostProcess}
+
+#: Flat names of the settings as checkpoints, ``refine`` records and overrides before the groups named them
+#: (``TrainConfig.to_dict()`` was one flat dict) -> their dotted names now. Read by :meth:`TrainConfig.from_dict`,
+#: :func:`resolve` and :func:`setting_name`.
+FLAT_NAMES: Dict[str, str] = {
+    **{n: f"optim.{n}" for n in ("tile", "nr_updates", "ds_updates", "d_updates", "schedule", "lr", "betas",
+                                 "camera_lr", "gan_steps", "iters_pretrain", "iters_finetune", "iters_fit", "seed",
+                                 "bf16", "reset_optimizers")},
+    "lambda_gan": "losses.gan", "lambda_fourier": "losses.fourier", "fourier_mode": "losses.fourier_mode",
+    "lambda_perceptual": "losses.perceptual", "perceptual": "losses.perceptual_backend",
+    "vgg_weights": "losses.vgg_weights", "perceptual_min_clipped": "losses.perceptual_min_clipped",
+    "lambda_diffuse": "losses.diffuse", "diffuse_target": "losses.diffuse_target", "lambda_render": "losses.render",
+    "lambda_flash": "losses.flash", "lambda_specular_prior": "losses.specular_prior",
+    "lambda_anchor": "losses.anchor", "anchor_maps": "losses.anchor_maps",
+    **{n: f"photo.{n}" for n in ("saturate", "learn_vignetting", "learn_offsets", "flash_position")},
+    **{n: f"monitor.{n}" for n in ("checkpoint_every", "maps_every", "eval_every", "eval_tiles", "quality",
+                                   "plateau_window", "plateau_render_tol")},
+    "guard_rollback_after": "guard.rollback_after", "guard_snapshot_every": "guard.snapshot_every",
+    "predict_max_side": "predict.max_side", "predict_overlap": "predict.overlap",
+    "photo_context": "predict.photo_context", "context_every": "predict.context_every",
+    **{n: f"post.{n}" for n in POST_FIELDS},
+    "train_encoder": "generator.train_encoder", "fov_deg": "render.fov_deg",
+}
+
+#: Settings of earlier versions that checkpoints may still carry; ignored when read.
+RETIRED_SETTINGS = frozenset({"plateau_change_tol"})
+
+
+@dataclass
+class TrainConfig:
+    """Training settings, grouped (JSON-safe through :meth:`to_dict` / :meth:`from_dict`).
+
+    Attributes:
+        preset: name of the preset these settings started from (informative).
+        generator: generator architecture (``train_encoder`` lives there: a frozen random encoder by default).
+        discriminator: PatchGAN architecture.
+        render: :class:`~svbrdf.runtime.core.render.RenderConfig` as a dict (see :attr:`render_config`): the
+            renderer of the photo terms.
+        optim: :class:`Optimisation` (tiles, schedule, Adam, iterations, seed, bf16).
+        losses: :class:`Losses` (weights and options of every term).
+        photo: :class:`PhotoModel` (the camera model of the photo terms).
+        post: what is done around the generator, as the runtime does it (:class:`svbrdf.runtime.post.PostProcess`;
+            :data:`NO_POST` by default). ``post.even_lighting``: the generator sees the photo divided by its own
+            smooth lighting (a low pass of this width, a fraction of the photo width) in training and prediction,
+            the losses compare with the photo itself (0: the photo); the map corrections apply to the final maps
+            of :meth:`svbrdf.trainer.train.Trainer.predict_maps` (:func:`svbrdf.runtime.post.apply`).
+        monitor: :class:`Monitoring` (checkpoints, map dumps, progress signal, ``quality="auto"``).
+        guard: :class:`Guard` (the non-finite step guard).
+        predict: :class:`Prediction` (tiled prediction, the U-Net's photo context).
+
+    Every setting has one dotted name (``losses.fourier``, ``post.even_lighting``): :meth:`flat_dict`, :func:`resolve`,
+    ``--set``. The flat names of earlier records are :data:`FLAT_NAMES`.
+    """
+
+    preset: str = "paper"
+    generator: GeneratorConfig = field(default_factory=lambda: dataclasses.replace(MODEL_PRESETS["paper"]))
+    discriminator: DiscriminatorConfig = field(default_factory=lambda: dataclasses.replace(DISC_PRESETS["paper"]))
+    render: Dict[str, Any] = field(default_factory=ZHAO.to_dict)
+    optim: Optimisation = field(default_factory=Optimisation)
+    losses: Losses = field(default_factory=Losses)
+    photo: PhotoModel = field(default_factory=PhotoModel)
+    post: PostProcess = field(default_factory=lambda: NO_POST)
+    monitor: Monitoring = field(default_factory=Monitoring)
+    guard: Guard = field(default_factory=Guard)
+    predict: Prediction = field(default_factory=Prediction)
+
     def __post_init__(self) -> None:
-        self.betas = tuple(float(b) for b in self.betas)
-        self.anchor_maps = tuple(self.anchor_maps)
-        if self.flash_position is not None:
-            self.flash_position = tuple(float(v) for v in self.flash_position)
-        if not isinstance(self.post, PostProcess):
-            raise ValueError(f"post must be a PostProcess, got {type(self.post).__name__}")
+        for name, cls in GROUPS.items():
+            if not isinstance(getattr(self, name), cls):
+                raise ValueError(f"{name} must be a {cls.__name__}, got {type(getattr(self, name)).__name__}")
         if self.post.even_lighting is None:  # the runtime's "photo as it is"; 0 here, one value per meaning
             self.post = self.post.replace(even_lighting=0.0)
         self.validate()
@@ -206,14 +283,14 @@ class TrainConfig:
 
     @property
     def needs_anchor(self) -> bool:
-        """Whether a fine-tune keeps its starting maps (the anchor): for ``lambda_anchor``."""
-        return self.lambda_anchor > 0
+        """Whether a fine-tune keeps its starting maps (the anchor): for ``losses.anchor``."""
+        return self.losses.anchor > 0
 
     def iters(self, stage: str) -> int:
         """Iterations of ``stage`` ("pretrain", "finetune" or "fit")."""
         if stage not in STAGES:
             raise ValueError(f"unknown stage {stage!r}; expected one of {', '.join(STAGES)}")
-        return getattr(self, f"iters_{stage}")
+        return getattr(self.optim, f"iters_{stage}")
 
     @property
     def min_tile(self) -> int:
@@ -222,194 +299,216 @@ class TrainConfig:
         return max(16, 2 ** (self.discriminator.n_layers + 1))
 
     def validate(self) -> None:
-        """Raise ValueError on an inconsistent setting."""
+        """Raise ValueError on an inconsistent setting (the one place settings are checked)."""
         def need(ok: bool, msg: str) -> None:
             if not ok:
                 raise ValueError(msg)
 
-        need(self.tile >= self.min_tile, f"tile must be >= {self.min_tile} px, got {self.tile}")
-        for name in ("nr_updates", "ds_updates", "d_updates", "iters_pretrain", "iters_finetune", "iters_fit",
-                     "checkpoint_every", "maps_every", "eval_every", "gan_steps"):
-            need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
-        need(self.lr > 0 and self.camera_lr > 0, f"lr and camera_lr must be > 0, got {self.lr}, {self.camera_lr}")
-        need(len(self.betas) == 2 and all(0 <= b < 1 for b in self.betas), f"betas must be two values in [0, 1), "
-             f"got {self.betas}")
-        for name in ("lambda_gan", "lambda_fourier", "lambda_perceptual", "lambda_render", "lambda_flash",
-                     "lambda_specular_prior", "lambda_anchor", "lambda_diffuse"):
-            need(getattr(self, name) >= 0, f"{name} must be >= 0, got {getattr(self, name)}")
-        need(len(self.anchor_maps) > 0 and set(self.anchor_maps) <= set(MAP_NAMES),
-             f"anchor_maps must be some of {', '.join(MAP_NAMES)}, got {list(self.anchor_maps)}")
-        need(0 <= self.perceptual_min_clipped <= 1,
-             f"perceptual_min_clipped must be in [0, 1], got {self.perceptual_min_clipped}")
-        need(self.fourier_mode in FOURIER_MODES, f"fourier_mode must be one of {FOURIER_MODES}, "
-             f"got {self.fourier_mode!r}")
-        need(self.perceptual in PERCEPTUAL_BACKENDS, f"perceptual must be one of {PERCEPTUAL_BACKENDS}, "
-             f"got {self.perceptual!r}")
-        need(self.diffuse_target in DIFFUSE_TARGETS, f"diffuse_target must be one of {DIFFUSE_TARGETS}, "
-             f"got {self.diffuse_target!r}")
-        need(self.schedule in SCHEDULES, f"schedule must be one of {SCHEDULES}, got {self.schedule!r}")
-        need(self.schedule != "joint" or (self.nr_updates, self.ds_updates, self.d_updates) == (1, 1, 1),
-             "schedule 'joint' needs nr_updates = ds_updates = d_updates = 1")
-        need(self.quality in QUALITY_MODES, f"quality must be one of {QUALITY_MODES}, got {self.quality!r}")
-        need(self.eval_tiles >= 1 and self.plateau_window >= 1, "eval_tiles and plateau_window must be >= 1")
-        need(self.quality == "fixed" or self.eval_every > 0, "quality 'auto' needs eval_every > 0")
-        need(self.guard_rollback_after >= 1 and self.guard_snapshot_every >= 1,
-             "guard_rollback_after and guard_snapshot_every must be >= 1")
-        need(self.flash_position is None or (len(self.flash_position) == 2
-                                              and all(math.isfinite(v) for v in self.flash_position)),
-             f"flash_position must be two finite numbers (x, y), got {self.flash_position}")
-        need(self.context_every >= 1, f"context_every must be >= 1, got {self.context_every}")
-        need(self.predict_max_side >= 8 and 0 <= 2 * self.predict_overlap <= self.predict_max_side,
-             "predict_max_side must be >= 8 and predict_overlap in [0, predict_max_side / 2]")
+        o, ls, m, pr = self.optim, self.losses, self.monitor, self.predict
+        need(o.tile >= self.min_tile, f"optim.tile must be >= {self.min_tile} px, got {o.tile}")
+        for group, name in (("optim", "nr_updates"), ("optim", "ds_updates"), ("optim", "d_updates"),
+                            ("optim", "iters_pretrain"), ("optim", "iters_finetune"), ("optim", "iters_fit"),
+                            ("optim", "gan_steps"), ("monitor", "checkpoint_every"), ("monitor", "maps_every"),
+                            ("monitor", "eval_every")):
+            value = getattr(getattr(self, group), name)
+            need(value >= 0, f"{group}.{name} must be >= 0, got {value}")
+        need(o.lr > 0 and o.camera_lr > 0, f"optim.lr and optim.camera_lr must be > 0, got {o.lr}, {o.camera_lr}")
+        need(len(o.betas) == 2 and all(0 <= b < 1 for b in o.betas), f"optim.betas must be two values in [0, 1), "
+             f"got {o.betas}")
+        for name in ("gan", "fourier", "perceptual", "render", "flash", "specular_prior", "anchor", "diffuse"):
+            need(getattr(ls, name) >= 0, f"losses.{name} must be >= 0, got {getattr(ls, name)}")
+        need(len(ls.anchor_maps) > 0 and set(ls.anchor_maps) <= set(MAP_NAMES),
+             f"losses.anchor_maps must be some of {', '.join(MAP_NAMES)}, got {list(ls.anchor_maps)}")
+        need(0 <= ls.perceptual_min_clipped <= 1,
+             f"losses.perceptual_min_clipped must be in [0, 1], got {ls.perceptual_min_clipped}")
+        need(ls.fourier_mode in FOURIER_MODES, f"losses.fourier_mode must be one of {FOURIER_MODES}, "
+             f"got {ls.fourier_mode!r}")
+        need(ls.perceptual_backend in PERCEPTUAL_BACKENDS, f"losses.perceptual_backend must be one of "
+             f"{PERCEPTUAL_BACKENDS}, got {ls.perceptual_backend!r}")
+        need(ls.diffuse_target in DIFFUSE_TARGETS, f"losses.diffuse_target must be one of {DIFFUSE_TARGETS}, "
+             f"got {ls.diffuse_target!r}")
+        need(o.schedule in SCHEDULES, f"optim.schedule must be one of {SCHEDULES}, got {o.schedule!r}")
+        need(o.schedule != "joint" or (o.nr_updates, o.ds_updates, o.d_updates) == (1, 1, 1),
+             "optim.schedule 'joint' needs nr_updates = ds_updates = d_updates = 1")
+        need(m.quality in QUALITY_MODES, f"monitor.quality must be one of {QUALITY_MODES}, got {m.quality!r}")
+        need(m.eval_tiles >= 1 and m.plateau_window >= 1, "monitor.eval_tiles and monitor.plateau_window must be >= 1")
+        need(m.quality == "fixed" or m.eval_every > 0, "monitor.quality 'auto' needs monitor.eval_every > 0")
+        need(self.guard.rollback_after >= 1 and self.guard.snapshot_every >= 1,
+             "guard.rollback_after and guard.snapshot_every must be >= 1")
+        fp = self.photo.flash_position
+        need(fp is None or (len(fp) == 2 and all(math.isfinite(v) for v in fp)),
+             f"photo.flash_position must be two finite numbers (x, y), got {fp}")
+        need(pr.context_every >= 1, f"predict.context_every must be >= 1, got {pr.context_every}")
+        need(pr.max_side >= 8 and 0 <= 2 * pr.overlap <= pr.max_side,
+             "predict.max_side must be >= 8 and predict.overlap in [0, predict.max_side / 2]")
         RenderConfig(**self.render)  # validates the renderer settings
 
     def to_dict(self) -> Dict[str, Any]:
-        """JSON-safe dict (nested configs as dicts, tuples as lists)."""
-        out: Dict[str, Any] = {}
-        for f in fields(self):
-            v = getattr(self, f.name)
-            if isinstance(v, (GeneratorConfig, DiscriminatorConfig)):
-                v = v.to_dict()
-            elif isinstance(v, PostProcess):
-                v = dataclasses.asdict(v)
-            elif isinstance(v, tuple):
-                v = list(v)
-            elif isinstance(v, dict):
-                v = dict(v)
-            out[f.name] = v
+        """JSON-safe nested dict: one dict per group and sub-config, tuples as lists."""
+        def plain(v: Any) -> Any:
+            if isinstance(v, tuple):
+                return list(v)
+            if isinstance(v, dict):
+                return {k: plain(x) for k, x in v.items()}
+            return v
+
+        out: Dict[str, Any] = {"preset": self.preset, "generator": self.generator.to_dict(),
+                               "discriminator": self.discriminator.to_dict(), "render": dict(self.render)}
+        for name in GROUPS:
+            out[name] = {f.name: plain(getattr(getattr(self, name), f.name)) for f in fields(GROUPS[name])}
         return out
 
+    def flat_dict(self) -> Dict[str, Any]:
+        """:meth:`to_dict` with one dotted name per setting of a group (``losses.fourier``); ``generator``,
+        ``discriminator`` and ``render`` stay dicts."""
+        return flat_settings(self.to_dict())
+
     @classmethod
-    def from_dict(cls, d: Dict[str, Any]) -> "TrainConfig":
-        """Inverse of :meth:`to_dict`; unknown keys raise ValueError (:data:`RETIRED_SETTINGS` are dropped), missing
-        ones take the defaults. The post-processing settings may also come as ``post.<field>`` or under the field's
-        name alone (the records before ``post`` existed): they apply on top of ``post``, whose missing fields are
-        :data:`NO_POST`'s."""
-        known = {f.name for f in fields(cls)}
-        d = _with_post({k: v for k, v in d.items() if k not in RETIRED_SETTINGS})
-        unknown = sorted(set(d) - known)
-        if unknown:
-            raise ValueError(f"unknown training settings: {', '.join(unknown)}")
-        kw = dict(d)
-        if "generator" in kw and isinstance(kw["generator"], dict):
-            kw["generator"] = GeneratorConfig.from_dict(kw["generator"])
-        if "discriminator" in kw and isinstance(kw["discriminator"], dict):
-            kw["discriminator"] = DiscriminatorConfig.from_dict(kw["discriminator"])
-        if "render" in kw:
-            kw["render"] = RenderConfig(**kw["render"]).to_dict()
+    def from_dict(cls, d: Mapping[str, Any]) -> "TrainConfig":
+        """Inverse of :meth:`to_dict` and of :meth:`flat_dict`; also reads the flat dicts of earlier checkpoints and
+        records (:data:`FLAT_NAMES`; :data:`RETIRED_SETTINGS` are dropped). Missing settings take the defaults
+        (``post``'s: :data:`NO_POST`'s); unknown ones raise ValueError."""
+        nested = nested_settings(d)
+        kw: Dict[str, Any] = {}
+        if "preset" in nested:
+            kw["preset"] = nested.pop("preset")
+        for name, conf in (("generator", GeneratorConfig), ("discriminator", DiscriminatorConfig)):
+            if name in nested:
+                given = nested.pop(name)
+                kw[name] = given if isinstance(given, conf) else conf.from_dict(given)
+        for name, group in GROUPS.items():
+            given = nested.pop(name, {})
+            base = dataclasses.asdict(NO_POST) if group is PostProcess else {}
+            unknown = sorted(set(given) - {f.name for f in fields(group)})
+            if unknown:
+                raise ValueError(f"unknown training settings: {', '.join(f'{name}.{k}' for k in unknown)}")
+            kw[name] = group(**{**base, **given})
+        if "render" in nested:
+            kw["render"] = RenderConfig(**nested.pop("render")).to_dict()
+        if nested:
+            raise ValueError(f"unknown training settings: {', '.join(sorted(nested))}")
         return cls(**kw)
 
 
 def setting_name(key: str) -> str:
-    """The name of a training setting as records compare it: a post-processing field's bare name (an old record's
-    or override's) -> ``post.<field>``; any other name unchanged."""
-    return f"post.{key}" if key in POST_FIELDS else key
+    """The dotted name of a training setting: a flat name of an earlier record or override (:data:`FLAT_NAMES`,
+    e.g. ``lambda_fourier`` -> ``losses.fourier``, a post-processing field's bare name -> ``post.<field>``); any
+    other name unchanged."""
+    return FLAT_NAMES.get(key, key)
+
+
+def _as_mapping(value: Any) -> Any:
+    """A sub-config or group given as an object -> its settings by name; anything else as it is."""
+    if isinstance(value, (GeneratorConfig, DiscriminatorConfig, RenderConfig)):
+        return value.to_dict()
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: getattr(value, f.name) for f in fields(value)}
+    return value
+
+
+#: The top-level names of :class:`TrainConfig` that are not a group.
+COMPONENTS = ("preset", "generator", "discriminator", "render")
+
+
+def _put(out: Dict[str, Any], name: str, value: Any) -> None:
+    """Set dotted ``name`` in nested ``out``; a mapping given for a group or sub-config is merged field by field."""
+    head, _, rest = name.partition(".")
+    if head not in GROUPS and head not in COMPONENTS:
+        raise ValueError(f"unknown training settings: {name}")
+    if not rest:
+        value = _as_mapping(value)
+        if head == "preset":
+            out[head] = value
+            return
+        if not isinstance(value, Mapping):
+            raise ValueError(f"{head} must be a mapping of its settings, got {value!r}")
+        for k, v in value.items():
+            _put(out, f"{head}.{k}", v)
+        return
+    if head == "preset":
+        raise ValueError(f"unknown training settings: {name}")
+    sub = out.setdefault(head, {})
+    if not isinstance(sub, dict):
+        raise ValueError(f"{head} must be a mapping of its settings, got {sub!r}")
+    sub[rest] = value
+
+
+def nested_settings(d: Mapping[str, Any]) -> Dict[str, Any]:
+    """Settings by any of their names (nested groups as :meth:`TrainConfig.to_dict` gives them, dotted names,
+    the flat names of :data:`FLAT_NAMES`) as one nested dict, later entries over earlier ones. Raises ValueError
+    for a name that is none of those."""
+    out: Dict[str, Any] = {}
+    for key, value in d.items():
+        if key in RETIRED_SETTINGS:
+            continue
+        _put(out, setting_name(key), value)
+    return out
 
 
 def flat_settings(d: Mapping[str, Any]) -> Dict[str, Any]:
-    """A :meth:`TrainConfig.to_dict` with its ``post`` dict spread out as ``post.<field>`` names: one name per
-    setting, as overrides, ``--set`` and ``refine`` records name them (:func:`setting_name`)."""
-    out = {k: v for k, v in d.items() if k != "post"}
-    out.update({f"post.{k}": v for k, v in (d.get("post") or {}).items()})
-    return out
-
-
-def _with_post(d: Mapping[str, Any]) -> Dict[str, Any]:
-    """``d`` (settings by name) with its post-processing settings gathered into one :class:`PostProcess` under
-    ``post``: the ``post`` entry (a PostProcess or a dict of its fields), then ``post.<field>`` and bare field names
-    on top; missing fields are :data:`NO_POST`'s. Raises ValueError for an unknown ``post`` field."""
+    """Settings (any form :func:`nested_settings` reads) as one dotted name per setting of a group
+    (``losses.fourier``, ``post.even_lighting``), as overrides, ``--set`` and ``refine`` records name them;
+    ``preset``, ``generator``, ``discriminator`` and ``render`` keep their values (dicts)."""
     out: Dict[str, Any] = {}
-    merged = dataclasses.asdict(NO_POST)
-    given = d.get("post")
-    if isinstance(given, PostProcess):
-        given = dataclasses.asdict(given)
-    if given is not None and not isinstance(given, Mapping):
-        raise ValueError(f"post must be a mapping of {', '.join(POST_FIELDS)}, got {given!r}")
-    changes = {f"post.{k}": v for k, v in (given or {}).items()}
-    for key, value in d.items():
-        if key == "post":
-            continue
-        name = setting_name(key)
-        if name.startswith("post."):
-            changes[name] = value
+    for key, value in nested_settings(d).items():
+        if key in GROUPS:
+            out.update({f"{key}.{k}": v for k, v in value.items()})
         else:
             out[key] = value
-    unknown = sorted(n for n in changes if n[len("post."):] not in POST_FIELDS)
-    if unknown:
-        raise ValueError(f"unknown training settings: {', '.join(unknown)}")
-    merged.update({n[len("post."):]: v for n, v in changes.items()})
-    out["post"] = PostProcess(**merged)
     return out
 
 
-#: Settings of earlier versions that checkpoints may still carry; ignored when read.
-RETIRED_SETTINGS = frozenset({"plateau_change_tol"})
+def _preset(name: str, model: str, settings: Mapping[str, Any] = ()) -> TrainConfig:
+    """Preset ``name``: the defaults with the architecture of model preset ``model`` and ``settings`` (dotted)."""
+    return TrainConfig.from_dict({"preset": name, "generator": MODEL_PRESETS[model].to_dict(),
+                                  "discriminator": DISC_PRESETS[model].to_dict(), **dict(settings)})
 
 
-def _preset(name: str, model: str, **kw) -> TrainConfig:
-    return TrainConfig(preset=name, generator=dataclasses.replace(MODEL_PRESETS[model]),
-                       discriminator=dataclasses.replace(DISC_PRESETS[model]), **kw)
-
-
-_FAST_V1 = dict(tile=128, nr_updates=1, ds_updates=1, d_updates=1, schedule="joint", lr=1e-4, perceptual="pyramid",
-                perceptual_min_clipped=5e-5, bf16=True,
-                iters_pretrain=6000, iters_finetune=600, iters_fit=6000, eval_every=50, checkpoint_every=250,
-                maps_every=0)
-#: The highlight-free flash model and losses of ``fast``, chosen by the ablation in docs/decisions/021-fast-highlight-free.md
-#: (4 tuning cases, realistic inputs) and checked on a real photo: inverse-square fall-off and a learned
-#: vignetting, renderings clipped like the photo, a per-pixel re-render term, the flash-correlation stationarity
-#: term, a scale-free L_d, learned output offsets, the dielectric specular prior, and no Fourier term. The flash
-#: term's weight is 1: at 100 (best on the synthetic cases) real photos, whose field of view differs from the
-#: model's, collapsed to near-black or off-colour maps (docs/decisions/021-fast-highlight-free.md). The final maps lose their
-#: radial trend around the highlight (``post.flash_trend``), the hard form of that term, and their specular is one level
-#: (``post.uniform_specular``): its spatial variation measured as noise (docs/decisions/005-uniform-specular.md).
-_HIGHLIGHT_FREE = dict(render=ZHAO.replace(falloff=True).to_dict(), saturate=True, learn_vignetting=True,
-                       learn_offsets=True, lambda_render=1.0, lambda_flash=1.0, lambda_specular_prior=1.0,
-                       lambda_fourier=0.0, diffuse_target="normalized",
-                       post=NO_POST.replace(flash_trend=True, uniform_specular=True))
-#: 150 fine-tune iterations: from the procedural stage one (models/svbrdf_prior_v1) the re-render error of the 38
-#: realistic synthetic cases is lowest at 150 iterations and rises after (0.086, 0.088, 0.095 at 150, 300, 600),
-#: as do the roughness and normal errors (docs/decisions/023-stage-one-v2.md). The normal map is pulled towards the
-#: stage one's (``lambda_anchor`` 3 on ``normal`` only): one photo does not tell the fine-tune the normals (its own
-#: correlate 0.015 with the truth), so it keeps the learned prior's unless the photo's losses outweigh the pull
-#: (4 tuning cases at weights 0 / 1 / 3 / 10, docs/decisions/021-fast-highlight-free.md).
-#: The GAN runs for those first 150 iterations only (``gan_steps``): it is what drifts after them. Without it the
-#: shared subset's re-render error stays flat from 150 to 600 iterations (0.0850 / 0.0832 / 0.0839 at 150 / 300 /
-#: 600; with it 0.0850 / 0.0875 / 0.0924), the capture relighting and the burn-in keep improving; on held-out
-#: procedural materials 600 iterations are still worse than 150 (0.180 vs 0.164; with the GAN 0.218):
-#: docs/decisions/020-fast-schedule.md. A default run (150) is unchanged.
-#: The region of a clipped highlight is filled from the material elsewhere in the final maps (``post.highlight_fill``):
-#: the synthetic cases' burn-in 0.484 -> 0.359 at 150 iterations (docs/decisions/006-highlight-fill.md); with the
-#: highlight's shoulder in the region 0.332 (docs/decisions/006-highlight-fill.md).
-#: The generator sees the photo evenly lit (``post.even_lighting``, the preview's width), the losses the photo itself:
-#: on 16 held-out procedural materials re-render 0.1361 -> 0.1269, burn-in 0.711 -> 0.581. A narrower 0.125 ties on
-#: the re-render error and halves the burn-in score, but its roughness turns to irregular blotches the score does
-#: not see (detail 1.57 of the truth's on the shared sets): docs/decisions/024-refine-recipe-v2.md.
-_FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "iters_finetune": 150, "lambda_anchor": 3.0, "anchor_maps": ("normal",),
-         "gan_steps": 150,
-         "post": _HIGHLIGHT_FREE["post"].replace(highlight_fill=True, even_lighting=EVEN_LIGHTING_WIDTH)}
+#: The fast model's schedule with the paper's losses (``fast-v1``).
+_FAST_V1 = {"optim.tile": 128, "optim.nr_updates": 1, "optim.ds_updates": 1, "optim.d_updates": 1,
+            "optim.schedule": "joint", "optim.lr": 1e-4, "optim.bf16": True, "optim.iters_pretrain": 6000,
+            "optim.iters_finetune": 600, "optim.iters_fit": 6000,
+            "losses.perceptual_backend": "pyramid", "losses.perceptual_min_clipped": 5e-5,
+            "monitor.eval_every": 50, "monitor.checkpoint_every": 250, "monitor.maps_every": 0}
+#: The highlight-free flash model and losses of ``fast`` (docs/decisions/021-fast-highlight-free.md): inverse-square
+#: fall-off, learned vignetting, renderings clipped like the photo, the re-render and flash-correlation terms (weight 1:
+#: at 100 real photos collapsed), a scale-free L_d, learned output offsets, the dielectric specular prior, no Fourier
+#: term; the final maps lose their radial trend (``post.flash_trend``) and keep one specular level
+#: (``post.uniform_specular``, docs/decisions/005-uniform-specular.md).
+_HIGHLIGHT_FREE = {"render": ZHAO.replace(falloff=True).to_dict(), "photo.saturate": True,
+                   "photo.learn_vignetting": True, "photo.learn_offsets": True,
+                   "losses.render": 1.0, "losses.flash": 1.0, "losses.specular_prior": 1.0, "losses.fourier": 0.0,
+                   "losses.diffuse_target": "normalized",
+                   "post.flash_trend": True, "post.uniform_specular": True}
+#: ``fast``: 150 fine-tune iterations (docs/decisions/023-stage-one-v2.md), the normal map pulled towards the stage
+#: one's (docs/decisions/021-fast-highlight-free.md), the GAN for those 150 iterations only
+#: (docs/decisions/020-fast-schedule.md), the clipped highlight filled (docs/decisions/006-highlight-fill.md), the
+#: generator shown the photo evenly lit at the preview's width (docs/decisions/024-refine-recipe-v2.md).
+_FAST = {**_FAST_V1, **_HIGHLIGHT_FREE, "optim.iters_finetune": 150, "losses.anchor": 3.0,
+         "losses.anchor_maps": ("normal",), "optim.gan_steps": 150, "post.highlight_fill": True,
+         "post.even_lighting": EVEN_LIGHTING_WIDTH}
 
 
 def _presets() -> Dict[str, TrainConfig]:
     return {
         "paper": _preset("paper", "paper"),
-        "zhao": _preset("zhao", "paper", lambda_fourier=0.0, lambda_perceptual=0.0),
-        "fast": _preset("fast", "fast", **_FAST),
-        # ``fast`` before the highlight-free flash model (the paper's losses on the fast model), for comparison.
-        "fast-v1": _preset("fast-v1", "fast", **_FAST_V1),
-        # Ablations of the paper's losses on the fast model (fast-v1), and of fast's schedule.
-        "fast-no-fourier": _preset("fast-no-fourier", "fast", **{**_FAST_V1, "lambda_fourier": 0.0}),
-        "fast-no-perceptual": _preset("fast-no-perceptual", "fast", **{**_FAST_V1, "lambda_perceptual": 0.0}),
-        "fast-zhao": _preset("fast-zhao", "fast", **{**_FAST_V1, "lambda_fourier": 0.0, "lambda_perceptual": 0.0}),
-        "fast-alternating": _preset("fast-alternating", "fast", **{**_FAST, "schedule": "alternating"}),
-        "tiny": _preset("tiny", "tiny", tile=32, nr_updates=1, ds_updates=1, d_updates=1, lr=1e-3,
-                        perceptual="pyramid", iters_pretrain=20, iters_finetune=10, iters_fit=20,
-                        checkpoint_every=10, maps_every=0, eval_every=5, eval_tiles=2, plateau_window=3,
-                        guard_snapshot_every=5, predict_max_side=64, predict_overlap=8),
+        "zhao": _preset("zhao", "paper", {"losses.fourier": 0.0, "losses.perceptual": 0.0}),
+        "fast": _preset("fast", "fast", _FAST),
+        "fast-v1": _preset("fast-v1", "fast", _FAST_V1),
+        "fast-no-fourier": _preset("fast-no-fourier", "fast", {**_FAST_V1, "losses.fourier": 0.0}),
+        "fast-no-perceptual": _preset("fast-no-perceptual", "fast", {**_FAST_V1, "losses.perceptual": 0.0}),
+        "fast-zhao": _preset("fast-zhao", "fast", {**_FAST_V1, "losses.fourier": 0.0, "losses.perceptual": 0.0}),
+        "fast-alternating": _preset("fast-alternating", "fast", {**_FAST, "optim.schedule": "alternating"}),
+        "tiny": _preset("tiny", "tiny", {
+            "optim.tile": 32, "optim.nr_updates": 1, "optim.ds_updates": 1, "optim.d_updates": 1, "optim.lr": 1e-3,
+            "optim.iters_pretrain": 20, "optim.iters_finetune": 10, "optim.iters_fit": 20,
+            "losses.perceptual_backend": "pyramid", "monitor.checkpoint_every": 10, "monitor.maps_every": 0,
+            "monitor.eval_every": 5, "monitor.eval_tiles": 2, "monitor.plateau_window": 3,
+            "guard.snapshot_every": 5, "predict.max_side": 64, "predict.overlap": 8}),
     }
 
 
-#: The named starting points of :func:`resolve` (see the module docstring). Copies are handed out.
+#: The named starting points of :func:`resolve` (what each is: :data:`PRESET_DESCRIPTIONS`). Copies are handed out.
 TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
 
 #: Fine-tune settings measured for one stage one, by name: :func:`svbrdf.trainer.checkpoint.clean_checkpoint`
@@ -427,7 +526,7 @@ TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
 #: (0.139 -> 0.140) and lowers the re-render (0.0790 -> 0.0737) and the normal angle (9.51 -> 9.44);
 #: docs/decisions/024-refine-recipe-v2.md.
 REFINE_RECIPES: Dict[str, Dict[str, Any]] = {
-    "v2": {"lambda_specular_prior": 0.0, "lambda_anchor": 1.0, "anchor_maps": list(MAP_NAMES)},
+    "v2": {"losses.specular_prior": 0.0, "losses.anchor": 1.0, "losses.anchor_maps": list(MAP_NAMES)},
 }
 
 #: What each preset is, once (``svbrdf-train --help`` prints those of :data:`CLI_PRESETS`). Costs: seconds per
@@ -467,14 +566,14 @@ BENCH_PRESETS: Tuple[str, ...] = ("fast-alternating", "fast-no-fourier", "fast-n
 CLI_PRESETS: Tuple[str, ...] = tuple(n for n in TRAIN_PRESETS if n not in BENCH_PRESETS)
 
 
+
 def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
     """A copy of preset ``preset`` with ``overrides`` applied.
 
-    Overrides are :class:`TrainConfig` field names; ``None`` values are ignored (convenient for CLI flags
-    left unset); ``train_encoder`` sets ``generator.train_encoder``; ``fov_deg`` sets ``render["fov_deg"]``;
-    ``post`` (a :class:`~svbrdf.runtime.post.PostProcess` or a dict of some of its fields) changes the preset's
-    post-processing field by field, and so does ``post.<field>`` or the field's name alone (``**{"post.even_lighting":
-    0}``, ``even_lighting=0``).
+    Overrides name settings by their dotted names (``**{"losses.fourier": 0.5}``), by the flat names of earlier
+    records (:data:`FLAT_NAMES`: ``lambda_fourier=0.5``, ``train_encoder``, ``fov_deg``, a post-processing field's
+    bare name) or as a whole group or sub-config (``post=PostProcess(...)`` or a dict of some of its fields: applied
+    field by field; ``render=RenderConfig(...)``); ``None`` values are ignored (CLI flags left unset).
 
     Raises:
         ValueError: unknown preset, unknown setting or invalid value.
@@ -485,27 +584,15 @@ def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
     for key, value in overrides.items():
         if value is None:
             continue
-        if key == "train_encoder":
-            d["generator"]["train_encoder"] = bool(value)
-        elif key == "fov_deg":
-            d["render"]["fov_deg"] = float(value)
-        elif key in ("generator", "discriminator", "render") and not isinstance(value, dict):
-            d[key] = value.to_dict()
-        elif key == "post":
-            given = dataclasses.asdict(value) if isinstance(value, PostProcess) else value
-            if not isinstance(given, Mapping):
-                raise ValueError(f"post must be a PostProcess or a mapping of its fields, got {value!r}")
-            d["post"] = {**d["post"], **given}
-        else:
-            d[key] = value
+        _put(d, setting_name(key), value)
     return TrainConfig.from_dict(d)
 
 
 def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
-    """Training settings as command lines give them (``svbrdf-bench --set``, ``before_after``'s presets):
-    ``["lr=1e-4", "post.even_lighting=0", "perceptual=pyramid"]`` -> ``{"lr": 0.0001, "post.even_lighting": 0,
-    "perceptual": "pyramid"}`` (values read as JSON, else kept as strings; the names are checked by :func:`resolve`,
-    not here: a post-processing setting is ``post.<field>`` or the field's name alone).
+    """Training settings as command lines give them (``--set``, ``before_after``'s presets):
+    ``["optim.lr=1e-4", "post.even_lighting=0", "perceptual=pyramid"]`` -> ``{"optim.lr": 0.0001,
+    "post.even_lighting": 0, "perceptual": "pyramid"}`` (values read as JSON, else kept as strings; the names, dotted
+    or the flat ones of :data:`FLAT_NAMES`, are checked by :func:`resolve`, not here).
 
     Raises:
         ValueError: an item without ``=`` or without a name (``"'x': expected KEY=VALUE"``).
@@ -522,5 +609,7 @@ def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
     return out
 
 
-__all__ = ["TrainConfig", "NO_POST", "POST_FIELDS", "setting_name", "flat_settings", "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS", "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS",
-           "QUALITY_MODES", "SCHEDULES"]
+__all__ = ["TrainConfig", "Optimisation", "Losses", "PhotoModel", "Monitoring", "Guard", "Prediction", "GROUPS",
+           "FLAT_NAMES", "COMPONENTS", "NO_POST", "POST_FIELDS", "setting_name", "nested_settings", "flat_settings",
+           "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS",
+           "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS", "QUALITY_MODES", "SCHEDULES"]

@@ -19,7 +19,7 @@ class NumericalGuard:
     Args:
         capture: ``() -> state``: what a rollback restores (deep-copied by :meth:`take_snapshot`).
         restore: ``(state) -> None``: puts a captured state back.
-        rollback_after: consecutive non-finite steps before a rollback (``TrainConfig.guard_rollback_after``).
+        rollback_after: consecutive non-finite steps before a rollback (``TrainConfig.guard.rollback_after``).
         counters: updated in place: ``nonfinite_skips`` (steps skipped) and ``rollbacks``.
     """
 

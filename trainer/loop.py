@@ -16,7 +16,7 @@ hook                    Trainer                                    PriorTrainer
 ``_next_record``        one iteration (its record)                 one step; every ``log_every`` steps the
                                                                    mean record of the window (else None)
 ``_on_record``          the guard's snapshot every                 wall time; the evaluation on the held-out
-                        ``guard_snapshot_every`` clean steps        batch every ``eval_every``
+                        ``guard.snapshot_every`` clean steps        batch every ``eval_every``
 ``_history_entry``      the record                                 the record without its evaluation
 ``_stop_early``         the plateau rule (``quality="auto"``)      never
 ``_can_stop_in_time``   any iteration                              where a new draw of materials starts (so a
@@ -108,6 +108,12 @@ class TrainingLoop:
         self.log_path.parent.mkdir(parents=True, exist_ok=True)
         return open(self.log_path, "a", encoding="utf-8")
 
+    @property
+    def checkpoint_every(self) -> int:
+        """Iterations between checkpoints (0: only when the run stops): ``config.checkpoint_every`` unless the
+        trainer's settings keep it elsewhere (:class:`~svbrdf.trainer.train.Trainer`: ``config.monitor``)."""
+        return self.config.checkpoint_every
+
     def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
         """Train from ``step`` up to ``iters``; returns the history.
 
@@ -145,7 +151,7 @@ class TrainingLoop:
                 stop = stop or self.stop_requested
                 at_end = self.step >= self.iters
                 late = not at_end and self._time_up()
-                every = self.config.checkpoint_every
+                every = self.checkpoint_every
                 if self.checkpoint_path is not None and (at_end or stop or early or late
                                                          or (every and self.step % every == 0)):
                     self.save()

@@ -507,7 +507,7 @@ class Generator(nn.Module):
         out_offset: (6,) constants added to the decoders' pre-tanh outputs, in the order height, roughness,
             diffuse R, G, B, specular (:data:`OFFSET_CHANNELS`); 0 unless trained (a fine-tune fits them per photo
             with a high learning rate, so a saturated output can move its level quickly;
-            :attr:`svbrdf.trainer.config.TrainConfig.learn_offsets`). Checkpoints written before it existed load
+            ``TrainConfig.photo.learn_offsets``). Checkpoints written before it existed load
             with zeros.
     """
 

@@ -4,11 +4,11 @@
 =============  ===========================================================================================
 stage          what the trainer starts from
 =============  ===========================================================================================
-``pretrain``   random weights (stage one on one photo), ``config.iters_pretrain`` iterations
-``fit``        random weights, ``config.iters_fit`` iterations
+``pretrain``   random weights (stage one on one photo), ``config.optim.iters_pretrain`` iterations
+``fit``        random weights, ``config.optim.iters_fit`` iterations
 ``finetune``   a stage-one checkpoint (``init``): its architecture (:func:`finetune_config`), G, D and, unless
                ``reset_optimizers``, its Adam states (:meth:`~svbrdf.trainer.train.Trainer.load_init`);
-               ``config.iters_finetune`` iterations
+               ``config.optim.iters_finetune`` iterations
 resume         a checkpoint of an interrupted run (``resume``): its settings, stage, weights, Adam and RNG
                states, history and step (:meth:`~svbrdf.trainer.train.Trainer.load_resume`)
 =============  ===========================================================================================
@@ -70,27 +70,27 @@ def finetune_config(config: TrainConfig, init: Mapping[str, Any], keep: Iterable
 
 
 def _recorded_refine(config: TrainConfig, record: Any, d: dict, keep: frozenset) -> List[str]:
-    """Put a ``refine`` record's settings into ``d`` (``config`` as a dict) where ``config`` has its preset's
-    value and the name is not in ``keep``; returns ``"key=value"`` of those that changed. Raises
-    :class:`ModelError` for an invalid record. Post-processing settings are compared one by one, whether the record
-    and ``keep`` name them ``post.<field>``, by the field's name alone or in a ``post`` dict
-    (:func:`~svbrdf.trainer.config.setting_name`)."""
+    """Put a ``refine`` record's settings into ``d`` (``config`` as a nested dict) where ``config`` has its preset's
+    value and the name is not in ``keep``; returns ``"name=value"`` of those that changed. Raises
+    :class:`ModelError` for an invalid record. Settings are compared one by one by their dotted names, whatever form
+    the record and ``keep`` name them in (a group dict, dotted or the flat names of earlier records:
+    :func:`~svbrdf.trainer.config.flat_settings`, :func:`~svbrdf.trainer.config.setting_name`)."""
     try:
         if not isinstance(record, Mapping):
             raise ValueError("not a mapping of training settings")
-        own = flat_settings(TrainConfig.from_dict({**config.to_dict(), **record}).to_dict())  # validates
+        names = list(flat_settings(record))
+        own = TrainConfig.from_dict({**config.flat_dict(), **flat_settings(record)}).flat_dict()  # validates
     except (TypeError, ValueError) as e:
         raise ModelError(f"invalid refine record in the initial checkpoint: {record!r} ({e})") from None
-    mine = flat_settings(config.to_dict())
-    preset = flat_settings(TRAIN_PRESETS[config.preset].to_dict()) if config.preset in TRAIN_PRESETS else mine
+    mine = config.flat_dict()
+    preset = TRAIN_PRESETS[config.preset].flat_dict() if config.preset in TRAIN_PRESETS else mine
     keep = frozenset(setting_name(k) for k in keep)
-    names = [n for key in record for n in
-             ([f"post.{k}" for k in record["post"]] if key == "post" else [setting_name(key)])]
     taken = []
     for name in names:
         if name in own and name not in keep and own[name] != mine[name] and mine[name] == preset[name]:
-            if name.startswith("post."):
-                d["post"][name[len("post."):]] = own[name]
+            group, _, key = name.partition(".")
+            if key:
+                d[group][key] = own[name]
             else:
                 d[name] = own[name]
             taken.append(f"{name}={own[name]}")

@@ -15,7 +15,7 @@ the photo. One iteration is, each sub-step on a fresh random tile:
 updates both decoders, then the discriminator on that tile and rendering.
 
 Numerical guard: a step whose loss or gradient is not finite is skipped (and counted); after
-``guard_rollback_after`` such steps in a row, G, D and the optimisers return to the last good in-memory
+``guard.rollback_after`` such steps in a row, G, D and the optimisers return to the last good in-memory
 snapshot. Runs are deterministic on the CPU for a given seed, including across checkpoint + resume.
 """
 
@@ -188,36 +188,36 @@ class Trainer(TrainingLoop):
             even = even_lighting(self.photo[0].permute(1, 2, 0).cpu().numpy(), config.even_lighting)
             self.net_input = torch.from_numpy(even).permute(2, 0, 1)[None].to(self.device)
         h, w = self.photo.shape[-2:]
-        self.tile = min(config.tile, h, w)
-        if self.tile < self.min_tile():  # the photo passed the same check, so config.tile is too small
-            raise ValueError(f"tile {config.tile} px is too small: training needs tiles of at least "
+        self.tile = min(config.optim.tile, h, w)
+        if self.tile < self.min_tile():  # the photo passed the same check, so config.optim.tile is too small
+            raise ValueError(f"tile {config.optim.tile} px is too small: training needs tiles of at least "
                              f"{self.min_tile()} px")
-        if self.tile < config.tile:
-            self.notes.append(f"tile {config.tile} px clipped to the photo: {self.tile} px")
+        if self.tile < config.optim.tile:
+            self.notes.append(f"tile {config.optim.tile} px clipped to the photo: {self.tile} px")
 
         self.bf16 = False
-        if config.bf16:
+        if config.optim.bf16:
             self.bf16, note = bf16_support(self.device)
             if note:
                 self.notes.append(note)
 
-        torch.manual_seed(config.seed)  # weights (and a random-VGG perceptual net) depend on the seed only
+        torch.manual_seed(config.optim.seed)  # weights (and a random-VGG perceptual net) depend on the seed only
         self.generator = Generator(config.generator).to(self.device)
         self.discriminator = Discriminator(config.discriminator).to(self.device)
         self.perceptual: Optional[PerceptualLoss] = None
         self.perceptual_backend: Optional[str] = None
         self.clipped_fraction = clipped_fraction(self.photo)
-        use_perceptual = config.lambda_perceptual > 0
-        if use_perceptual and self.clipped_fraction < config.perceptual_min_clipped:
+        use_perceptual = config.losses.perceptual > 0
+        if use_perceptual and self.clipped_fraction < config.losses.perceptual_min_clipped:
             use_perceptual = False
             self.notes.append(f"no clipped highlight ({100 * self.clipped_fraction:.3f} % of pixels >= {CLIP_LEVEL}):"
                               " perceptual loss skipped (it did not help on such photos: docs/decisions/021-fast-highlight-free.md)")
         if use_perceptual:
-            self.perceptual = PerceptualLoss(config.perceptual, weights_path=config.vgg_weights,
-                                             seed=config.seed).to(self.device)
+            self.perceptual = PerceptualLoss(config.losses.perceptual_backend, weights_path=config.losses.vgg_weights,
+                                             seed=config.optim.seed).to(self.device)
             self.perceptual.requires_grad_(False)
             self.perceptual_backend = self.perceptual.backend_name
-            if config.perceptual == "auto" or self.perceptual_backend != config.perceptual:
+            if config.losses.perceptual_backend == "auto" or self.perceptual_backend != config.losses.perceptual_backend:
                 self.notes.append(f"perceptual loss backend: {self.perceptual_backend}")
         # One optimiser per decoder (DECODERS' keys, "nr" then "ds"; the encoder trains with "ds"), one for D.
         self.params = {d.key: list(getattr(self.generator, d.module).parameters()) for d in DECODERS}
@@ -228,35 +228,35 @@ class Trainer(TrainingLoop):
         # offsets, trained by their own Adam at camera_lr.
         self.vignetting_logit: Optional[torch.Tensor] = None
         cam: List[torch.Tensor] = []
-        if config.learn_vignetting:
+        if config.photo.learn_vignetting:
             self.vignetting_logit = torch.full((), VIGNETTING_START_LOGIT, device=self.device, requires_grad=True)
             cam.append(self.vignetting_logit)
-        if config.learn_offsets:
+        if config.photo.learn_offsets:
             cam.append(self.generator.out_offset)
         if cam:
             self.params["cam"] = cam
         self.optimizers = {k: self._adam(p) for k, p in self.params.items()}
         if "cam" in self.optimizers:
             for group in self.optimizers["cam"].param_groups:
-                group["lr"] = config.camera_lr
+                group["lr"] = config.optim.camera_lr
         #: The generator steps update these optimisers' parameters as well (camera, output offsets).
         self._camera_keys: Tuple[str, ...] = ("cam",) if cam else ()
 
         with torch.no_grad():
             self.guess = guessed_diffuse(self.photo).float()
         #: (x, y) of the flash over the photo in the renderer's units (``flash_position``; None: (0, 0)).
-        self.flash_xy = config.flash_position if config.flash_position is not None else (0.0, 0.0)
+        self.flash_xy = config.photo.flash_position if config.photo.flash_position is not None else (0.0, 0.0)
         cam = None if self.flash_xy == (0.0, 0.0) else (*self.flash_xy, config.render_config.camera_distance)
         self.geometry = FlashGeometry(h, w, config.render_config, device=self.device, camera_pos=cam)
         self.radius2 = None if self.vignetting_logit is None else \
             torch.from_numpy(radius2(h, w)).to(self.device).permute(2, 0, 1)[None]  # (1, 1, H, W)
-        self.flash_basis = flash_basis(self.geometry.light) if config.lambda_flash > 0 else None
-        self.tile_rng = torch.Generator().manual_seed(config.seed)
+        self.flash_basis = flash_basis(self.geometry.light) if config.losses.flash > 0 else None
+        self.tile_rng = torch.Generator().manual_seed(config.optim.seed)
         # Fixed tiles of the label-free progress signal: their own RNG, so they never shift the training tiles.
-        eval_rng = torch.Generator().manual_seed(config.seed + 1)
-        self.eval_boxes = [self._draw_tile(eval_rng) for _ in range(config.eval_tiles)]
+        eval_rng = torch.Generator().manual_seed(config.optim.seed + 1)
+        self.eval_boxes = [self._draw_tile(eval_rng) for _ in range(config.monitor.eval_tiles)]
         self.eval_maps: Optional[torch.Tensor] = None
-        #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``lambda_anchor``; set by load_init).
+        #: (1, 8, H, W) the starting checkpoint's maps of the whole photo (``losses.anchor``; set by load_init).
         self.anchor: Optional[torch.Tensor] = None
         #: The whole photo's context for the tiles (U-Net generators with ``photo_context``; :meth:`_context`).
         self.context: Optional[PhotoContext] = None
@@ -268,7 +268,7 @@ class Trainer(TrainingLoop):
         self.init: Optional[Dict[str, Any]] = None
         self._init_loop()
         self._skips_at_last_save = 0  # nonfinite_skips at the last save (svbrdf.trainer.checkpoint.save_trainer)
-        self.guard = NumericalGuard(self._guard_state, self._restore_guard_state, config.guard_rollback_after,
+        self.guard = NumericalGuard(self._guard_state, self._restore_guard_state, config.guard.rollback_after,
                                     self.counters)
 
     # ------------------------------------------------------------------ setup helpers
@@ -292,7 +292,7 @@ class Trainer(TrainingLoop):
         return photo
 
     def _adam(self, params) -> torch.optim.Adam:
-        return torch.optim.Adam(params, lr=self.config.lr, betas=tuple(self.config.betas), eps=1e-8)
+        return torch.optim.Adam(params, lr=self.config.optim.lr, betas=tuple(self.config.optim.betas), eps=1e-8)
 
     def _amp(self):
         return torch.autocast(self.device.type, dtype=torch.bfloat16, enabled=self.bf16)
@@ -309,9 +309,9 @@ class Trainer(TrainingLoop):
     def _context(self, refresh: bool = False) -> Optional[PhotoContext]:
         """The whole photo's context for this iteration's tiles (None: a generator that takes none, ``"wen"``, or
         ``photo_context`` off); recomputed without gradient every ``context_every`` iterations, or now with ``refresh``."""
-        if not self.config.photo_context or not self.generator.takes_context:
+        if not self.config.predict.photo_context or not self.generator.takes_context:
             return None
-        due = self.step // self.config.context_every
+        due = self.step // self.config.predict.context_every
         if refresh or self.context is None or due != self._context_step:
             with torch.no_grad():
                 self.context = self.generator.photo_context(self.net_input.to(torch.float32))
@@ -324,7 +324,7 @@ class Trainer(TrainingLoop):
 
     def _radiance(self, maps: torch.Tensor, y0: int, x0: int) -> torch.Tensor:
         """The rendering of ``maps`` on the tile at (y0, x0) as it reaches the sensor: the flash model of
-        :attr:`geometry`, times the learned vignetting ``1 - v r^2`` when ``learn_vignetting`` (not yet clipped)."""
+        :attr:`geometry`, times the learned vignetting ``1 - v r^2`` when ``photo.learn_vignetting`` (not yet clipped)."""
         out = self.geometry.render(maps, y0, x0)
         if self.vignetting_logit is not None:
             r2 = self.radius2[..., y0:y0 + maps.shape[-2], x0:x0 + maps.shape[-1]]
@@ -332,12 +332,12 @@ class Trainer(TrainingLoop):
         return out
 
     def vignetting(self) -> torch.Tensor:
-        """The learned vignetting strength v = 0.9 sigmoid(t), a 0-d tensor (needs ``learn_vignetting``)."""
+        """The learned vignetting strength v = 0.9 sigmoid(t), a 0-d tensor (needs ``photo.learn_vignetting``)."""
         return 0.9 * torch.sigmoid(self.vignetting_logit)
 
     def _seen(self, rendering: torch.Tensor) -> torch.Tensor:
         """What the camera would record of a rendering: clipped to [0, 1] with ``saturate``, else unchanged."""
-        return rendering.clamp(0.0, 1.0) if self.config.saturate else rendering
+        return rendering.clamp(0.0, 1.0) if self.config.photo.saturate else rendering
 
     # ------------------------------------------------------------------ checkpoints (svbrdf.trainer.checkpoint)
     def load_init(self, ckpt: Mapping[str, Any], source: PathLike = "checkpoint") -> None:
@@ -369,7 +369,7 @@ class Trainer(TrainingLoop):
                 "vignetting": self.vignetting().detach().clone()}
 
     def load_camera(self, state: Optional[Mapping[str, torch.Tensor]]) -> None:
-        """Set the learned camera from :meth:`camera_state` (no-op without ``learn_vignetting`` or state)."""
+        """Set the learned camera from :meth:`camera_state` (no-op without ``photo.learn_vignetting`` or state)."""
         if self.vignetting_logit is not None and state and "vignetting_logit" in state:
             with torch.no_grad():
                 self.vignetting_logit.copy_(state["vignetting_logit"].to(self.device))
@@ -428,34 +428,34 @@ class Trainer(TrainingLoop):
             with self._amp():
                 fake_logits = self.discriminator(rendering)
             logged["gan"] = gan = gan_generator_loss(fake_logits.float())
-            weighted.append(cfg.lambda_gan * gan)
-        if cfg.lambda_fourier > 0:
-            logged["fourier"] = lf = fourier_loss(maps, guess, mode=cfg.fourier_mode)
-            weighted.append(cfg.lambda_fourier * lf)
+            weighted.append(cfg.losses.gan * gan)
+        if cfg.losses.fourier > 0:
+            logged["fourier"] = lf = fourier_loss(maps, guess, mode=cfg.losses.fourier_mode)
+            weighted.append(cfg.losses.fourier * lf)
         if self.perceptual is not None:
             with self._amp():
                 logged["perceptual"] = lp = self.perceptual(x, rendering).float()
-            weighted.append(cfg.lambda_perceptual * lp)
-        if cfg.lambda_render > 0:
+            weighted.append(cfg.losses.perceptual * lp)
+        if cfg.losses.render > 0:
             logged["render"] = lr = render_loss(radiance, x, CLIP_LEVEL)
-            weighted.append(cfg.lambda_render * lr)
-        if cfg.lambda_specular_prior > 0:
+            weighted.append(cfg.losses.render * lr)
+        if cfg.losses.specular_prior > 0:
             logged["specular_prior"] = lsp = specular_prior_loss(maps)
-            weighted.append(cfg.lambda_specular_prior * lsp)
+            weighted.append(cfg.losses.specular_prior * lsp)
         if self.flash_basis is not None:
             logged["flash"] = lfl = flash_correlation_loss(maps, self._crop(self.flash_basis, y0, x0))
-            weighted.append(cfg.lambda_flash * lfl)
-        if self.anchor is not None and cfg.lambda_anchor > 0:
-            weights = {k: (w if k in cfg.anchor_maps else 0.0) for k, w in SUPERVISED_WEIGHTS.items()}
+            weighted.append(cfg.losses.flash * lfl)
+        if self.anchor is not None and cfg.losses.anchor > 0:
+            weights = {k: (w if k in cfg.losses.anchor_maps else 0.0) for k, w in SUPERVISED_WEIGHTS.items()}
             logged["anchor"] = la = supervised_maps_loss(maps, self._crop(self.anchor, y0, x0), weights)["total"]
-            weighted.append(cfg.lambda_anchor * la)
+            weighted.append(cfg.losses.anchor * la)
         shared = weighted[0] if weighted else maps.new_zeros(())  # without L_d: the nr decoder's loss
         for term in weighted[1:]:
             shared = shared + term
         total = shared
-        if "ds" in keys and cfg.lambda_diffuse > 0:
-            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target)
-            total = shared + cfg.lambda_diffuse * ld
+        if "ds" in keys and cfg.losses.diffuse > 0:
+            logged["diffuse"] = ld = diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.losses.diffuse_target)
+            total = shared + cfg.losses.diffuse * ld
         for key in keys:
             for name, value in logged.items():
                 if name != "diffuse" or key == "ds":
@@ -492,22 +492,22 @@ class Trainer(TrainingLoop):
 
     @property
     def gan_active(self) -> bool:
-        """Whether this iteration runs the GAN (``config.gan_steps``: only the first N iterations, 0 = all)."""
-        return self.config.gan_steps == 0 or self.step < self.config.gan_steps
+        """Whether this iteration runs the GAN (``config.optim.gan_steps``: only the first N iterations, 0 = all)."""
+        return self.config.optim.gan_steps == 0 or self.step < self.config.optim.gan_steps
 
     def iteration(self) -> Dict[str, Any]:
         """Run one iteration of the schedule; returns its record (mean of each loss term over its sub-steps)."""
         t0 = time.perf_counter()
         skips0 = self.counters["nonfinite_skips"]
         terms: Dict[str, List[torch.Tensor]] = defaultdict(list)
-        if self.config.schedule == "joint":
+        if self.config.optim.schedule == "joint":
             self._joint_step(terms)
         else:
-            for _ in range(self.config.nr_updates):
+            for _ in range(self.config.optim.nr_updates):
                 self._g_step("nr", terms)
-            for _ in range(self.config.ds_updates):
+            for _ in range(self.config.optim.ds_updates):
                 self._g_step("ds", terms)
-            for _ in range(self.config.d_updates if self.gan_active else 0):
+            for _ in range(self.config.optim.d_updates if self.gan_active else 0):
                 self._d_step(terms)
         self.step += 1
         rec: Dict[str, Any] = {"step": self.step}
@@ -516,7 +516,7 @@ class Trainer(TrainingLoop):
         rec["skipped"] = self.counters["nonfinite_skips"] - skips0
         if self.vignetting_logit is not None:
             rec["camera/vignetting"] = float(self.vignetting().detach())
-        if self.config.eval_every and self.step % self.config.eval_every == 0:
+        if self.config.monitor.eval_every and self.step % self.config.monitor.eval_every == 0:
             rec.update(self.evaluate())
         rec["seconds"] = time.perf_counter() - t0
         return rec
@@ -542,10 +542,14 @@ class Trainer(TrainingLoop):
         return {"eval/render_l1": finite_json(float(torch.stack(l1).mean())),
                 "eval/map_change": None if change is None else finite_json(change)}
 
+    @property
+    def checkpoint_every(self) -> int:
+        return self.config.monitor.checkpoint_every
+
     def plateaued(self) -> bool:
         """The ``quality="auto"`` stopping rule on this run's evaluations (:func:`plateau_reached`)."""
         l1 = [h["eval/render_l1"] for h in self.history if h.get("eval/render_l1") is not None]
-        return plateau_reached(l1, self.config.plateau_window, self.config.plateau_render_tol)
+        return plateau_reached(l1, self.config.monitor.plateau_window, self.config.monitor.plateau_render_tol)
 
     # ------------------------------------------------------------------ the loop's hooks (svbrdf.trainer.loop)
     def _on_start(self) -> Dict[str, Any]:
@@ -557,11 +561,11 @@ class Trainer(TrainingLoop):
         return self.iteration()
 
     def _on_record(self, record: Dict[str, Any]) -> None:
-        if record["skipped"] == 0 and self.step % self.config.guard_snapshot_every == 0:
+        if record["skipped"] == 0 and self.step % self.config.guard.snapshot_every == 0:
             self.guard.take_snapshot()
 
     def _stop_early(self, record: Dict[str, Any]) -> bool:
-        return self.config.quality == "auto" and "eval/render_l1" in record and self.plateaued()
+        return self.config.monitor.quality == "auto" and "eval/render_l1" in record and self.plateaued()
 
     def _on_end(self) -> Dict[str, Any]:
         return {"event": "stop", "step": self.step, "stopped_early": self.stopped_early,
@@ -569,8 +573,8 @@ class Trainer(TrainingLoop):
 
     def predict(self) -> torch.Tensor:
         """(1, 8, H, W) maps of the whole photo as the generator predicts them (see :func:`predict_full`)."""
-        return predict_full(self.generator, self.net_input, max_side=self.config.predict_max_side,
-                            overlap=self.config.predict_overlap, context=self.config.photo_context)
+        return predict_full(self.generator, self.net_input, max_side=self.config.predict.max_side,
+                            overlap=self.config.predict.overlap, context=self.config.predict.photo_context)
 
     def predict_maps(self, meta: Optional[dict] = None) -> Maps:
         """The final texture set of the whole photo: :meth:`predict` with the map corrections of ``config.post``

@@ -60,7 +60,7 @@ def test_the_packaged_stage_one_records_the_fast_settings():
     assert cfg.post == TRAIN_PRESETS["fast"].post and cfg.preset == "fast"
     # Its refine record (no post setting) merges as before.
     merged = TrainConfig.from_dict({**cfg.to_dict(), **ckpt["refine"]})
-    assert merged.post == cfg.post and merged.lambda_anchor == ckpt["refine"]["lambda_anchor"]
+    assert merged.post == cfg.post and merged.losses.anchor == ckpt["refine"]["lambda_anchor"]
     assert torch is not None
 
 
@@ -83,4 +83,4 @@ def test_overrides_name_post_settings_in_three_ways():
 def test_flat_settings_spreads_post():
     flat = flat_settings(resolve("fast").to_dict())
     assert flat["post.flash_trend"] is True and flat["post.even_lighting"] == 0.25 and "post" not in flat
-    assert flat["lr"] == resolve("fast").lr
+    assert flat["optim.lr"] == resolve("fast").optim.lr and flat_settings({"lr": 1.0}) == {"optim.lr": 1.0}

@@ -81,23 +81,23 @@ def test_a_fine_tune_takes_the_stage_ones_refine_record_where_the_user_left_the_
     ckpt = {"generator_config": resolve("tiny").generator.to_dict(), "discriminator_config": None,
             "refine": dict(REFINE_RECIPES["v2"])}
     fast = resolve("fast", train_encoder=True)
-    assert fast.lambda_specular_prior > 0 and fast.anchor_maps == ("normal",)  # what the record changes
+    assert fast.losses.specular_prior > 0 and fast.losses.anchor_maps == ("normal",)  # what the record changes
     cfg, notes = finetune_config(fast, ckpt)
-    assert (cfg.lambda_specular_prior, cfg.lambda_anchor, cfg.anchor_maps) == (0.0, 1.0, MAP_NAMES)
-    assert any(n.startswith("fine-tune settings taken from the initial checkpoint: lambda_specular_prior=0.0")
+    assert (cfg.losses.specular_prior, cfg.losses.anchor, cfg.losses.anchor_maps) == (0.0, 1.0, MAP_NAMES)
+    assert any(n.startswith("fine-tune settings taken from the initial checkpoint: losses.specular_prior=0.0")
                for n in notes)
     plain = finetune_config(fast, {k: v for k, v in ckpt.items() if k != "refine"})[0]  # no record: the preset's
-    assert (plain.lambda_specular_prior, plain.lambda_anchor, plain.anchor_maps) == (
-        fast.lambda_specular_prior, fast.lambda_anchor, fast.anchor_maps)
+    assert (plain.losses.specular_prior, plain.losses.anchor, plain.losses.anchor_maps) == (
+        fast.losses.specular_prior, fast.losses.anchor, fast.losses.anchor_maps)
     mine = resolve("fast", train_encoder=True, lambda_specular_prior=0.5)  # the user's own value wins
     cfg = finetune_config(mine, ckpt)[0]
-    assert cfg.lambda_specular_prior == 0.5 and cfg.anchor_maps == MAP_NAMES
-    same = resolve("fast", train_encoder=True, lambda_anchor=fast.lambda_anchor)  # the preset's own value, given
-    assert finetune_config(same, ckpt)[0].lambda_anchor == 1.0  # not told: the record's
+    assert cfg.losses.specular_prior == 0.5 and cfg.losses.anchor_maps == MAP_NAMES
+    same = resolve("fast", train_encoder=True, lambda_anchor=fast.losses.anchor)  # the preset's own value, given
+    assert finetune_config(same, ckpt)[0].losses.anchor == 1.0  # not told: the record's
     cfg = finetune_config(same, ckpt, keep=("lambda_anchor",))[0]  # told it was the user's: it stays
-    assert cfg.lambda_anchor == fast.lambda_anchor and cfg.lambda_specular_prior == 0.0
+    assert cfg.losses.anchor == fast.losses.anchor and cfg.losses.specular_prior == 0.0
     paper = resolve("paper")  # the published method keeps its settings
-    assert finetune_config(paper, ckpt)[0].lambda_anchor == paper.lambda_anchor
+    assert finetune_config(paper, ckpt)[0].losses.anchor == paper.losses.anchor
     for bad in ({"no_such_setting": 1}, {"lambda_anchor": -1.0}, ["lambda_anchor"]):
         with pytest.raises(ModelError, match="invalid refine record"):
             finetune_config(fast, {**ckpt, "refine": bad})
@@ -150,11 +150,11 @@ def test_a_fine_tune_from_a_stage_one_with_a_refine_record_runs_its_recipe(tmp_p
     recorded["refine"] = dict(REFINE_RECIPES["v2"])
     save_checkpoint(tmp_path / "recorded.pt", recorded)
     cfg = resolve("tiny", iters_finetune=1, tile=48, even_lighting=0.25)  # a preset of the fast family: no anchor
-    assert cfg.lambda_anchor == 0
+    assert cfg.losses.anchor == 0
     plain = _trained(photo_b, "finetune", init=ckpt, config=cfg, threads=1)
     tuned = _trained(photo_b, "finetune", init=tmp_path / "recorded.pt", config=cfg, threads=1)
-    assert plain.anchor is None and plain.config.lambda_anchor == 0
-    assert (tuned.config.lambda_anchor, tuned.config.anchor_maps) == (1.0, MAP_NAMES)
+    assert plain.anchor is None and plain.config.losses.anchor == 0
+    assert (tuned.config.losses.anchor, tuned.config.losses.anchor_maps) == (1.0, MAP_NAMES)
     assert tuned.anchor is not None and tuned.history[0].get("ds/anchor") is not None
     assert any(n.startswith("fine-tune settings taken from the initial checkpoint") for n in tuned.notes)
 

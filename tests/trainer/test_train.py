@@ -57,40 +57,42 @@ def test_presets_round_trip_through_json():
 
 def test_paper_and_zhao_presets_are_the_published_schedule():
     p = resolve("paper")
-    assert (p.tile, p.nr_updates, p.ds_updates, p.d_updates) == (256, 5, 1, 1)
-    assert (p.lr, p.betas, p.seed) == (2e-5, (0.0, 0.9), 24)
-    assert (p.lambda_gan, p.lambda_fourier, p.lambda_perceptual) == (0.1, 0.1, 0.2)
-    assert (p.iters_pretrain, p.iters_finetune, p.iters_fit) == (10000, 3000, 20000)
+    assert (p.optim.tile, p.optim.nr_updates, p.optim.ds_updates, p.optim.d_updates) == (256, 5, 1, 1)
+    assert (p.optim.lr, p.optim.betas, p.optim.seed) == (2e-5, (0.0, 0.9), 24)
+    assert (p.losses.gan, p.losses.fourier, p.losses.perceptual) == (0.1, 0.1, 0.2)
+    assert (p.optim.iters_pretrain, p.optim.iters_finetune, p.optim.iters_fit) == (10000, 3000, 20000)
     assert not p.train_encoder and p.render_config == ZHAO
     z = resolve("zhao")
-    assert z.lambda_fourier == 0 and z.lambda_perceptual == 0 and z.generator == p.generator
+    assert z.losses.fourier == 0 and z.losses.perceptual == 0 and z.generator == p.generator
     f = resolve("fast")
-    assert (f.tile, f.nr_updates, f.ds_updates, f.d_updates) == (128, 1, 1, 1) and f.generator.width < 1
-    assert p.schedule == z.schedule == "alternating" and f.schedule == "joint"
+    assert (f.optim.tile, f.optim.nr_updates, f.optim.ds_updates, f.optim.d_updates) == (128, 1, 1, 1) and f.generator.width < 1
+    assert p.optim.schedule == z.optim.schedule == "alternating" and f.optim.schedule == "joint"
     alt = resolve("fast-alternating")
-    assert alt.schedule == "alternating" and dataclasses.replace(alt, preset="fast", schedule="joint") == f
+    assert alt.optim.schedule == "alternating" and dataclasses.replace(alt, preset="fast", optim=dataclasses.replace(alt.optim, schedule="joint")) == f
     # The highlight-free flash model is in fast only; paper, zhao and fast-v1 keep the published losses.
     for name in ("paper", "zhao", "fast-v1"):
         c = resolve(name)
-        assert (c.lambda_render, c.lambda_flash, c.saturate, c.diffuse_target) == (0.0, 0.0, False, "absolute")
+        assert (c.losses.render, c.losses.flash, c.photo.saturate, c.losses.diffuse_target) == (0.0, 0.0, False, "absolute")
         assert not c.render_config.falloff
-    assert f.lambda_render > 0 and f.lambda_flash > 0 and f.lambda_specular_prior > 0 and f.saturate
-    assert f.learn_vignetting and f.learn_offsets and f.diffuse_target == "normalized" and f.render_config.falloff
-    assert f.lambda_fourier == 0  # no longer needed once the flash term is in (docs/decisions/021-fast-highlight-free.md)
-    new = ("render", "saturate", "learn_vignetting", "learn_offsets", "lambda_render", "lambda_flash",
-           "lambda_specular_prior", "lambda_fourier", "diffuse_target", "iters_finetune", "post",
-           "lambda_anchor", "anchor_maps", "gan_steps")
+    assert f.losses.render > 0 and f.losses.flash > 0 and f.losses.specular_prior > 0 and f.photo.saturate
+    assert f.photo.learn_vignetting and f.photo.learn_offsets and f.losses.diffuse_target == "normalized" and f.render_config.falloff
+    assert f.losses.fourier == 0  # no longer needed once the flash term is in (docs/decisions/021-fast-highlight-free.md)
+    new = ("render", "photo.saturate", "photo.learn_vignetting", "photo.learn_offsets", "losses.render",
+           "losses.flash", "losses.specular_prior", "losses.fourier", "losses.diffuse_target", "optim.iters_finetune",
+           "losses.anchor", "losses.anchor_maps", "optim.gan_steps")
     assert f.even_lighting == 0.25 and p.even_lighting == z.even_lighting == 0  # refine-detail/flat-input
-    assert f.gan_steps == f.iters_finetune and p.gan_steps == z.gan_steps == 0  # refine-detail: the GAN drifts
-    assert f.lambda_anchor > 0 and f.anchor_maps == ("normal",)  # docs/decisions/021-fast-highlight-free.md
-    assert f.iters_finetune == 150 and resolve("fast-v1").iters_finetune == 600  # docs/decisions/023-stage-one-v2.md
-    assert dataclasses.replace(resolve("fast-v1"), preset="fast", **{k: getattr(f, k) for k in new}) == f
-    assert resolve("fast-zhao").lambda_perceptual == 0 and resolve("fast-zhao").lambda_flash == 0
+    assert f.optim.gan_steps == f.optim.iters_finetune and p.optim.gan_steps == z.optim.gan_steps == 0  # refine-detail: the GAN drifts
+    assert f.losses.anchor > 0 and f.losses.anchor_maps == ("normal",)  # docs/decisions/021-fast-highlight-free.md
+    assert f.optim.iters_finetune == 150 and resolve("fast-v1").optim.iters_finetune == 600  # docs/decisions/023-stage-one-v2.md
+    fast = f.flat_dict()
+    assert TrainConfig.from_dict({**resolve("fast-v1").flat_dict(), "preset": "fast", "post": f.post,
+                                  **{k: fast[k] for k in new}}) == f
+    assert resolve("fast-zhao").losses.perceptual == 0 and resolve("fast-zhao").losses.flash == 0
 
 
 def test_resolve_overrides_and_errors():
     cfg = resolve("paper", tile=128, fov_deg=45.0, train_encoder=True, lr=None)
-    assert cfg.tile == 128 and cfg.render_config.fov_deg == 45.0 and cfg.train_encoder and cfg.lr == 2e-5
+    assert cfg.optim.tile == 128 and cfg.render_config.fov_deg == 45.0 and cfg.train_encoder and cfg.optim.lr == 2e-5
     assert resolve("paper").train_encoder is False  # presets are not mutated
     with pytest.raises(ValueError, match="unknown preset"):
         resolve("nope")
@@ -171,7 +173,7 @@ def test_gan_steps_stops_the_gan_after_n_iterations(schedule):
     assert torch.equal(d_after_first, params(trainer.discriminator))
     with pytest.raises(ValueError, match="gan_steps"):
         resolve("tiny", gan_steps=-1)
-    with pytest.raises(ValueError, match="lambda_diffuse"):
+    with pytest.raises(ValueError, match="losses.diffuse must be"):
         resolve("tiny", lambda_diffuse=-1)
 
 
@@ -204,18 +206,18 @@ def test_joint_step_gives_each_decoder_the_gradient_of_its_own_loss(monkeypatch,
     maps = trainer.generator(x).float()
     radiance = trainer.geometry.render(maps, y0, x0)
     cfg = trainer.config
-    seen = radiance.clamp(0, 1) if cfg.saturate else radiance
-    shared = (cfg.lambda_gan * train_mod.gan_generator_loss(trainer.discriminator(seen))
-              + cfg.lambda_fourier * train_mod.fourier_loss(maps, guess, mode=cfg.fourier_mode)
-              + cfg.lambda_perceptual * trainer.perceptual(x, seen))
-    if cfg.lambda_render:
-        shared = shared + cfg.lambda_render * train_mod.render_loss(radiance, x)
-    if cfg.lambda_flash:
+    seen = radiance.clamp(0, 1) if cfg.photo.saturate else radiance
+    shared = (cfg.losses.gan * train_mod.gan_generator_loss(trainer.discriminator(seen))
+              + cfg.losses.fourier * train_mod.fourier_loss(maps, guess, mode=cfg.losses.fourier_mode)
+              + cfg.losses.perceptual * trainer.perceptual(x, seen))
+    if cfg.losses.render:
+        shared = shared + cfg.losses.render * train_mod.render_loss(radiance, x)
+    if cfg.losses.flash:
         basis = train_mod.flash_basis(trainer.geometry.light)[..., y0:y0 + x.shape[-2], x0:x0 + x.shape[-1]]
-        shared = shared + cfg.lambda_flash * train_mod.flash_correlation_loss(maps, basis)
+        shared = shared + cfg.losses.flash * train_mod.flash_correlation_loss(maps, basis)
     nr = torch.autograd.grad(shared, trainer.params["nr"], retain_graph=True, allow_unused=True)
-    ld = train_mod.diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.diffuse_target)
-    ds = torch.autograd.grad(shared + cfg.lambda_diffuse * ld, trainer.params["ds"], allow_unused=True)
+    ld = train_mod.diffuse_loss(maps[:, SLICES["diffuse"]], guess, cfg.losses.diffuse_target)
+    ds = torch.autograd.grad(shared + cfg.losses.diffuse * ld, trainer.params["ds"], allow_unused=True)
     for got, want in zip(grads["joint"], nr + ds):
         assert (got is None) == (want is None)
         if got is not None:
@@ -578,8 +580,8 @@ def test_even_lighting_feeds_the_generator_the_evenly_lit_photo_and_the_losses_t
     assert targets and all(any(torch.equal(t, c) for c in crops(trainer.photo)) for t in targets)
     # The final maps are the generator's on the evenly lit photo too.
     torch.testing.assert_close(trainer.predict(), predict_full(trainer.generator, trainer.net_input,
-                                                                max_side=cfg.predict_max_side,
-                                                                overlap=cfg.predict_overlap))
+                                                                max_side=cfg.predict.max_side,
+                                                                overlap=cfg.predict.overlap))
     # Off (0) in the paper's presets, and where a run sets it to 0: the generator sees the photo.
     for off in (resolve("tiny", tile=32, eval_every=0), resolve("fast", tile=32, eval_every=0, even_lighting=0)):
         t = Trainer(photo, off, threads=1)

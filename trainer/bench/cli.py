@@ -363,8 +363,9 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--repeats", type=int, default=None, help="timed repeats of baseline/preview (default 3)")
     p.add_argument("--bf16", action="store_true", help="bfloat16 autocast in training")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
-                   help="training setting for every training run (a TrainConfig field; value parsed as JSON, "
-                        "else text), e.g. --set perceptual_min_clipped=0; repeatable")
+                   help="training setting for every training run by its dotted name (value parsed as JSON, else "
+                        "text), e.g. --set losses.perceptual_min_clipped=0 or --set post.even_lighting=0; the flat "
+                        "names of earlier records (perceptual_min_clipped=0) are read too; repeatable")
     p.add_argument("--quick", action="store_true",
                    help="pipeline check: 2 small cases at 64 px, tiny preset, iterations 0,2,4")
     p.add_argument("--force", action="store_true", help="overwrite existing output files")
@@ -377,10 +378,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _settings(values: List[str]) -> Dict[str, Any]:
-    from svbrdf.trainer.config import parse_settings
+    from svbrdf.trainer.config import parse_settings, setting_name
 
     try:
-        out = parse_settings(values)
+        out = {setting_name(k): v for k, v in parse_settings(values).items()}
     except ValueError as e:
         raise SvbrdfError(f"--set {e}") from None
     if out and torch_available():

@@ -4,7 +4,8 @@
     python -m svbrdf.trainer.prior.chunk --resume runs/prior_v4/checkpoint.pt --out runs/prior_v4 --minutes 6
 
 Any recipe of :data:`svbrdf.trainer.prior.recipes.RECIPES` (as ``svbrdf-train prior --recipe`` does; this adds ``--set``).
-``--set KEY=VALUE`` (a :class:`~svbrdf.trainer.prior.config.PriorConfig` field, value parsed as JSON) changes the
+``--set KEY=VALUE`` (a :class:`~svbrdf.trainer.prior.config.PriorConfig` field or ``generator.<field>``, value
+parsed as JSON, else text: :func:`~svbrdf.trainer.prior.config.override`) changes the
 recipe's start, for a dry run at test size (``--set size=32 --set photo_size=64 --set batch=1``) or a batch chosen
 for a card; the changes are recorded in the checkpoint's ``prior_config`` like every setting. Writes
 ``OUT/checkpoint.pt`` (resumable: :meth:`~svbrdf.trainer.prior.trainer.PriorTrainer.load_resume`) and
@@ -16,7 +17,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import sys
 from pathlib import Path
 from typing import Any, Dict, List, Optional
@@ -25,16 +25,11 @@ CHECKPOINT = "checkpoint.pt"
 LOG = "train_log.jsonl"
 
 
-def _value(text: str) -> Any:
-    try:
-        return json.loads(text)
-    except json.JSONDecodeError:
-        return text
-
-
 def main(argv: Optional[List[str]] = None) -> int:
     from svbrdf.trainer import checkpoint as ckpt_io
+    from svbrdf.trainer.config import parse_settings
     from svbrdf.trainer.prior import PriorConfig, PriorTrainer
+    from svbrdf.trainer.prior.config import override
     from svbrdf.trainer.prior.recipes import RECIPES
 
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
@@ -69,9 +64,9 @@ def main(argv: Optional[List[str]] = None) -> int:
         for p in (ckpt_path, log_path):
             p.unlink(missing_ok=True)
         chosen = RECIPES[a.recipe]
-        over = dict(s.split("=", 1) for s in a.set)
         try:
-            config = dataclasses.replace(chosen.config_at(0), **{k: _value(v) for k, v in over.items()})
+            over = parse_settings(a.set)
+            config = override(chosen.config_at(0), over)
             if a.iters is not None:
                 config = dataclasses.replace(config, iters=a.iters)
         except (TypeError, ValueError) as e:

@@ -193,6 +193,8 @@ class PriorConfig:
         need(0.0 <= self.grazing_share <= 1.0, f"grazing_share must be in [0, 1], got {self.grazing_share}")
         need(0.0 < self.grazing_deg[0] <= self.grazing_deg[1] < 90.0, f"bad grazing_deg range {self.grazing_deg}")
         need(self.log_every >= 1, f"log_every must be >= 1, got {self.log_every}")
+        need(self.checkpoint_every >= 0 and self.eval_every >= 0,
+             f"checkpoint_every and eval_every must be >= 0, got {self.checkpoint_every}, {self.eval_every}")
         need(self.material_reuse >= 1, f"material_reuse must be >= 1, got {self.material_reuse}")
         need(0.0 <= self.ema < 1.0, f"ema must be in [0, 1), got {self.ema}")
         need(0.0 <= self.flat_share < 1.0, f"flat_share must be in [0, 1), got {self.flat_share}")
@@ -233,4 +235,23 @@ class PriorConfig:
         return cls(**d)
 
 
-__all__ = ["PriorConfig", "STAGE"]
+def override(config: PriorConfig, settings: Mapping[str, Any]) -> PriorConfig:
+    """``config`` with ``settings`` applied (a new, validated config): names are :class:`PriorConfig` fields or
+    ``generator.<field>`` (``--set``, :func:`svbrdf.trainer.config.parse_settings`).
+
+    Raises:
+        ValueError: an unknown setting or an invalid value.
+    """
+    d = config.to_dict()
+    for key, value in settings.items():
+        head, _, rest = key.partition(".")
+        if rest and head == "generator":
+            d["generator"][rest] = value
+        elif rest or head not in d:
+            raise ValueError(f"unknown prior settings: {key}")
+        else:
+            d[head] = value
+    return PriorConfig.from_dict(d)
+
+
+__all__ = ["PriorConfig", "STAGE", "override"]
