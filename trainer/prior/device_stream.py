@@ -20,7 +20,7 @@ Here the same families, class materials, augmentations and photo model are built
   per material (``torch.where``), per-material counts index tables of their largest size. At most twelve batched
   family calls instead of one Python call per material: 6.7 k torch operations for a batch of 32 and 7.4 k for 128,
   against 14.9 k and 58.8 k for the host stream (``trainer/tools/throughput.py``'s ``ops_per_batch``). Nothing is
-  read back from the device (checked on the meta device by ``tests/trainer/test_prior.py``,
+  read back from the device (checked on the meta device by ``tests/trainer/prior/test_prior.py``,
   ``test_the_device_stream_batch_and_loss_never_make_a_gpu_wait``). On a CPU it is no faster than the host stream
   (it computes both sides of every branch and Worley distances over tables of the largest size): it is built for
   a GPU.

@@ -53,7 +53,7 @@ class PriorTrainer(TrainingLoop):
     one number of the common stream plus the rank (:meth:`_draw`). After the backward pass the gradients are
     averaged over the processes (one all-reduce of all of them, flattened), so every process takes the same Adam
     step: the update of one process with the combined batch (``combine`` = world size; checked by
-    ``tests/trainer/test_ddp_prior.py``), since every loss term is a mean over the batch's materials and the
+    ``tests/trainer/prior/test_ddp.py``), since every loss term is a mean over the batch's materials and the
     relighting's random lights come from the common stream. A non-finite loss on any process skips the step on all.
     Only rank 0 writes the log and the checkpoints; the time limit is agreed by all (the latest process decides). A
     resume loads the same checkpoint in every process.

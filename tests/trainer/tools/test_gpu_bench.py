@@ -11,7 +11,7 @@ from pathlib import Path
 
 import pytest
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SCRIPT = ROOT / "trainer" / "tools" / "gpu_bench.sh"
 
 pytestmark = [pytest.mark.skipif(shutil.which("bash") is None or shutil.which("timeout") is None,

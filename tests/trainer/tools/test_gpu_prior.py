@@ -14,7 +14,7 @@ import pytest
 
 from svbrdf.trainer import checkpoint as ckpt_io
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SCRIPT = ROOT / "trainer" / "tools" / "gpu_prior.sh"
 TINY = ["--device", "cpu", "--threads", "1", "--size", "32", "--photo-size", "64", "--batch", "1",
         "--eval-every", "0", "--log-every", "2"]

@@ -405,7 +405,7 @@ def test_the_run_names_the_model_it_measured(tmp_path):
     from svbrdf.trainer.bench.cli import _describe_model
 
     packaged = _describe_model(None)
-    manifest = json.loads((Path(__file__).resolve().parents[2] / "models" / "manifest.json").read_text())
+    manifest = json.loads((Path(__file__).resolve().parents[3] / "models" / "manifest.json").read_text())
     assert packaged["file"] == manifest["file"] and packaged["source"] == "packaged"
     assert packaged["sha256"] == manifest["sha256"]
     assert _describe_model(tmp_path / "missing.onnx") is None

@@ -15,7 +15,7 @@ from svbrdf.trainer.models import GeneratorConfig
 from svbrdf.trainer.prior import PriorConfig, PriorTrainer
 from svbrdf.trainer.prior.recipes import BOOKKEEPING, RECIPES, Recipe, recipe
 
-ROOT = Path(__file__).resolve().parents[2]
+ROOT = Path(__file__).resolve().parents[3]
 SHIPPED = ROOT / "models" / "svbrdf_prior_v2.pt"
 #: What a scaled run at test size changes (a small U-Net, one material at 32 px, nothing evaluated or logged apart).
 TINY = dict(size=32, photo_size=64, batch=1, eval_batch=1, eval_every=0, log_every=1, checkpoint_every=0,
