@@ -9,9 +9,10 @@ Public API::
     write_texture_set(with_relief(maps), "out/", "photo", force=True)  # + photo_height.png, photo_ao.png
     bare = estimate("photo.jpg", session, post=PostProcess.off())  # the network's maps, no correction
 
-The package is organised by role: ``core`` (maps, renderer, colour), ``io`` (image files), ``inference`` (model,
-sessions, the per-photo pipeline), ``post`` (corrections around the network, :class:`PostProcess`), ``quality``
-(label-free scores), ``outputs`` (texture sets, targets, viewer), ``batch`` (material libraries) and ``cli``.
+The package is organised by role: ``core`` (maps, renderer, colour), ``io`` (image files, process tuning),
+``inference`` (model, sessions, photo -> maps), ``post`` (corrections around the network, :class:`PostProcess`), ``quality``
+(label-free scores), ``outputs`` (texture sets, targets, viewer), ``workflow`` (the per-photo path of the CLIs:
+:class:`PhotoOptions`, :func:`process_photo`), ``batch`` (material libraries) and ``cli``.
 
 Heavy modules are imported lazily (PEP 562) so that ``import svbrdf.runtime`` stays cheap.
 """
@@ -41,8 +42,8 @@ _LAZY = {
     "load_session": ".inference.session",
     "PreviewSession": ".inference.session",
     "estimate": ".inference.pipeline",
-    "process_photo": ".inference.pipeline",
-    "PhotoOptions": ".inference.pipeline",
+    "process_photo": ".workflow.photo",
+    "PhotoOptions": ".workflow.options",
     "PostProcess": ".post.settings",
     "SvbrdfError": ".errors",
     "ImageError": ".errors",
@@ -63,8 +64,10 @@ if TYPE_CHECKING:  # pragma: no cover
     from .core.relief import Relief, relief_maps, with_relief
     from .core.render import RenderConfig, render
     from .errors import ImageError, ModelError, SvbrdfError
-    from .inference.pipeline import PhotoOptions, estimate, process_photo
+    from .inference.pipeline import estimate
     from .inference.session import PreviewSession, load_session
     from .io.images import read_image, write_image
     from .outputs.texture_set import write_texture_set
     from .post.settings import PostProcess
+    from .workflow.options import PhotoOptions
+    from .workflow.photo import process_photo

@@ -1,8 +1,8 @@
 """One photo's work in a batch (:func:`run_job`): the same function whichever engine runs it, in a worker.
 
 It gets the photo's bytes and the options, runs the per-photo pipeline
-(:func:`svbrdf.runtime.inference.pipeline.process_photo` with the
-:class:`~svbrdf.runtime.inference.pipeline.PhotoOptions` the driver recorded), writes the texture set (and, with
+(:func:`svbrdf.runtime.workflow.photo.process_photo` with the
+:class:`~svbrdf.runtime.workflow.options.PhotoOptions` the driver recorded), writes the texture set (and, with
 ``view``, its viewer page) into a private temporary folder and returns the files' bytes with the scores.
 """
 
@@ -92,11 +92,13 @@ def run_job(job: Job) -> Dict[str, Any]:
 
     try:
         from ..core.render import rerender_rmse
-        from ..inference.pipeline import (PhotoOptions, process_photo, processed_pixels, reuse_memory, small_pages,
-                                          write_maps)
         from ..inference.guided import Upsampling
         from ..inference.refine import load_refine
         from ..io.images import read_image
+        from ..io.process import processed_pixels, reuse_memory, small_pages
+        from ..workflow.options import PhotoOptions
+        from ..workflow.photo import process_photo
+        from ..workflow.write import write_maps
 
         small_pages()  # the worker's process, as svbrdf-preview's
         options = PhotoOptions.from_mapping({**opts, "maps": tuple(opts["maps"])}).replace(

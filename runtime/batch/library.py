@@ -10,7 +10,7 @@ Layout of a library folder::
                                     material that has a viewer page)
 
 The work of one photo is :func:`run_job`, the same function whichever engine runs it: it gets the photo's bytes
-and the options, runs the per-photo path of ``svbrdf-preview`` (:func:`svbrdf.runtime.inference.pipeline.process_photo`), writes
+and the options, runs the per-photo path of ``svbrdf-preview`` (:func:`svbrdf.runtime.workflow.photo.process_photo`), writes
 the texture set (and, with ``--view``, its viewer page, :func:`svbrdf.runtime.outputs.viewer.write_viewer`) into a private
 temporary folder and returns the files' bytes with the scores. Only the driver
 (:func:`run_batch`) writes into the library: each set is staged in ``LIBRARY/.staging/`` and renamed into place
@@ -46,7 +46,7 @@ from .engines import LocalEngine, RayEngine, plan_workers
 from .job import PROG, Job, _one_line
 
 if TYPE_CHECKING:  # pragma: no cover
-    from ..inference.pipeline import PhotoOptions
+    from ..workflow.options import PhotoOptions
 #: The manifest's file name in the library folder, and its format version.
 MANIFEST_FILE = "library.json"
 MANIFEST_VERSION = 1
@@ -56,7 +56,7 @@ STAGING = ".staging"
 LOCK_FILE = ".svbrdf-batch.lock"
 #: Extensions taken from a folder given as input (case-insensitive).
 PHOTO_SUFFIXES = (".png", ".jpg", ".jpeg", ".tif", ".tiff", ".exr", ".hdr", ".bmp", ".webp")
-#: The options (:class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`) that change a texture set (recorded per photo;
+#: The options (:class:`~svbrdf.runtime.workflow.options.PhotoOptions`) that change a texture set (recorded per photo;
 #: a done photo is redone only when they or the photo change).
 OPTION_KEYS = ("refine", "quality", "iters", "target", "maps", "normal", "format", "max_size", "tile", "fov",
                "tileable", "view", "relief", "ao_strength", "network_size")
@@ -154,7 +154,7 @@ def library_names(photos: Sequence[Path], known: Mapping[str, str]) -> Dict[Path
 
 def library_options(args: Any, model_sha256: str) -> Dict[str, Any]:
     """What makes a texture set (:data:`OPTION_KEYS` of ``args``, a
-    :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`, plus the model's sha256), JSON-ready; ``args``
+    :class:`~svbrdf.runtime.workflow.options.PhotoOptions`, plus the model's sha256), JSON-ready; ``args``
     without a key of :data:`OPTION_DEFAULTS` gets its default."""
     opts = {k: getattr(args, k, OPTION_DEFAULTS[k]) if k in OPTION_DEFAULTS else getattr(args, k)
             for k in OPTION_KEYS if k != "network_size"}
@@ -289,7 +289,7 @@ def run_batch(photos: Sequence[Path], root: Path, args: "PhotoOptions", *, engin
               report: Callable[[str], None] = lambda line: None, warn: Callable[[str], None] = lambda line: None,
               error: Callable[[str], None] = lambda line: None) -> BatchSummary:
     """Make (or complete) the library ``root`` from ``photos`` with the texture options ``args`` (a
-    :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`); see the module docstring for the files.
+    :class:`~svbrdf.runtime.workflow.options.PhotoOptions`); see the module docstring for the files.
 
     Photos already done with the same content hash and options (:func:`same_options`) are skipped; failed and new
     ones run. A done photo whose photo or options changed (``--tileable`` or ``--view`` added or dropped included)

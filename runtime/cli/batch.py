@@ -1,7 +1,7 @@
 """``svbrdf-batch``: a folder (or list) of flash photos -> a material library, resumable, locally or on Ray.
 
 A thin command over :func:`svbrdf.runtime.batch.run_batch`; the per-photo options are ``svbrdf-preview``'s
-(:func:`svbrdf.runtime.cli.options.add_texture_options`, a :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`), ``--tileable`` (maps that repeat without a seam) and ``--view``
+(:func:`svbrdf.runtime.cli.options.add_texture_options`, a :class:`~svbrdf.runtime.workflow.options.PhotoOptions`), ``--tileable`` (maps that repeat without a seam) and ``--view``
 (``LIBRARY/<name>/<name>_view.html``, the set relit in the browser, linked from the contact sheet) included. Exit
 codes: 0 every photo done (now or before), 1 a photo failed or was refused (one line ``svbrdf-batch: error: ...``
 each; the others are done), 2 a usage error (``--view`` without all four maps included;

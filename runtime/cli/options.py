@@ -1,5 +1,5 @@
 """The per-photo options of ``svbrdf-preview`` and ``svbrdf-batch``: the arguments (:func:`add_texture_options`),
-the checks argparse cannot make (:func:`check_options`) and the :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`
+the checks argparse cannot make (:func:`check_options`) and the :class:`~svbrdf.runtime.workflow.options.PhotoOptions`
 built from them (:func:`photo_options`). Light: heavy modules are imported only once the arguments are parsed."""
 
 from __future__ import annotations
@@ -161,8 +161,8 @@ def min_tile() -> int:
 
 
 def photo_options(args: argparse.Namespace, **changes):
-    """The :class:`~svbrdf.runtime.inference.pipeline.PhotoOptions` of parsed arguments (:func:`add_texture_options`),
+    """The :class:`~svbrdf.runtime.workflow.options.PhotoOptions` of parsed arguments (:func:`add_texture_options`),
     with ``changes``."""
-    from ..inference.pipeline import PhotoOptions
+    from ..workflow.options import PhotoOptions
 
     return PhotoOptions.from_mapping(args).replace(**changes) if changes else PhotoOptions.from_mapping(args)

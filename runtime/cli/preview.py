@@ -2,8 +2,8 @@
 
 Exit codes: 0 success, 2 usage error (or ``--refine`` without the training side installed), 1 if any photo
 failed (each failure is one line ``svbrdf-preview: error: <message>`` on stderr; ``--verbose`` adds the
-traceback). The per-photo work is :func:`svbrdf.runtime.inference.pipeline.process_photo` with the
-:class:`~svbrdf.runtime.inference.pipeline.PhotoOptions` of the arguments. Progress on stderr
+traceback). The per-photo work is :func:`svbrdf.runtime.workflow.photo.process_photo` with the
+:class:`~svbrdf.runtime.workflow.options.PhotoOptions` of the arguments. Progress on stderr
 (:mod:`svbrdf.runtime.progress`): a bar for the batch and for each ``--refine``
 on a terminal, plain lines otherwise, nothing with ``--quiet``. Heavy modules
 (onnxruntime, OpenImageIO, torch) are imported only after the arguments are parsed, so ``--version`` and
@@ -77,10 +77,12 @@ def _error(msg: str) -> None:
 
 def _process(photo: Path, session, config, options, out_dir: Path, refine=None) -> str:
     """Estimate (or refine with ``refine``, see :func:`~svbrdf.runtime.inference.refine.load_refine`), render and
-    write one texture set with ``options`` (:class:`~svbrdf.runtime.inference.pipeline.PhotoOptions`); returns the
+    write one texture set with ``options`` (:class:`~svbrdf.runtime.workflow.options.PhotoOptions`); returns the
     report line."""
     from ..errors import exists_message
-    from ..inference.pipeline import process_photo, processed_pixels, reuse_memory, write_maps
+    from ..io.process import processed_pixels, reuse_memory
+    from ..workflow.photo import process_photo
+    from ..workflow.write import write_maps
 
     start = time.perf_counter()
     name = photo.stem
@@ -115,6 +117,7 @@ def _import_photo_modules(options) -> None:
     import numpy.fft  # noqa: F401  (the relief's DCT)
 
     from ..inference import pipeline  # noqa: F401
+    from ..workflow import photo, write  # noqa: F401
     from ..outputs import texture_set  # noqa: F401
     from ..post import flash_trend, photo_colour  # noqa: F401
 
@@ -177,9 +180,10 @@ def _run(args) -> int:
 
 
 def _run_capture(args, session, config, options) -> int:
-    """``--capture DIR``: one texture set of every view (:func:`svbrdf.runtime.inference.pipeline.process_capture`)."""
+    """``--capture DIR``: one texture set of every view (:func:`svbrdf.runtime.workflow.capture.process_capture`)."""
     from ..errors import exists_message
-    from ..inference.pipeline import process_capture, write_maps
+    from ..workflow.capture import process_capture
+    from ..workflow.write import write_maps
     from ..inference.refine import load_capture
     from ..progress import Progress, write
 
@@ -224,7 +228,7 @@ def main(argv: Optional[List[str]] = None) -> int:
         problem = "give photos or --capture DIR (not both)" if args.photos else "no photo given (or --capture DIR)"
     if problem:
         return _usage(parser, problem)
-    from ..inference.pipeline import small_pages
+    from ..io.process import small_pages
 
     small_pages()
     try:

@@ -14,7 +14,7 @@ downsized (the same aspect ratio within 1 %: the same field of view) or cropped 
 crop that kept the whole height, or the whole width when it is the wider, at any scale; ``tan(fov / 2)`` scaled by
 the share of the width kept, with a warning). A crop to the same aspect ratio cannot be told from a downsizing.
 A focal length of 0, a negative one or a field of view outside :data:`FOV_RANGE` is a warning and no answer (the
-caller, :func:`svbrdf.runtime.inference.pipeline.photo_camera`, then estimates the field of view from the photo's
+caller, :func:`svbrdf.runtime.workflow.camera.photo_camera`, then estimates the field of view from the photo's
 own fall-off, :mod:`svbrdf.runtime.core.falloff`).
 """
 

@@ -17,7 +17,7 @@ LAZY_ENTRIES = [("svbrdf.runtime.inference.refine", "load_capture", "svbrdf.trai
 #: The role sub-packages, bottom first: a module imports from its own layer and the ones below only, with no
 #: exception (not even a lazy import in a function). The modules directly in runtime/ (errors, install, progress)
 #: import nothing of the runtime and serve every layer.
-LAYERS = ("core", "io", "quality", "post", "outputs", "inference", "batch", "cli")
+LAYERS = ("core", "io", "quality", "post", "outputs", "inference", "workflow", "batch", "cli")
 
 
 def _modules():

@@ -11,7 +11,7 @@ preview       the ONNX generator through the runtime (:func:`svbrdf.runtime.infe
               time recorded separately as ``load_seconds``). Needs a model.
 preview-full  the same with the network at the photo's own size at any size (photos above 512 px otherwise run
               it at half size or less and get their detail back from the photo: :mod:`svbrdf.runtime.inference.guided`).
-refine        what ``svbrdf-preview --refine`` runs (:func:`svbrdf.runtime.inference.pipeline._refine`: the preview,
+refine        what ``svbrdf-preview --refine`` runs (:func:`svbrdf.runtime.workflow.photo._refine`: the preview,
               then :func:`svbrdf.trainer.refine.refine`), with the case's camera: the benchmark's render settings,
               and for a view of a calibrated capture the field of view of that view's camera height; one run,
               ``seconds`` = preview + refine (``eval_seconds`` the preview's share). Needs a model and torch.
@@ -239,7 +239,9 @@ class Refine(Method):
         return self._preview.unavailable(opts)
 
     def run(self, case, opts, preset, on_point):
-        from svbrdf.runtime.inference.pipeline import PhotoOptions, _refine, estimate
+        from svbrdf.runtime.inference.pipeline import estimate
+        from svbrdf.runtime.workflow.options import PhotoOptions
+        from svbrdf.runtime.workflow.photo import _refine
         from svbrdf.runtime.inference.refine import load_refine
 
         session = self._preview._load(opts)

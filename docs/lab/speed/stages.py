@@ -5,7 +5,7 @@
     OMP_WAIT_POLICY=PASSIVE python docs/lab/speed/stages.py PHOTO [PHOTO ...] --threads 2 --repeats 3 \
         [--max-size 8192] [--label after] [--json out.json]
 
-Each photo runs :func:`svbrdf.runtime.inference.pipeline.process_photo` then ``write_maps`` in this process (as the
+Each photo runs :func:`svbrdf.runtime.workflow.photo.process_photo` then ``write_maps`` in this process (as the
 CLI does; the session is loaded once and warmed on the photo first), ``--repeats`` times, with every stage timed by
 wrapping the function that does it (wall seconds and this process's CPU seconds; the medians over the repeats).
 Stages that run inside others are indented in the table; the files are written by two threads, so their
@@ -56,6 +56,7 @@ def instrument() -> list:
     from svbrdf.runtime.outputs import texture_set
     from svbrdf.runtime.post import flash_trend, photo_colour, highlight_fill
     from svbrdf.runtime.quality import burn_in
+    from svbrdf.runtime.workflow import photo, write
 
     order = []
 
@@ -64,7 +65,8 @@ def instrument() -> list:
         order.append(stage)
 
     add(pipeline, "estimate", "estimate")
-    add(pipeline, "_as_image", "  read (+ resize)")
+    _wrap(photo, "estimate", "estimate")  # process_photo's own name of it
+    add(pipeline, "read_photo", "  read (+ resize)")
     add(pipeline, "even_lighting", "  even lighting")
     add(session.PreviewSession, "run", "  network")
     add(pipeline, "apply_post", "  post")
@@ -81,7 +83,7 @@ def instrument() -> list:
     add(texture_set, "relit_panel", "relit panel")
     add(texture_set, "_downsized", "  relit: downsize maps")
     add(texture_set, "render", "  relit: renders")
-    add(pipeline, "write_maps", "write files")
+    add(write, "write_maps", "write files")
     add(texture_set, "generic_layout", "  layout (clip, encode)")
     add(texture_set, "commit", "  commit (threads)")
     for name in ("basecolor", "normal", "roughness", "specular", "relit"):
@@ -108,7 +110,9 @@ def _wrap_writes(texture_set) -> None:
 
 
 def run(photos, threads: int, repeats: int, max_size: int) -> dict:
-    from svbrdf.runtime.inference.pipeline import PhotoOptions, process_photo, write_maps
+    from svbrdf.runtime.workflow.options import PhotoOptions
+    from svbrdf.runtime.workflow.photo import process_photo
+    from svbrdf.runtime.workflow.write import write_maps
     from svbrdf.runtime.inference.session import load_session
 
     order = instrument()

@@ -125,9 +125,10 @@ def test_upsampling_by_slices_is_the_bilinear_upsampling(big, k):
 
 # ------------------------------------------------------------------------------------------------ with a model
 ort = pytest.importorskip("onnxruntime")
-from svbrdf.runtime.inference.pipeline import (  # noqa: E402
-    PhotoOptions, check_memory, estimate, process_photo,
-)
+from svbrdf.runtime.inference.pipeline import estimate  # noqa: E402
+from svbrdf.runtime.io.process import check_memory  # noqa: E402
+from svbrdf.runtime.workflow.options import PhotoOptions  # noqa: E402
+from svbrdf.runtime.workflow.photo import process_photo  # noqa: E402
 
 
 def _photo(h, w, seed=3):
@@ -187,22 +188,22 @@ def test_a_one_pixel_wide_file_through_the_cli_exits_1_with_one_line(tiny_model,
 
 
 def test_a_photo_larger_than_memory_allows_is_refused_with_one_line(session, tmp_path, monkeypatch):
-    from svbrdf.runtime.inference import pipeline
+    from svbrdf.runtime.io import process
 
     path = tmp_path / "big.png"
     write_image(path, _photo(64, 80), bits=8)
-    monkeypatch.setattr(pipeline, "available_memory", lambda: 64 * 80 * pipeline.BYTES_PER_PIXEL - 1)
+    monkeypatch.setattr(process, "available_memory", lambda: 64 * 80 * process.BYTES_PER_PIXEL - 1)
     with pytest.raises(ImageError) as info:
         process_photo(path, PhotoOptions(max_size=8192), session)
     msg = str(info.value)
     assert "\n" not in msg and "80x64" in msg and "GiB" in msg and "lower --max-size" in msg
     check_memory(path, 32)  # at a smaller --max-size it fits: no error
-    monkeypatch.setattr(pipeline, "available_memory", lambda: None)  # unknown: never refused
+    monkeypatch.setattr(process, "available_memory", lambda: None)  # unknown: never refused
     check_memory(path, 8192)
 
 
 def test_process_photo_of_a_large_photo_writes_maps_at_its_size(session, tmp_path):
-    from svbrdf.runtime.inference.pipeline import write_maps
+    from svbrdf.runtime.workflow.write import write_maps
 
     path = tmp_path / "large.png"
     write_image(path, _photo(160, 120), bits=8)
@@ -216,15 +217,15 @@ def test_process_photo_of_a_large_photo_writes_maps_at_its_size(session, tmp_pat
 def test_a_large_photo_file_is_read_strip_by_strip_with_the_same_maps(session, tmp_path, monkeypatch):
     import warnings
 
-    from svbrdf.runtime.inference import pipeline
+    from svbrdf.runtime.inference import reading
     from svbrdf.runtime.io.images import read_image
 
     up = Upsampling(network_size=64)
     path = write_image(tmp_path / "large.png", _photo(203, 150), bits=8, srgb_encode=True)
-    monkeypatch.setattr(pipeline, "READ_STRIP_BYTES", 150 * 12 * 8 * 3)  # a few strips of k = 4 rows
+    monkeypatch.setattr(reading, "READ_STRIP_BYTES", 150 * 12 * 8 * 3)  # a few strips of k = 4 rows
     calls = []
-    real = pipeline.read_strips
-    monkeypatch.setattr(pipeline, "read_strips", lambda *a: calls.append(a) or real(*a))
+    real = reading.read_strips
+    monkeypatch.setattr(reading, "read_strips", lambda *a: calls.append(a) or real(*a))
     streamed = estimate(path, session, max_size=8192, upsampling=up)
     assert len(calls) == 1 and calls[0][1] % 4 == 0
     whole = estimate(read_image(path), session, max_size=8192, upsampling=up)
