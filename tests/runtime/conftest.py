@@ -114,3 +114,28 @@ def session(tiny_model):
     from svbrdf.runtime.inference.session import load_session
 
     return load_session(tiny_model, threads=1)
+
+
+@pytest.fixture
+def flash_plane():
+    """``flash_plane(path, fov, light=None, n=256, seed=0)``: a textured diffuse plane rendered with fall-off at
+    ``fov`` (the flash above the centre or at ``light``), written as an 8-bit sRGB PNG (or a JPEG by its suffix);
+    returns ``path``."""
+    import numpy as np
+
+    from svbrdf.runtime.core.maps import Maps
+    from svbrdf.runtime.core.render import ZHAO, physical_config, render
+    from svbrdf.runtime.io.images import write_image
+
+    def make(path, fov, light=None, n=256, seed=0):
+        rng = np.random.default_rng(seed)
+        noise = rng.normal(0.0, 1.0, (n // 8, n // 8, 1)).repeat(8, 0).repeat(8, 1)
+        maps = Maps(diffuse=np.clip(np.array([0.45, 0.3, 0.2]) * np.exp(0.3 * noise), 0, 1).astype(np.float32),
+                    specular=np.zeros((n, n, 1), np.float32), roughness=np.full((n, n, 1), 0.5, np.float32),
+                    normal=np.dstack([np.zeros((n, n, 2)), np.ones((n, n, 1))]).astype(np.float32))
+        img = render(maps, light, physical_config(ZHAO.replace(fov_deg=fov)))
+        write_image(path, np.clip(img / np.percentile(img, 99.5) * 0.9, 0, 1).astype(np.float32), bits=8,
+                    srgb_encode=True)
+        return path
+
+    return make

@@ -466,23 +466,8 @@ def test_a_truncated_jpeg_is_one_error_line_exit_1_and_nothing_written(tiny_mode
 
 # --- the camera (issue 68): the field of view from the flash's fall-off, a flash out of frame, --fov 0 ----------
 
-def _plane_photo(path, fov, light=None, n=256):
-    """A textured diffuse plane rendered with fall-off at ``fov``, the flash above the centre or at ``light``."""
-    from svbrdf.runtime.core.maps import Maps
-    from svbrdf.runtime.core.render import ZHAO, physical_config, render
-
-    noise = np.random.default_rng(0).normal(0.0, 1.0, (n // 8, n // 8, 1)).repeat(8, 0).repeat(8, 1)
-    maps = Maps(diffuse=np.clip(np.array([0.45, 0.3, 0.2]) * np.exp(0.3 * noise), 0, 1).astype(np.float32),
-                specular=np.zeros((n, n, 1), np.float32), roughness=np.full((n, n, 1), 0.5, np.float32),
-                normal=np.dstack([np.zeros((n, n, 2)), np.ones((n, n, 1))]).astype(np.float32))
-    img = render(maps, light, physical_config(ZHAO.replace(fov_deg=fov)))
-    write_image(path, np.clip(img / np.percentile(img, 99.5) * 0.9, 0, 1).astype(np.float32), bits=8,
-                srgb_encode=True)
-    return path
-
-
-def test_the_sidecar_records_an_estimated_camera(tiny_model, tmp_path, capsys):
-    photo = _plane_photo(tmp_path / "plane.png", 70.0)
+def test_the_sidecar_records_an_estimated_camera(tiny_model, tmp_path, capsys, flash_plane):
+    photo = flash_plane(tmp_path / "plane.png", 70.0)
     code, _, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "o")
     assert code == 0 and "warning" not in err, err
     sidecar = json.loads((tmp_path / "o" / "plane.json").read_text())
@@ -494,10 +479,10 @@ def test_the_sidecar_records_an_estimated_camera(tiny_model, tmp_path, capsys):
     assert code == 0 and json.loads((tmp_path / "f" / "plane.json").read_text())["camera"]["fov_source"] == "option"
 
 
-def test_a_flash_out_of_frame_is_one_warning_and_the_maps(tiny_model, tmp_path, capsys):
+def test_a_flash_out_of_frame_is_one_warning_and_the_maps(tiny_model, tmp_path, capsys, flash_plane):
     import math
 
-    photo = _plane_photo(tmp_path / "side.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
+    photo = flash_plane(tmp_path / "side.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
     code, out, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "o")
     assert code == 0, err
     warnings = [line for line in err.splitlines() if "warning" in line]

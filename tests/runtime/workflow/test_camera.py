@@ -7,28 +7,11 @@ from svbrdf.runtime.io.images import ImageWarning, write_image
 from svbrdf.runtime.workflow.camera import photo_camera
 
 
-def _flash_plane(path, fov, light=None, n=256, seed=0):
-    """A textured diffuse plane rendered with fall-off at ``fov`` (flash above the centre or at ``light``), as an
-    8-bit sRGB PNG (or a JPEG by its suffix); returns ``path``."""
-    from svbrdf.runtime.core.maps import Maps
-    from svbrdf.runtime.core.render import ZHAO, physical_config, render
-
-    rng = np.random.default_rng(seed)
-    noise = rng.normal(0.0, 1.0, (n // 8, n // 8, 1)).repeat(8, 0).repeat(8, 1)
-    maps = Maps(diffuse=np.clip(np.array([0.45, 0.3, 0.2]) * np.exp(0.3 * noise), 0, 1).astype(np.float32),
-                specular=np.zeros((n, n, 1), np.float32), roughness=np.full((n, n, 1), 0.5, np.float32),
-                normal=np.dstack([np.zeros((n, n, 2)), np.ones((n, n, 1))]).astype(np.float32))
-    img = render(maps, light, physical_config(ZHAO.replace(fov_deg=fov)))
-    write_image(path, np.clip(img / np.percentile(img, 99.5) * 0.9, 0, 1).astype(np.float32), bits=8,
-                srgb_encode=True)
-    return path
-
-
-def test_photo_camera_option_then_estimate_then_default(tmp_path):
+def test_photo_camera_option_then_estimate_then_default(tmp_path, flash_plane):
     import math
     import warnings
 
-    plane = _flash_plane(tmp_path / "plane.png", 70.0)
+    plane = flash_plane(tmp_path / "plane.png", 70.0)
     assert photo_camera(plane, 30.0, 66.0) == {"fov_deg": 30.0, "fov_source": "option", "how": "--fov"}
     with warnings.catch_warnings():
         warnings.simplefilter("error")  # a photo with its flash in frame: no warning
@@ -47,16 +30,16 @@ def test_photo_camera_option_then_estimate_then_default(tmp_path):
     assert cam["fov_source"] == "default" and cam["fov_deg"] == 66.0
     assert "no estimate from the fall-off" in cam["how"] and cam.get("highlight") == "absent"
     # the flash beside the photo: a warning naming the photo and the camera assumed
-    off = _flash_plane(tmp_path / "off.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
+    off = flash_plane(tmp_path / "off.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
     with pytest.warns(ImageWarning, match="off.png: the flash highlight is out of frame; the maps assume a camera of"):
         cam = photo_camera(off, None, 66.0)
     assert cam["highlight"] == "out of frame"
 
 
-def test_an_absurd_exif_focal_length_is_a_warning_and_then_the_estimate(tmp_path):
+def test_an_absurd_exif_focal_length_is_a_warning_and_then_the_estimate(tmp_path, flash_plane):
     import OpenImageIO as oiio
 
-    src = oiio.ImageBuf(str(_flash_plane(tmp_path / "plane.png", 70.0)))
+    src = oiio.ImageBuf(str(flash_plane(tmp_path / "plane.png", 70.0)))
     src.specmod().attribute("Exif:FocalLengthIn35mmFilm", 0)
     src.specmod().attribute("compression", "jpeg:98")
     assert src.write(str(tmp_path / "zero.jpg"))
@@ -65,12 +48,12 @@ def test_an_absurd_exif_focal_length_is_a_warning_and_then_the_estimate(tmp_path
     assert cam["fov_source"] == "estimated" and abs(cam["fov_deg"] - 70.0) < 0.1 * 70.0, cam
 
 
-def test_process_photo_renders_with_the_estimated_camera(session, tmp_path):
+def test_process_photo_renders_with_the_estimated_camera(session, tmp_path, flash_plane):
     pytest.importorskip("onnxruntime")
     from svbrdf.runtime.workflow.options import PhotoOptions
     from svbrdf.runtime.workflow.photo import process_photo
 
-    plane = _flash_plane(tmp_path / "plane.png", 70.0)
+    plane = flash_plane(tmp_path / "plane.png", 70.0)
     maps, relit, _ = process_photo(plane, PhotoOptions(threads=1), session)
     assert maps.meta["camera"]["fov_source"] == "estimated"
     assert maps.render_config.fov_deg == maps.meta["camera"]["fov_deg"]
