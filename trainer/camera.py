@@ -1,8 +1,8 @@
-"""The realistic photo model of :mod:`svbrdf.runtime.core.camera` on batched torch tensors, on any device.
+"""The realistic photo model of :mod:`svbrdf.trainer.camera_model` on batched torch tensors, on any device.
 
-Same steps and order as :func:`svbrdf.runtime.core.camera.expose` (exposure ``2 ** ev``, vignetting
+Same steps and order as :func:`svbrdf.trainer.camera_model.expose` (exposure ``2 ** ev``, vignetting
 ``1 - v (r / r_corner)^2``, Poisson-Gaussian noise of variance ``shot * x + read^2``, the highlight roll-off
-:func:`svbrdf.runtime.core.camera.roll_off`, clip to [0, 1], 8-bit sRGB storage), one camera per photo, for the
+:func:`svbrdf.trainer.camera_model.roll_off`, clip to [0, 1], 8-bit sRGB storage), one camera per photo, for the
 procedural prior's batched stream (``PriorConfig.batched``). The noise comes
 from a generator on the photos' device seeded by the caller, so a GPU never waits for the host. Checked against the
 numpy model in ``tests/trainer/test_camera.py``.
@@ -15,19 +15,19 @@ from typing import Optional
 
 import torch
 
-from svbrdf.runtime.core.camera import radius2, roll_off
+from svbrdf.trainer.camera_model import radius2, roll_off
 from svbrdf.trainer.colour import linear_to_srgb, srgb_to_linear
 from svbrdf.trainer.device import to_device
 
 
 @lru_cache(maxsize=16)
 def _radius2(height: int, width: int, device: torch.device) -> torch.Tensor:
-    """(1, 1, H, W) :func:`svbrdf.runtime.core.camera.radius2` on ``device``, cached."""
+    """(1, 1, H, W) :func:`svbrdf.trainer.camera_model.radius2` on ``device``, cached."""
     return to_device(torch.from_numpy(radius2(height, width))[..., 0][None, None], device)
 
 
 def frame_radius2(height: int, width: int, device=None) -> torch.Tensor:
-    """(1, 1, H, W) float32 :func:`svbrdf.runtime.core.camera.radius2` of a whole frame on ``device`` (cached)."""
+    """(1, 1, H, W) float32 :func:`svbrdf.trainer.camera_model.radius2` of a whole frame on ``device`` (cached)."""
     return _radius2(int(height), int(width), torch.device(device if device is not None else "cpu"))
 
 
@@ -39,10 +39,10 @@ def expose_batch(radiance: torch.Tensor, ev: torch.Tensor, vignetting: torch.Ten
 
     Args:
         radiance: (B, 3, H, W) linear renderings (>= 0, may exceed 1).
-        ev, vignetting, shot, read: (B,) camera parameters (see :class:`svbrdf.runtime.core.camera.Camera`).
+        ev, vignetting, shot, read: (B,) camera parameters (see :class:`svbrdf.trainer.camera_model.Camera`).
         generator: noise generator on ``radiance``'s device (None: torch's default one).
         quantize: store as 8-bit sRGB and decode back.
-        radius2_map: (B or 1, 1, H, W) squared distance from the frame's centre (:func:`svbrdf.runtime.core.camera.radius2`)
+        radius2_map: (B or 1, 1, H, W) squared distance from the frame's centre (:func:`svbrdf.trainer.camera_model.radius2`)
             of each pixel, for renderings that are crops of a larger frame; default: ``radiance`` is the frame.
         white: (B,) white points of the highlight roll-off (>= 1; None or all 1: none).
         check_white: skip the roll-off when every ``white`` is 1 (a read-back of ``white``); False applies it

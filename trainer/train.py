@@ -32,7 +32,7 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Sequence, Tuple
 import numpy as np
 import torch
 
-from svbrdf.runtime.core.camera import radius2
+from svbrdf.trainer.camera_model import radius2
 from svbrdf.runtime.errors import ImageError
 from svbrdf.runtime.jsonutil import finite_json
 from svbrdf.runtime.quality.burn_in import photo_burn_in

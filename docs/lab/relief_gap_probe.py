@@ -31,7 +31,7 @@ from pathlib import Path
 import numpy as np
 import torch
 
-from svbrdf.runtime.core.camera import sample_camera
+from svbrdf.trainer.camera_model import sample_camera
 from svbrdf.runtime.core.maps import Maps
 from svbrdf.runtime.core.render import ZHAO, physical_config
 from svbrdf.runtime.inference.pipeline import estimate

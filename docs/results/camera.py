@@ -7,7 +7,7 @@ known cameras; prints the tables of ``camera.md`` (and writes ``camera.json`` be
 2. **synthetic** (the shared ground-truth sets, by the split's tune and check parts): each set rendered at 256 px
    with the project renderer's physics (fall-off, :func:`~svbrdf.runtime.core.render_config.physical_config`) at
    fields of view 20, 35, 50 and 66 deg, then recorded by the bench's drawn phone camera
-   (:func:`~svbrdf.runtime.core.camera.sample_camera`: exposure, vignetting 0-0.3, noise, 8-bit), and again with
+   (:func:`~svbrdf.trainer.camera_model.sample_camera`: exposure, vignetting 0-0.3, noise, 8-bit), and again with
    its vignetting off.
 
 ``ratio`` is estimate / truth of the field of view; "within 15 %" counts ``|ratio - 1| <= 0.15``; an unreliable
@@ -68,7 +68,7 @@ def synthetic_rows(data: Path, size: int, vignetting: bool, split: str, **kw) ->
     from svbrdf.trainer.bench.cases import case_seed, resize_maps, simulate_photo
     from svbrdf.trainer.bench.datasets import find_cases, read_gt
     from svbrdf.trainer.bench.split import split_of
-    from svbrdf.runtime.core.camera import sample_camera
+    from svbrdf.trainer.camera_model import sample_camera
 
     rows = []
     for case in find_cases(data):

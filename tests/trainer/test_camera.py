@@ -1,10 +1,10 @@
-"""The batched torch camera (svbrdf.trainer.camera) against the numpy photo model (svbrdf.runtime.core.camera)."""
+"""The batched torch camera (svbrdf.trainer.camera) against the numpy photo model (svbrdf.trainer.camera_model)."""
 
 import numpy as np
 import pytest
 import torch
 
-from svbrdf.runtime.core.camera import Camera, expose
+from svbrdf.trainer.camera_model import Camera, expose
 from svbrdf.trainer.camera import expose_batch
 
 

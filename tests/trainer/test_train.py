@@ -232,7 +232,7 @@ def test_learned_vignetting_follows_a_darkened_border():
     With the networks training too, one photo does not tell a darker border from a darker base colour: at this
     test's scale a fit of 60 iterations ended at 0.08 for a 0.4 vignetting and at 0.22 for none (Intel Xeon,
     AVX-512; an EPYC passed the former ``> 0.1`` check), so the mechanism is what is tested here."""
-    from svbrdf.runtime.core.camera import vignette
+    from svbrdf.trainer.camera_model import vignette
 
     photo, _ = synthetic_scene(size=48)
     cfg = resolve("tiny", iters_fit=30, learn_vignetting=True, lambda_render=1.0, camera_lr=2e-2, eval_every=0,

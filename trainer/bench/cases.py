@@ -5,12 +5,12 @@ Every image under the data folder is found by :func:`svbrdf.trainer.bench.datase
 * a ground-truth panel set (Des18, Des19, Xuejiao layouts) becomes a **synthetic case**: its maps are
   area-averaged to ``size x size`` (:func:`resize_maps`, normals renormalised) and the input photo is rendered
   from them with a co-located flash above the centre, then recorded by a camera
-  (:func:`svbrdf.runtime.core.camera.expose`). Two settings:
+  (:func:`svbrdf.trainer.camera_model.expose`). Two settings:
 
   - **realistic** (the default): rendered by Mitsuba 3 where it is installed (:func:`render_mitsuba`: an
     independent renderer with inverse-square fall-off), else by the project renderer with the same physics
     (:func:`physical_config`: fall-off, exact Smith masking, F = F0); then a camera drawn per case from
-    :data:`svbrdf.runtime.core.camera.REALISTIC` (exposure +-0.5 stop, vignetting, Poisson-Gaussian noise,
+    :data:`svbrdf.trainer.camera_model.REALISTIC` (exposure +-0.5 stop, vignetting, Poisson-Gaussian noise,
     saturation, 8-bit sRGB storage). The highlight clips wherever the rendering exceeds 1 after exposure;
   - **clean** (``realistic=False``, for the inverse-crime comparison): rendered by ``renderer`` with the
     benchmark's own configuration, optional Gaussian noise (``noise``), clipped to [0, 1], optionally 8-bit
@@ -38,7 +38,7 @@ import numpy as np
 import OpenImageIO as oiio
 
 from svbrdf.runtime.quality.burn_in import highlight_centre
-from svbrdf.runtime.core.camera import Camera, expose, sample_camera
+from svbrdf.trainer.camera_model import Camera, expose, sample_camera
 from svbrdf.trainer.bench.datasets import Case, CaptureCalibration, capture_view, capture_view_file, find_cases, read_gt
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.io.images import read_image
@@ -228,7 +228,7 @@ def simulate_photo(maps: Maps, *, renderer: str = "ours", config: RenderConfig =
         renderer: ``"ours"`` (the project renderer with ``config``), ``"mitsuba"`` (physical, see
             :func:`render_mitsuba`) or ``"auto"``.
         config: renderer settings.
-        camera: the camera model (:func:`svbrdf.runtime.core.camera.expose`); default: clip to [0, 1] only.
+        camera: the camera model (:func:`svbrdf.trainer.camera_model.expose`); default: clip to [0, 1] only.
         seed: noise and Mitsuba sampler seed.
 
     Returns:

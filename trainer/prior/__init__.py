@@ -9,7 +9,7 @@ unchanged) is trained on an endless, seeded stream of procedural materials
    random field of view (``fov_deg``) and a flash a little off the lens axis (``light_offset``), half of the
    photos with the physical settings of the benchmark's Mitsuba inputs
    (:func:`svbrdf.runtime.core.render.physical_config`: exact Smith masking, F = F0);
-2. recorded by a random camera of :mod:`svbrdf.runtime.core.camera` (exposure that clips bright highlights,
+2. recorded by a random camera of :mod:`svbrdf.trainer.camera_model` (exposure that clips bright highlights,
    vignetting, Poisson-Gaussian noise, 8-bit sRGB);
 3. half of the batches are ``size`` px crops of ``photo_size`` px photos (the highlight anywhere in the tile, or
    outside it, as in the fine-tune's tiles), the other half whole ``size`` px photos.

@@ -6,7 +6,7 @@ import dataclasses
 from dataclasses import asdict, dataclass, field
 from typing import Any, Dict, Mapping, Optional, Tuple
 
-from svbrdf.runtime.core.camera import REALISTIC
+from svbrdf.trainer.camera_model import REALISTIC
 from svbrdf.runtime.inference.manifest import PRIOR_STAGE
 from svbrdf.runtime.core.maps import SLICES
 from svbrdf.trainer.config import resolve
@@ -37,8 +37,8 @@ class PriorConfig:
         fov_deg: range of the photos' horizontal field of view, degrees (uniform).
         light_offset: the flash sits up to this far from the lens, in each of x and y (half photo widths).
         physical_share: fraction of photos rendered with :func:`~svbrdf.runtime.core.render.physical_config`.
-        camera: ranges of the camera model (default :data:`svbrdf.runtime.core.camera.REALISTIC`). ``white`` (the
-            highlight roll-off's white point, :func:`svbrdf.runtime.core.camera.roll_off`) may be left out: (1, 1), a
+        camera: ranges of the camera model (default :data:`svbrdf.trainer.camera_model.REALISTIC`). ``white`` (the
+            highlight roll-off's white point, :func:`svbrdf.trainer.camera_model.roll_off`) may be left out: (1, 1), a
             linear camera, as every run before it existed; it is drawn only when its range is not (1, 1), so such
             a run's stream of draws is unchanged.
         lambda_render: weight of the relighting loss.

@@ -45,7 +45,7 @@ from typing import Any, Callable, Dict, List, Optional, Sequence, Tuple, Union
 
 import torch
 
-from svbrdf.runtime.core.camera import CAMERA_KEYS
+from svbrdf.trainer.camera_model import CAMERA_KEYS
 from svbrdf.runtime.core.maps import SLICES
 from svbrdf.runtime.core.render import physical_config
 from svbrdf.trainer.camera import expose_batch, frame_radius2

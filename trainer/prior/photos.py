@@ -9,7 +9,7 @@ from typing import Any, Dict, List, Optional, Tuple, Union
 import numpy as np
 import torch
 
-from svbrdf.runtime.core.camera import CAMERA_KEYS, Camera, expose
+from svbrdf.trainer.camera_model import CAMERA_KEYS, Camera, expose
 from svbrdf.runtime.core.maps import SLICES
 from svbrdf.runtime.core.render import RenderConfig, camera_position, light_vectors, physical_config
 from svbrdf.trainer.camera import expose_batch, frame_radius2
@@ -26,7 +26,7 @@ def _uniform(rng: torch.Generator, lo: float, hi: float) -> float:
 
 
 def _draw_camera(config: PriorConfig, rng: torch.Generator) -> Dict[str, float]:
-    """One photo's camera parameters from ``config.camera``'s ranges (:data:`~svbrdf.runtime.core.camera.CAMERA_KEYS`,
+    """One photo's camera parameters from ``config.camera``'s ranges (:data:`~svbrdf.trainer.camera_model.CAMERA_KEYS`,
     in order); ``white`` is drawn only when its range is not (1, 1), else it is 1 and nothing is drawn for it."""
     keys = CAMERA_KEYS if config.camera["white"] != (1.0, 1.0) else CAMERA_KEYS[:-1]
     return {"white": 1.0, **{k: _uniform(rng, *config.camera[k]) for k in keys}}

@@ -11,7 +11,7 @@ maps of a highlight photo are clean enough to show first (issue "what a new user
 The photo is made by this project alone (no third-party content, so it is under the project's licence): a
 material of :mod:`svbrdf.trainer.procedural` (family ``--family``, seed ``--seed``) rendered by the one renderer
 with inverse-square fall-off at a 60 deg field of view, the flash on the lens axis, then recorded by the camera
-model of :mod:`svbrdf.runtime.core.camera` (exposure ``--ev`` stops, so the highlight clips; vignetting 0.1; shot and
+model of :mod:`svbrdf.trainer.camera_model` (exposure ``--ev`` stops, so the highlight clips; vignetting 0.1; shot and
 read noise; 8-bit sRGB): :func:`svbrdf.trainer.prior.simulate_photos` with its ranges fixed. With ``--grid``, a
 picture of what the runtime makes of it (rows: the preview without and with the post-processing of
 :mod:`svbrdf.runtime.post.flash_trend`, then the default refine; columns as :mod:`svbrdf.trainer.tools.before_after`),

@@ -8,7 +8,7 @@ import json
 import numpy as np
 import pytest
 
-from svbrdf.runtime.core.camera import Camera, expose
+from svbrdf.trainer.camera_model import Camera, expose
 from svbrdf.runtime.io.images import write_image
 from svbrdf.runtime.core.maps import Maps
 from svbrdf.runtime.core.render import ZHAO, grazing_lights, render

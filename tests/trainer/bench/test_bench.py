@@ -7,7 +7,7 @@ import math
 import numpy as np
 import pytest
 
-from svbrdf.runtime.core.camera import REALISTIC, Camera
+from svbrdf.trainer.camera_model import REALISTIC, Camera
 from svbrdf.runtime.core.colour import linear_to_srgb
 from svbrdf.runtime.errors import SvbrdfError
 from svbrdf.runtime.io.images import read_image, write_image

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from svbrdf.runtime.core.camera import REALISTIC, Camera, expose, sample_camera, vignette
+from svbrdf.trainer.camera_model import REALISTIC, Camera, expose, sample_camera, vignette
 from svbrdf.runtime.core.colour import linear_to_srgb
 
 
@@ -58,7 +58,7 @@ def test_bad_camera_is_refused():
 
 
 def test_roll_off_keeps_the_darks_brings_white_to_one_and_rises():
-    from svbrdf.runtime.core.camera import roll_off
+    from svbrdf.trainer.camera_model import roll_off
 
     x = np.linspace(0.0, 6.0, 601)
     assert roll_off(x, 1.0) is x  # a linear camera: the identity
