@@ -1,44 +1,58 @@
-"""The runtime's calls into the trainer: :func:`svbrdf.trainer.refine.refine` for ``--refine`` and
-:mod:`svbrdf.trainer.capture` for ``--capture``, imported only when asked (the runtime imports no torch otherwise;
-tests/runtime/test_layering.py)."""
+"""The runtime's extension points: ``--refine`` and ``--capture`` run code of the training side, which the runtime
+never imports. The training side declares it in the package's metadata (``pyproject.toml``,
+``[project.entry-points."svbrdf.extensions"]``: ``refine`` = :func:`svbrdf.trainer.refine.refine`, ``capture`` =
+:mod:`svbrdf.trainer.capture`), and :func:`load_refine` / :func:`load_capture` load it by name only when asked, so the
+runtime has no import of a higher layer (tests/runtime/test_layering.py) and a light install (no torch) still
+previews."""
 
 from __future__ import annotations
 
+from importlib import metadata
+
 from ..errors import MissingExtraError
-from ..install import missing_train_module, train_hint
+from ..install import install_command, missing_train_module, train_hint
 
-__all__ = ["load_capture", "load_refine"]
+__all__ = ["EXTENSIONS", "load_capture", "load_refine"]
+
+#: The entry-point group the training side registers its extensions in.
+EXTENSIONS = "svbrdf.extensions"
 
 
-def _missing(what: str, exc: ImportError) -> Exception:
-    """The error to raise for ``exc``: :class:`MissingExtraError` naming the pip command when a module of the
-    training side is missing (:func:`svbrdf.runtime.install.train_hint`), else ``exc`` itself."""
-    module = missing_train_module(exc)
-    return exc if module is None else MissingExtraError(train_hint(what, module))
+def _load(name: str, what: str):
+    """The extension ``name`` of :data:`EXTENSIONS`, loaded.
+
+    Raises:
+        MissingExtraError: the extension is not registered (stale metadata: the command to reinstall) or its
+            module needs torch or kornia, which are not installed (the pip command for this installation).
+    """
+    found = [ep for ep in metadata.entry_points(group=EXTENSIONS) if ep.name == name]
+    if not found:
+        raise MissingExtraError(f"{what} needs the training side's '{name}' extension, which this installation does not "
+                                f"register (reinstall svbrdf: {install_command('train')})")
+    try:
+        return found[0].load()
+    except ImportError as exc:
+        module = missing_train_module(exc)
+        if module is None:
+            raise
+        raise MissingExtraError(train_hint(what, module)) from None
 
 
 def load_refine():
-    """The runtime's one call into the trainer, :func:`svbrdf.trainer.refine.refine`, imported only for ``--refine``.
+    """:func:`svbrdf.trainer.refine.refine` (the ``refine`` extension), loaded only for ``--refine``.
 
     Raises:
         MissingExtraError: torch or kornia (the training side) is not installed; the message names the pip command
             for this installation.
     """
-    try:
-        from svbrdf.trainer.refine import refine
-    except ImportError as exc:
-        raise _missing("--refine", exc) from None
-    return refine
+    return _load("refine", "--refine")
 
 
 def load_capture():
-    """The trainer's capture fit for ``--capture``, the module :mod:`svbrdf.trainer.capture`, imported only then.
+    """The capture fit, the module :mod:`svbrdf.trainer.capture` (the ``capture`` extension), loaded only for
+    ``--capture``.
 
     Raises:
         MissingExtraError: the training side is not installed (the message names the pip command).
     """
-    try:
-        from svbrdf.trainer import capture
-    except ImportError as exc:
-        raise _missing("--capture", exc) from None
-    return capture
+    return _load("capture", "--capture")
