@@ -8,7 +8,7 @@ import torch
 from svbrdf.runtime.errors import ModelError
 from svbrdf.runtime.inference.manifest import network_input_record
 from svbrdf.runtime.core.maps import MAP_NAMES, SLICES
-from svbrdf.trainer.config import REFINE_RECIPES, resolve
+from svbrdf.trainer.config import REFINE_RECIPES, TrainConfig, resolve
 from svbrdf.trainer.checkpoint import save_checkpoint
 from svbrdf.trainer.stage import finetune_config, make_trainer
 from svbrdf.trainer.train import Trainer, predict_full
@@ -176,7 +176,7 @@ def test_anchor_holds_a_finetune_near_its_starting_maps_and_survives_resume(tmp_
     # The anchor is stored with the checkpoint, so a resumed fine-tune pulls to the same maps.
     cfg = resolve("tiny", iters_finetune=4, lambda_anchor=1.0, tile=48)
     path = tmp_path / "ft.pt"
-    _trained(photo_b, "finetune", init=ckpt, config=dataclasses.replace(cfg, iters_finetune=2), threads=1,
+    _trained(photo_b, "finetune", init=ckpt, config=TrainConfig.from_dict({**cfg.to_dict(), "optim.iters_finetune": 2}), threads=1,
              checkpoint_path=path)
     stored = torch.load(path, weights_only=True)["anchor"]
     assert stored.dtype == torch.float16 and stored.shape == start.shape
@@ -197,7 +197,7 @@ def test_anchor_maps_pull_only_the_named_maps(anchored_start):
     assert drift["diffuse"]["diffuse"] < 0.7 * drift["normal"]["diffuse"]
     with pytest.raises(ValueError, match="anchor_maps"):
         resolve("tiny", anchor_maps=("height",))
-    assert resolve("tiny", anchor_maps=["normal"]).to_dict()["anchor_maps"] == ["normal"]
+    assert resolve("tiny", anchor_maps=["normal"]).to_dict()["losses"]["anchor_maps"] == ["normal"]
 
 
 def test_finetune_takes_the_architecture_of_the_checkpoint(tmp_path):

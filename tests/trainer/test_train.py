@@ -260,7 +260,7 @@ def test_learned_offsets_move_a_saturated_output():
                    lambda_perceptual=0.0)
     levels = {}
     for learn in (False, True):
-        trainer = Trainer(photo, dataclasses.replace(base, learn_offsets=learn, camera_lr=5e-2), threads=1)
+        trainer = Trainer(photo, TrainConfig.from_dict({**base.to_dict(), "photo.learn_offsets": learn, "optim.camera_lr": 5e-2}), threads=1)
         with torch.no_grad():
             trainer.generator.out_offset[5] = -4.0  # specular (tanh(-4) + 1) / 2 = 3e-4
         before = float(trainer.predict()[:, SLICES["specular"]].mean())

@@ -32,7 +32,7 @@ def tiny():
 WORKER = """
 import sys, torch
 sys.path.insert(0, {here!r})
-from test_ddp_prior import STEPS, tiny
+from test_ddp import STEPS, tiny
 from svbrdf.trainer.prior import PriorTrainer
 torch.set_num_threads(1)
 trainer = PriorTrainer(tiny(), device="cpu", threads=1)
