@@ -168,7 +168,7 @@ def _v4_start() -> PriorConfig:
     switched on along the way on from the start, on the device stream, with the stream changes of issue 64."""
     config = prior_preset("v2")
     return dataclasses.replace(config, iters=20000, lambda_slope=1.0, ema=0.995, flat_share=0.1, black_share=0.05,
-                               stream="device", fov_deg=(20.0, 75.0), print_share=0.2, block_mean=2,
+                               stream="device", print_share=0.2, block_mean=2,
                                block_share=0.25)
 
 
@@ -176,7 +176,7 @@ def _v4_start() -> PriorConfig:
 #: trains first (trainer/tools/gpu_prior.sh), and each "not measured" line is a CPU-proxy comparison still to run
 #: (issue 64, item 3) before v4 may ship.
 V4_EVIDENCE: Tuple[Tuple[str, str], ...] = (
-    ("stream='device'", "measured: the same distributions as the host stream (tests/trainer/test_prior_stream.py, "
+    ("stream='device'", "measured: the same distributions as the host stream (tests/trainer/prior/test_device_stream.py, "
                         "256 materials a stream) and faster per training step on the CPU "
                         "(docs/results/gpu-throughput-cpu.json); not yet measured on a GPU"),
     ("generator, loss, lr, batch 32 at 256 px crops of 512 px", "v2's (measured by v2's training, issue 26); "
@@ -185,8 +185,9 @@ V4_EVIDENCE: Tuple[Tuple[str, str], ...] = (
     ("lambda_slope 1, ema 0.995, flat_share 0.1, black_share 0.05 from iteration 0",
      "measured in v2 (switched on along its run, CHANGELOG.md study prior-v2); not measured from the start"),
     ("material_reuse 1", "not measured: v2's 5 made up for the host stream's cost, which the device stream removes"),
-    ("fov_deg (20, 75)", "not measured: the published captures' field of view is about 23 deg (issue 64), v2's "
-                         "stream 45-75 deg"),
+    ("fov_deg (45, 75), v2's", "measured (CPU proxy, docs/decisions/061-cpu-proxy-fov.md): (20, 75) made the photos "
+                               "darker (the exposure does not follow the camera's distance) and the diffuse and "
+                               "grazing errors worse; kept at v2's until the exposure follows the distance"),
     ("print_share 0.2", "not measured: specular varying within a material independently of its classes "
                         "(device_stream.add_prints); the share is a guess"),
     ("block_mean 2 on 25 % of the batches", "not measured: the preview shows a 1024 px photo to the network as "
@@ -205,7 +206,8 @@ RECIPES: Dict[str, Recipe] = {
                                                                                        "coarse_share": 0.3})),
                  "the v3 candidate: v2 continued to 21000, then to 26000 with a coarse relief on 30 % of the materials"),
     "v4": Recipe("v4", _v4_start, (), "the v4 candidate (issue 64, not trained yet): v2's network on the device "
-                 "stream, fields of view 20-75 deg, prints on 20 %, block means on 25 % of the batches",
+                 "stream, prints on 20 %, block means on 25 % of the batches (fields of view 20-75 deg: not "
+                 "until the exposure follows the camera's distance, docs/decisions/061-cpu-proxy-fov.md)",
                  V4_EVIDENCE),
 }
 
