@@ -123,30 +123,3 @@ def test_the_bench_method_runs_the_runtime_refine_with_the_cases_camera():
     calib = CaptureCalibration(path=None, width_cm=10.0, views={0: ((1.0, 0.0, 11.0), (1.0, 0.0, 11.0))})
     view = BenchCase("v", "v.png", "photo", "photo", photo, None, (32.0, 32.0), capture=CaptureViews(calib, 0, {}))
     assert case_render_config(view, opts.config).fov_deg == pytest.approx(2 * np.degrees(np.arctan(5.0 / 11.0)))
-
-
-def _bumped(size: int = S, amplitude: float = 0.25) -> Maps:
-    """Grey maps whose normals are those of a smooth height of two bumps across the photo (slopes up to
-    ``amplitude``, in the plane's frame: x right, y up)."""
-    maps = _maps(0.04, 0.5, tint=(1 / 0.9, 1 / 0.6, 1 / 0.35), size=size)
-    yy, xx = (np.mgrid[0:size, 0:size] + 0.5) / size
-    k = 2 * np.pi * 2  # two periods across
-    gx = amplitude * np.cos(k * xx) * np.sin(k * yy)  # dh/dx of h = a/k sin(kx) sin(ky) (x right)
-    gy = -amplitude * np.sin(k * xx) * np.cos(k * yy)  # dh/dy with y up (rows down)
-    n = np.stack([-gx, -gy, np.ones_like(gx)], -1)
-    maps.normal[...] = (n / np.linalg.norm(n, axis=-1, keepdims=True)).astype(np.float32)
-    return maps
-
-
-def test_the_height_recovers_the_relief_the_photo_shades():
-    truth, flat = _bumped(), _maps(0.04, 0.5, tint=(1 / 0.9, 1 / 0.6, 1 / 0.35))
-    out = refine(_photo(truth), flat, CONFIG, threads=1)
-    rec = out.meta["refine"]
-    assert rec["kept"] == "refined" and rec["height"]["slope_rms"] > 0.02
-
-    def slopes(m):
-        return np.concatenate([(-m.normal[..., 0] / m.normal[..., 2]).ravel(), (-m.normal[..., 1] / m.normal[..., 2]).ravel()])
-
-    assert np.corrcoef(slopes(out), slopes(truth))[0, 1] > 0.6
-    # Nothing else changes but the gloss shifts: the base colour is the preview's.
-    np.testing.assert_array_equal(out.diffuse, flat.diffuse)
