@@ -81,12 +81,14 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
 
     if config is None:
         config = options.render_config(session)
-    camera = photo_camera(photo, options.fov, config.fov_deg)
-    config = config.replace(fov_deg=camera["fov_deg"])
+    image = None
     if options.refine:
         if refine is None:
             raise ValueError("options.refine needs the refine function (svbrdf.runtime.inference.refine.load_refine)")
-        image = read_image(photo, max_size=options.max_size)
+        image = read_image(photo, max_size=options.max_size)  # read once: the camera's estimate takes it too
+    camera = photo_camera(photo, options.fov, config.fov_deg, image=image)
+    config = config.replace(fov_deg=camera["fov_deg"])
+    if options.refine:
         warn_if_greyscale(image, str(photo))
         maps = _refine(refine, image, session, config, options, name or photo.name)
         record = maps.meta["refine"]

@@ -139,3 +139,20 @@ def flash_plane():
         return path
 
     return make
+
+
+@pytest.fixture
+def small_flash_photo():
+    """``small_flash_photo(h=40, w=56, seed=3)``: a small linear flash photo (a striped material brighter under a
+    Gaussian highlight, a little noise), float32 [0, 1]."""
+    import numpy as np
+
+    def make(h=40, w=56, seed=3):
+        rng = np.random.default_rng(seed)
+        yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
+        base = 0.3 + 0.1 * np.sin(xx / 3.0)[..., None] * np.array([1.0, 0.8, 0.6], np.float32)
+        flash = 0.6 * np.exp(-((yy - h / 2) ** 2 + (xx - w / 2) ** 2) / (2 * 8.0 ** 2))[..., None]
+        return (base + flash + rng.normal(0, 0.01, (h, w, 3))).clip(0, 1).astype(np.float32)
+
+    return make
+

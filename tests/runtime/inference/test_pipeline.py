@@ -9,23 +9,15 @@ from svbrdf.runtime.inference.pipeline import estimate  # noqa: E402
 from svbrdf.runtime.post import PostProcess  # noqa: E402
 
 
-def _photo(h=40, w=56, seed=3):
-    rng = np.random.default_rng(seed)
-    yy, xx = np.mgrid[0:h, 0:w].astype(np.float32)
-    base = 0.3 + 0.1 * np.sin(xx / 3.0)[..., None] * np.array([1.0, 0.8, 0.6], np.float32)
-    flash = 0.6 * np.exp(-((yy - h / 2) ** 2 + (xx - w / 2) ** 2) / (2 * 8.0 ** 2))[..., None]
-    return (base + flash + rng.normal(0, 0.01, (h, w, 3))).clip(0, 1).astype(np.float32)
-
-
-def test_the_default_post_is_what_estimate_did_without_it(session):
-    photo = _photo()
+def test_the_default_post_is_what_estimate_did_without_it(session, small_flash_photo):
+    photo = small_flash_photo()
     a, b = estimate(photo, session), estimate(photo, session, post=PostProcess())
     for name in a.names:
         np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
 
 
-def test_without_corrections_estimate_returns_the_networks_maps(session):
-    photo = _photo()
+def test_without_corrections_estimate_returns_the_networks_maps(session, small_flash_photo):
+    photo = small_flash_photo()
     bare = estimate(photo, session, post=PostProcess.off())
     assert bare.meta["even_lighting"] is None
     assert bare.meta["burn_in"] == bare.meta["burn_in_model"]
