@@ -1,4 +1,6 @@
-"""Losses of Wen et al. 2022 and the "guessed diffuse" target of Zhao et al. 2020 (peers.md 1.1, 1.6, 1.9, 6).
+"""Losses of Wen et al. 2022 and the "guessed diffuse" target of Zhao et al. 2020.
+
+The papers' terms as read: ../shared/research/peers.md, sections 1.1, 1.6, 1.9 and 6.
 
 Total generator loss per decoder: ``0.1 L_GAN + L_d + 0.1 L_F + 0.2 L_P`` (L_P is in
 :mod:`svbrdf.trainer.perceptual`). All images and maps are linear; maps are packed (B, 8, H, W) in the layout of
@@ -30,7 +32,7 @@ def _f32(x: torch.Tensor) -> torch.Tensor:
 
 
 def _fast_fft_size(n: int) -> int:
-    """Smallest 5-smooth integer >= n (pocketfft is several times slower on sizes with large prime factors)."""
+    """Smallest 5-smooth integer >= n (an FFT size). Decision: docs/decisions/070-fft-sizes.md."""
     while True:
         m = n
         for p in (2, 3, 5):
@@ -90,6 +92,10 @@ def guessed_diffuse(photo: torch.Tensor, kernel_size: int = 101, sigma: float = 
 
     Returns:
         (B, 3, H, W) target for the linear diffuse albedo, in [0, 1], float32 (float64 for float64 input).
+
+    Raises:
+        ValueError: ``kernel_size`` not a positive odd integer, an unknown ``padding``, ``photo`` not 4-D, or
+            ``"reflect"`` with H or W <= ``kernel_size // 2``.
     """
     if kernel_size < 1 or kernel_size % 2 == 0:
         raise ValueError(f"kernel_size must be a positive odd integer, got {kernel_size}")
@@ -145,6 +151,9 @@ def diffuse_loss(pred_diffuse: torch.Tensor, guess: torch.Tensor, target: str = 
 
     Returns:
         scalar.
+
+    Raises:
+        ValueError: an unknown ``target``.
     """
     if target not in DIFFUSE_TARGETS:
         raise ValueError(f"target must be one of {DIFFUSE_TARGETS}, got {target!r}")
@@ -337,6 +346,9 @@ def fourier_loss(maps: torch.Tensor, guess: torch.Tensor, mode: str = "complex",
 
     Returns:
         scalar (negative when the mean distance is below 1).
+
+    Raises:
+        ValueError: an unknown ``mode``, or ``include_dc=False`` on a single pixel.
     """
     if mode not in ("complex", "magnitude"):
         raise ValueError(f"mode must be 'complex' or 'magnitude', got {mode!r}")
@@ -495,11 +507,10 @@ def detail_amount_loss(pred: torch.Tensor, target: torch.Tensor, maps: Sequence[
                        windows: Sequence[int] = DETAIL_WINDOWS) -> torch.Tensor:
     """Amount-of-detail term: mean absolute difference of the maps' standard deviations in local windows.
 
-    Per-pixel L1 and :func:`gradient_loss` both cost less for a flat map than for detail in slightly the wrong
-    place, so a network unsure where the detail lies predicts none (a constant roughness, flat normals). This term
-    asks for as much variation as the truth has in each window, wherever it lies inside the window; the other terms
-    then place it. It is zero for a map whose windows vary as much as the truth's, and largest for a constant one
-    (which alone gets no gradient from it: a network's output is never exactly constant).
+    It asks for as much variation as the truth has in each window, wherever it lies inside the window (per-pixel
+    L1 and :func:`gradient_loss` cost less for a flat map than for detail slightly misplaced). It is zero for a map
+    whose windows vary as much as the truth's, and largest for a constant one (which alone gets no gradient from
+    it). Decision: docs/decisions/023-stage-one-v2.md (the roughness detail term)
 
     Args:
         pred, target: (B, 8, H, W) packed maps, final ranges (:mod:`svbrdf.runtime.core.maps`).

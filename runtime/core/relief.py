@@ -26,9 +26,7 @@ map is wide), so the same material at another resolution gets the same heights. 
 :func:`normalise`) is in the same units. Height is linear data (no colour space); float32 everywhere.
 
 Memory stays within a few (H, W) float32 arrays: large maps are processed in strips, blocks and slices, on
-:data:`THREADS` threads, with the same values. Every FFT is a scaled one (numpy 2.4's unscaled directions are
-slower), the scale folded into the twiddles or the eigenvalues; signs are flipped by multiplication
-(``np.negative(x, out=x)`` on a 16-byte-strided float32 view is wrong in numpy 2.4.6).
+:data:`THREADS` threads; the values do not depend on the strip, slice or thread count.
 
 Decisions: docs/decisions/001-relief-low-cut.md (the broad relief), docs/decisions/002-ao-strength.md (the AO's
 depth), docs/decisions/003-relief-memory.md (strips and threads).
@@ -66,18 +64,18 @@ AO_RADIUS = 1.0 / 16.0
 AO_DIRECTIONS = (4, 8)
 #: The AO is computed on a grid of at most this many pixels a side (the pyramid level that fits), then upsampled.
 AO_MAX_SIZE = 2048
-#: Cut-off of the height's high-pass, in cycles across the map (:func:`height_from_normals`): a material's relief
-#: repeats within the photo; what is broader (the dome the flash's faint radial tilt integrates to, drift) is not
-#: its relief. Weight ``rho^6 / (rho^6 + 1.5^6)`` of a component of ``rho`` cycles: 0.08 at 1, 0.85 at 2, 0.985 at 3.
+#: Cut-off of the height's high-pass, in cycles across the map (:func:`height_from_normals`). Weight ``rho^6 /
+#: (rho^6 + 1.5^6)`` of a component of ``rho`` cycles: 0.08 at 1, 0.85 at 2, 0.985 at 3.
 #: Decision: docs/decisions/001-relief-low-cut.md.
 LOW_CUT = 1.5
 #: Order of that high-pass: the weight is ``rho^(2 LOW_ORDER) / (rho^(2 LOW_ORDER) + LOW_CUT^(2 LOW_ORDER))``.
 LOW_ORDER = 3
-#: Broad relief the normals show is the material's: it is taken out in full while its slopes carry at most 2 % of
-#: the slope energy of the height plus a floor, kept from 5 %, in proportion between (001-relief-low-cut.md).
+#: ``(lo, hi)``: the broad relief is taken out in full while its slope energy is at most ``lo`` of the height's plus
+#: the floor's (:data:`BROAD_FLOOR`), kept from ``hi``, in proportion between (:func:`height_from_normals`).
+#: Decision: docs/decisions/001-relief-low-cut.md.
 BROAD_SHARE = (0.02, 0.05)
-#: The floor: the energy of an RMS slope of 0.02 (1.1 deg) over the map is added to the height's, so that a map holding
-#: little but a faint broad tilt is still flat.
+#: The floor: the energy of an RMS slope of 0.02 (1.1 deg) over the map is added to the height's (a map holding
+#: little but a faint broad tilt stays flat).
 BROAD_FLOOR = 0.02
 #: Rows processed at a time by the per-pixel loops (keeps the temporaries in cache; any value gives the same result).
 _STRIP = 32
@@ -185,6 +183,10 @@ def normal_slopes(normal, *, max_slope: float = MAX_SLOPE, zero: str = "error") 
 
     Returns:
         ``(p, q)``: two (H, W) float32 arrays, dimensionless (rise over run, run = one pixel step).
+
+    Raises:
+        SvbrdfError: as :func:`height_from_normals` (shape, dtype, NaN/inf, degenerate normals with ``"error"``,
+            ``zero``, ``max_slope``).
     """
     n = _check_normal(normal, zero)
     inv_max = _inverse_max_slope(max_slope)
@@ -302,7 +304,7 @@ def _dct2(x: np.ndarray, axis: int, out: Optional[np.ndarray] = None) -> np.ndar
     v = np.empty(x.shape, np.float32)
     v[_along(axis, slice(0, c))] = x[_along(axis, slice(0, None, 2))]
     v[_along(axis, slice(c, None))] = x[_along(axis, slice(1, None, 2))][_along(axis, slice(None, None, -1))]
-    w = np.fft.rfft(v, axis=axis, norm="forward")  # scaled 1/n: much faster in numpy 2.4 than unscaled
+    w = np.fft.rfft(v, axis=axis, norm="forward")  # scaled 1/n, undone below (003-relief-memory.md)
     del v
     w *= _twiddle(n, half, axis, -1.0) * np.float32(n)
     out = np.empty(x.shape, np.float32) if out is None else out
@@ -311,7 +313,7 @@ def _dct2(x: np.ndarray, axis: int, out: Optional[np.ndarray] = None) -> np.ndar
     if m:
         tail = out[_along(axis, slice(n - m, None))]
         tail[...] = w.imag[_along(axis, slice(m, 0, -1))]
-        tail *= np.float32(-1.0)  # not np.negative(out=): numpy 2.4.6 negates 16-byte-strided float32 views wrongly
+        tail *= np.float32(-1.0)  # not np.negative(out=): wrong on this strided view (003-relief-memory.md)
     return out
 
 
@@ -564,25 +566,24 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
     * ``tileable=False``: interior pairs only, nothing is asked across the border (Neumann boundaries);
       solved by a DCT-II (computed with real FFTs of the same size, no padding).
 
-    Broad relief (``low_cut`` > 0, the default :data:`LOW_CUT`): a flat material's height has no structure broader
-    than the map. A faint tilt of the normals that grows with the distance to the flash, integrated over the
-    map, is a dome (or a bowl) many times taller than the texture; a slight bias is a tilt. So, not tileable,
-    the quadratic height ``Q`` (``x, y, x^2, x y, y^2``) whose slopes fit ``g`` best is taken out first (``g - D Q``
-    is integrated: no tilt, bowl or dome, wherever its centre); then, either way, each eigen-component of
-    ``rho`` cycles across the map (``rho^2 = cy^2 + cx^2``, cy across its height, cx across its width; DCT index
-    k: k / 2 cycles, FFT index k: |k|) is
-    weighted by ``rho^(2 m) / (rho^(2 m) + low_cut^(2 m))``, ``m`` = :data:`LOW_ORDER` (a high-pass in the same
-    solve: no extra pass). Only broad relief the normals barely show is taken out: with ``E_b`` the slope energy
-    (``|D h|^2``) of ``Q`` plus the low-passed rest, ``E`` that of the whole height and ``N`` the pixel count, the
-    share ``t`` taken out is 1 while ``E_b / (E + N BROAD_FLOOR^2) <= BROAD_SHARE[0]``, 0 from ``BROAD_SHARE[1]``,
-    linear between (the height is ``(1 - t) Q + `` the rest weighted ``1 - t (1 - weight)``): a lone pit or a stone
-    as large as the map keeps its shape. ``low_cut=0``: the plain least-squares height (a mean slope kept when not
-    tileable).
+    Broad relief (``low_cut`` > 0, the default :data:`LOW_CUT`): a tilt, or the dome or bowl that a faint radial
+    tilt of the normals integrates to. Not tileable, the quadratic height ``Q`` (``x, y, x^2, x y, y^2``) whose
+    slopes fit ``g`` best is taken out first (``g - D Q`` is integrated: no tilt, bowl or dome, wherever its
+    centre); then, either way, each eigen-component of ``rho`` cycles across the map (``rho^2 = cy^2 + cx^2``, cy
+    across its height, cx across its width; DCT index k: k / 2 cycles, FFT index k: |k|) is weighted by
+    ``rho^(2 m) / (rho^(2 m) + low_cut^(2 m))``, ``m`` = :data:`LOW_ORDER` (a high-pass in the same solve). Only
+    broad relief the normals barely show is taken out: with ``E_b`` the slope energy (``|D h|^2``) of ``Q`` plus
+    the low-passed rest, ``E`` that of the whole height and ``N`` the pixel count, the share ``t`` taken out is 1
+    while ``E_b / (E + N BROAD_FLOOR^2) <= BROAD_SHARE[0]``, 0 from ``BROAD_SHARE[1]``, linear between (the
+    height is ``(1 - t) Q + `` the rest weighted ``1 - t (1 - weight)``): a lone pit or a stone as large as the
+    map keeps its shape. Decision: docs/decisions/001-relief-low-cut.md.
 
-    With ``low_cut=0`` the slopes' curl-free part is matched exactly; their curl (which no height has) is what
-    remains. Cost: the input plus two (H, W) float32 arrays at the peak (the right-hand side, made from the normals
-    strip by strip, and one transform pass's output; the quadratic's fit and the weights go in row blocks); four
-    real-FFT passes over the map. Decision: docs/decisions/001-relief-low-cut.md.
+    ``low_cut=0``: the plain least-squares height (a mean slope kept when not tileable); the slopes' curl-free
+    part is matched exactly, their curl (which no height has) is what remains.
+
+    Cost: the input plus two (H, W) float32 arrays at the peak (the right-hand side, made from the normals strip
+    by strip, and one transform pass's output; the quadratic's fit and the weights go in row blocks); four
+    real-FFT passes over the map.
 
     Args:
         normal: (H, W, 3) float unit normals, OpenGL frame (+x right, +y up the image, +z out), components in
@@ -591,7 +592,8 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
         tileable: integrate across the wrap (periodic) or not (see above).
         max_slope: steepest slope integrated (:data:`MAX_SLOPE`); steeper normals and z <= 0 are clamped.
         zero: degenerate (zero-length) normals: ``"error"`` (default), ``"flat"`` (documented repair:
-            treated as (0, 0, 1)); see :func:`normal_slopes`.
+            treated as (0, 0, 1)) or ``"unit"`` (the normals as written, made unit first); see
+            :func:`normal_slopes`.
         low_cut: the high-pass's cut-off in cycles across the map (>= 0; None: :data:`LOW_CUT`; 0: none).
 
     Returns:
@@ -600,7 +602,8 @@ def height_from_normals(normal, *, tileable: bool = False, max_slope: float = MA
         written map (see :func:`normalise`). A flat normal map gives zeros and scale 0.
 
     Raises:
-        SvbrdfError: wrong shape or dtype, NaN/inf, zero-length normals (with ``zero="error"``), a bad ``low_cut``.
+        SvbrdfError: wrong shape or dtype, NaN/inf, components above 2 in magnitude (but with ``zero="unit"``),
+            zero-length normals (with ``zero="error"``), an unknown ``zero``, ``max_slope`` <= 0, a bad ``low_cut``.
     """
     height, _ = _integrate(normal, tileable, max_slope, zero, low_cut)
     return height, _scale_of(height)
@@ -619,8 +622,7 @@ def _integrate(normal, tileable: bool, max_slope: float, zero: str,
         quad = _fit_quadratic(rhs)
         _add_outer(rhs, quad[2], quad[3], -1.0)  # g - D Q integrated; Q added back below for what is kept
     if tileable:
-        # numpy 2.4's unscaled FFT directions are several times slower than the scaled ones: both transforms
-        # are scaled here (1 / (H W) each way) and the eigenvalues divided by H W to compensate
+        # both transforms scaled, 1 / (H W) each way (003-relief-memory.md); the eigenvalues divided by H W
         spec = np.fft.rfft2(rhs, norm="forward")
         del rhs
         ly, lx = _laplacian_eigen(h, True), _laplacian_eigen(w, True, rfft=True)
@@ -636,7 +638,7 @@ def _integrate(normal, tileable: bool, max_slope: float, zero: str,
         hpx = np.fft.irfft2(spec, s=(h, w)).astype(np.float32, copy=False)
     else:
         spec = _sliced(_dct2, rhs, 1)
-        del rhs  # each pass's input freed as soon as it is transformed (the peak at 8192 px)
+        del rhs  # each pass's input freed as soon as it is transformed (003-relief-memory.md)
         spec = _sliced(_dct2, spec, 0)
         ly, lx = _laplacian_eigen(h, False), _laplacian_eigen(w, False)
         cuts = _cut_axes(np.arange(h) / 2.0, np.arange(w) / 2.0, low_cut) if low_cut > 0 else None
@@ -899,10 +901,8 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
     relief narrower than ~2 px at 4K occludes only through its average. Cost: about 1.3 x the finest level's,
     ~110 float32 array operations per pixel with 8 directions, in row strips that stay in cache.
 
-    Depth. The AO is that of the relief the normal map implies: the network's normal maps are shallow, so their AO
-    stays close to 1 (docs/decisions/002-ao-strength.md). To exaggerate it, pass a larger height or scale, or
-    ``strength``: ``ambient_occlusion(height, strength=k)`` is
-    ``ambient_occlusion(k * height)`` (the same float32 products) without a scaled copy held through the call.
+    Depth. ``ambient_occlusion(height, strength=k)`` is ``ambient_occlusion(k * height)`` (the same float32
+    products) without a scaled copy held through the call. The written AO's default: :data:`AO_STRENGTH`.
 
     Args:
         height: (H, W) float height. Without ``scale``: in units of the map's width, as returned by
@@ -920,7 +920,8 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
         (H, W) float32 AO in [0, 1], linear data, 1 = open; exactly 1 on a flat (or planar) height.
 
     Raises:
-        SvbrdfError: bad height (shape, NaN/inf), scale, directions or radius.
+        SvbrdfError: bad height (shape, dtype, NaN/inf), scale (< 0 or not finite), directions, radius or strength
+            (<= 0 or not finite), or ``max_size`` < 16.
     """
     hh = _check_height(height, "height" if scale is None else "height map")
     if scale is not None:
@@ -976,10 +977,10 @@ def ambient_occlusion(height, scale: Optional[float] = None, *, tileable: bool =
 
 #: Names of the relief maps, derived from the normal map on demand, in the order they are written.
 RELIEF_NAMES: Tuple[str, ...] = ("height", "ao")
-#: Default depth gain of the written AO: the AO is that of ``AO_STRENGTH x`` the height the normal map implies (about
-#: 1 / the packaged model's measured flatness); the height map and its ``height_scale`` stay those of the normal map.
-#: Decision: docs/decisions/002-ao-strength.md.
+#: Default depth gain of the written AO: the AO is that of ``AO_STRENGTH x`` the height the normal map implies; the
+#: height map and its ``height_scale`` stay those of the normal map. Decision: docs/decisions/002-ao-strength.md.
 AO_STRENGTH = 8.0
+#: The sidecar's ``ao.strength_reason`` when the AO's strength is :data:`AO_STRENGTH` (:meth:`Relief.info`).
 AO_STRENGTH_REASON = ("the packaged model's normal maps are measured 0.12 x as steep as the ground truth (median RMS "
                       "slope, 20 synthetic Des18 test materials): the AO is that of the height x 8, the median true "
                       "depth; the height map and height_scale are the normal map's own")
@@ -1062,7 +1063,7 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
         zero: zero-length normals: ``"error"`` or ``"flat"`` (the repair of :func:`normal_slopes`); ``"unit"``: the
             normals as written, made unit first (:func:`normal_slopes`).
         ao_strength: the AO is that of ``ao_strength x`` the height (> 0; 1 = the depth the normal map implies;
-            default :data:`AO_STRENGTH`, the measured flatness of the model's normal maps).
+            default :data:`AO_STRENGTH`).
         low_cut: the height's relief broader than the map taken out (:func:`height_from_normals`; None:
             :data:`LOW_CUT`; 0: the plain least-squares height).
 
@@ -1073,7 +1074,7 @@ def relief_maps(normal, *, tileable: bool = False, maps=RELIEF_NAMES, zero: str 
 
     Raises:
         SvbrdfError: no normal map, a bad one (shape, dtype, NaN/inf, zero-length normals with ``zero="error"``),
-            or unknown map names.
+            unknown or no map names, ``ao_strength`` <= 0, or a bad ``low_cut``.
     """
     if not isinstance(normal, np.ndarray) and hasattr(normal, "normal"):
         if normal.normal is None:
@@ -1103,7 +1104,7 @@ def with_relief(texture_set, /, *, tileable: bool = False, maps=RELIEF_NAMES, ao
     (default :data:`AO_STRENGTH`, docs/decisions/002-ao-strength.md; 1 = the normal map's own depth).
 
     Raises:
-        SvbrdfError: no normal map, NaN/Inf normals, or unknown names.
+        SvbrdfError: no normal map, NaN/Inf normals, unknown or no names, or ``ao_strength`` <= 0.
     """
     if texture_set.normal is None:
         raise SvbrdfError(f"the height and AO need the normal map; this texture set has only "
