@@ -9,6 +9,22 @@ import pytest
 TINY_FOV = 50.0
 
 
+def read_stored(path):
+    """Every channel of an image file as stored (value / max), alpha unassociated: what a DCC tool (Blender's image
+    node, Substance, Unreal) reads."""
+    import numpy as np
+    import OpenImageIO as oiio
+
+    cfg = oiio.ImageSpec()
+    cfg.attribute("oiio:UnassociatedAlpha", 1)
+    inp = oiio.ImageInput.open(str(path), cfg)
+    assert inp is not None, oiio.geterror()
+    try:
+        return np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float32)
+    finally:
+        inp.close()
+
+
 @pytest.fixture(scope="session")
 def tiny_model(tmp_path_factory) -> Path:
     """``tiny.onnx`` + ``tiny.json`` + ``tiny.pt`` (random tiny generator, exported from a checkpoint).

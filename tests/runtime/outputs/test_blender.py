@@ -15,9 +15,9 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-import OpenImageIO as oiio
 import pytest
 
+from ..conftest import read_stored
 from svbrdf.runtime.core.colour import srgb_to_linear
 from svbrdf.runtime.core.maps import Maps, decode_normal, normalize_normals
 from svbrdf.runtime.core.relief import with_relief
@@ -44,21 +44,9 @@ def maps():
                 normal=normalize_normals(n), meta={"source": "test"})
 
 
-def _raw(path) -> np.ndarray:
-    """Every channel of an image file as stored (value / max), alpha unassociated: what Blender's image node reads."""
-    cfg = oiio.ImageSpec()
-    cfg.attribute("oiio:UnassociatedAlpha", 1)
-    inp = oiio.ImageInput.open(str(path), cfg)
-    assert inp is not None, oiio.geterror()
-    try:
-        return np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float32)
-    finally:
-        inp.close()
-
-
 def _source(src: dict) -> np.ndarray:
     """A plan's source as the node graph sees it: the colour (sRGB decoded for a colour file) or one channel."""
-    a = _raw(src["file"])
+    a = read_stored(src["file"])
     if a.shape[-1] in (1, 2):  # grey (+ alpha): Blender's colour is the grey repeated
         a = np.concatenate([np.repeat(a[..., :1], 3, -1), a[..., 1:]], -1)
     rgb = srgb_to_linear(a[..., :3]) if src["colour"] else a[..., :3]
@@ -85,7 +73,7 @@ def _principled_inputs(plan: dict) -> dict:
     if plan["roughness"]["invert"]:
         r = 1.0 - r
     out["roughness"] = r ** plan["roughness"]["power"]
-    n = _raw(plan["normal"]["file"])[..., :3]
+    n = read_stored(plan["normal"]["file"])[..., :3]
     if plan["normal"]["flip_green"]:
         n = n.copy()
         n[..., 1] = 1.0 - n[..., 1]
@@ -107,11 +95,11 @@ def test_the_blender_target_writes_the_principled_inputs(tmp_path, maps, config)
     scale = side["files"]["specular"]["principled_specular_scale"]
     assert scale == pytest.approx(float(maps.specular.max()) / 0.08, rel=1e-6)
     # base colour: our diffuse times w_d (Principled 3.x does not weight its diffuse by the Fresnel term)
-    np.testing.assert_allclose(srgb_to_linear(_raw(p["basecolor"])), cv.to_principled_base(
+    np.testing.assert_allclose(srgb_to_linear(read_stored(p["basecolor"])), cv.to_principled_base(
         maps.diffuse, maps.specular, config), atol=6e-3)
-    np.testing.assert_allclose(0.08 * scale * _raw(p["specular"])[..., :1], maps.specular, atol=2e-5)
-    np.testing.assert_allclose(_raw(p["roughness"])[..., :1], maps.roughness, atol=1e-5)
-    np.testing.assert_allclose(decode_normal(_raw(p["normal"])), maps.normal, atol=1e-4)  # OpenGL, green up
+    np.testing.assert_allclose(0.08 * scale * read_stored(p["specular"])[..., :1], maps.specular, atol=2e-5)
+    np.testing.assert_allclose(read_stored(p["roughness"])[..., :1], maps.roughness, atol=1e-5)
+    np.testing.assert_allclose(decode_normal(read_stored(p["normal"])), maps.normal, atol=1e-4)  # OpenGL, green up
     assert side["target"]["name"] == "blender" and "0.08" in side["target"]["conversion"]
 
 
@@ -119,7 +107,7 @@ def test_a_set_within_eight_percent_needs_no_scale_node_wrangler_reads_it_as_is(
     maps.specular = np.clip(maps.specular, 0.0, 0.07)
     p = write_target(maps, tmp_path, "m", "blender")
     assert json.loads(p["sidecar"].read_text())["files"]["specular"]["principled_specular_scale"] == 1.0
-    np.testing.assert_allclose(_raw(p["specular"])[..., :1], maps.specular / 0.08, atol=2e-5)
+    np.testing.assert_allclose(read_stored(p["specular"])[..., :1], maps.specular / 0.08, atol=2e-5)
 
 
 def test_the_blender_target_writes_height_and_ao(tmp_path, maps):

@@ -3,9 +3,9 @@
 import json
 
 import numpy as np
-import OpenImageIO as oiio
 import pytest
 
+from ..conftest import read_stored
 from svbrdf.runtime.outputs import conversions as cv
 from svbrdf.runtime.core.colour import srgb_to_linear
 from svbrdf.runtime.errors import ImageError
@@ -34,18 +34,6 @@ def maps():
         normal=normalize_normals(n),
         meta={"source": "photo.jpg"},
     )
-
-
-def _read_raw(path):
-    """All channels of an image file as stored (value / max), alpha unassociated: what a DCC tool sees."""
-    cfg = oiio.ImageSpec()
-    cfg.attribute("oiio:UnassociatedAlpha", 1)
-    inp = oiio.ImageInput.open(str(path), cfg)
-    assert inp is not None, oiio.geterror()
-    try:
-        return np.asarray(inp.read_image(oiio.FLOAT), dtype=np.float32)
-    finally:
-        inp.close()
 
 
 # ---------------------------------------------------------------------------------------------- conversions
@@ -189,12 +177,12 @@ def test_gltf_files(tmp_path, maps):
     fb_base, metal = cv.specgloss_to_metalrough(base, maps.specular)
     np.testing.assert_allclose(read_image(p["basecolor"]), base, atol=5e-3)
     np.testing.assert_allclose(read_image(p["fallback_basecolor"]), fb_base, atol=5e-3)
-    orm = _read_raw(p["orm"])
+    orm = read_stored(p["orm"])
     np.testing.assert_array_equal(orm[..., 0], 1.0)
     np.testing.assert_allclose(orm[..., 1:2], maps.roughness, atol=Q8)
     np.testing.assert_allclose(orm[..., 2:3], metal, atol=Q8)
     assert metal[0, 0, 0] == 0.0 and metal.max() > 0.1
-    np.testing.assert_allclose(_read_raw(p["normal"]), (maps.normal + 1) / 2, atol=Q8)
+    np.testing.assert_allclose(read_stored(p["normal"]), (maps.normal + 1) / 2, atol=Q8)
     doc = json.loads(p["gltf"].read_text())
     ext = doc["materials"][0]["extensions"]["KHR_materials_specular"]
     tex = read_image(p["specularcolor"])[..., :1]  # sRGB-decoded, as a glTF viewer does
@@ -211,23 +199,23 @@ def test_metal_rough_targets(tmp_path, maps, target):
     p = write_target(maps, tmp_path, "m", target)
     base, metal = cv.specgloss_to_metalrough(cv.to_weighted_base(maps.diffuse, maps.specular, ZHAO), maps.specular)
     np.testing.assert_allclose(read_image(p["basecolor"]), base, atol=5e-3)
-    stored_n = _read_raw(p["normal"]) * 2 - 1
+    stored_n = read_stored(p["normal"]) * 2 - 1
     if target == "unreal":  # DirectX: green flipped, nothing else
         np.testing.assert_allclose(stored_n[..., 1], -maps.normal[..., 1], atol=3 * Q16)
-        orm = _read_raw(p["orm"])
+        orm = read_stored(p["orm"])
         np.testing.assert_array_equal(orm[..., 0], 1.0)
         np.testing.assert_allclose(orm[..., 1:2], maps.roughness, atol=Q16)
         np.testing.assert_allclose(orm[..., 2:3], metal, atol=Q16)
     else:
         np.testing.assert_allclose(stored_n[..., 1], maps.normal[..., 1], atol=3 * Q16)
-        np.testing.assert_allclose(_read_raw(p["metallic"])[..., :1], metal, atol=Q16)
-        np.testing.assert_allclose(_read_raw(p["roughness"])[..., :1], maps.roughness, atol=Q16)
+        np.testing.assert_allclose(read_stored(p["metallic"])[..., :1], metal, atol=Q16)
+        np.testing.assert_allclose(read_stored(p["roughness"])[..., :1], maps.roughness, atol=Q16)
     np.testing.assert_allclose(stored_n[..., [0, 2]], maps.normal[..., [0, 2]], atol=3 * Q16)
 
 
 def test_unity_smoothness_in_alpha(tmp_path, maps):
     p = write_target(maps, tmp_path, "m", "unity")
-    ss = _read_raw(p["specular_smoothness"])
+    ss = read_stored(p["specular_smoothness"])
     assert ss.shape == (H, W, 4) and image_info(p["specular_smoothness"])["dtype"] == "uint16"
     np.testing.assert_allclose(ss[..., 3:], 1.0 - maps.roughness, atol=Q16)  # alpha: linear, not premultiplied
     for c in range(3):  # RGB: sRGB-encoded F0, untouched by the alpha
@@ -394,7 +382,7 @@ def test_ao_goes_into_the_orm_red_channel_and_the_gltf_occlusion_texture(tmp_pat
     ao = m.relief.ao[..., None]
     assert ao.min() < 0.9
     p = write_target(m, tmp_path / "gltf", "m", "gltf")
-    orm = _read_raw(p["orm"])
+    orm = read_stored(p["orm"])
     np.testing.assert_allclose(orm[..., :1], ao, atol=Q8)
     np.testing.assert_allclose(orm[..., 1:2], m.roughness, atol=Q8)  # G and B as without the AO
     for role in ("gltf", "gltf_fallback"):
@@ -404,24 +392,24 @@ def test_ao_goes_into_the_orm_red_channel_and_the_gltf_occlusion_texture(tmp_pat
     assert "occlusionTexture" in json.loads(p["sidecar"].read_text())["target"]["import_notes"][-1]
     plain = write_target(maps, tmp_path / "plain", "m", "gltf")
     assert "occlusionTexture" not in json.loads(plain["gltf"].read_text())["materials"][0]
-    np.testing.assert_array_equal(_read_raw(plain["orm"])[..., 1:], _read_raw(
+    np.testing.assert_array_equal(read_stored(plain["orm"])[..., 1:], read_stored(
         write_target(with_relief(maps), tmp_path / "same", "m", "gltf")["orm"])[..., 1:])
     u = write_target(m, tmp_path / "unreal", "m", "unreal")
-    orm = _read_raw(u["orm"])
+    orm = read_stored(u["orm"])
     np.testing.assert_allclose(orm[..., :1], ao, atol=Q16)
     np.testing.assert_allclose(orm[..., 1:2], m.roughness, atol=Q16)
-    np.testing.assert_allclose(_read_raw(u["height"])[..., 0], m.relief.height, atol=Q16)
+    np.testing.assert_allclose(read_stored(u["height"])[..., 0], m.relief.height, atol=Q16)
 
 
 def test_unity_mask_map_has_ao_in_green_and_smoothness_in_alpha(tmp_path, maps):
     m = _relief_maps(maps)
     p = write_target(m, tmp_path, "m", "unity")
-    mask = _read_raw(p["mask"])
+    mask = read_stored(p["mask"])
     assert mask.shape == (H, W, 4) and image_info(p["mask"])["dtype"] == "uint16"
     np.testing.assert_allclose(mask[..., 1], m.relief.ao, atol=Q16)
     np.testing.assert_allclose(mask[..., 3:], 1.0 - m.roughness, atol=Q16)
     np.testing.assert_array_equal(mask[..., [0, 2]], 0.0)
-    np.testing.assert_allclose(_read_raw(p["height"])[..., 0], m.relief.height, atol=Q16)
+    np.testing.assert_allclose(read_stored(p["height"])[..., 0], m.relief.height, atol=Q16)
 
 
 @pytest.mark.parametrize("target,height,ao", [("blender", "m_disp.png", "m_ao.png"),
@@ -432,13 +420,13 @@ def test_height_and_ao_files_of_the_library_targets(tmp_path, maps, target, heig
     m = _relief_maps(maps)
     p = write_target(m, tmp_path, "m", target)
     assert (p["height"].name, p["ao"].name) == (height, ao)
-    np.testing.assert_allclose(_read_raw(p["height"])[..., 0], m.relief.height, atol=Q16)
-    np.testing.assert_allclose(_read_raw(p["ao"])[..., 0], m.relief.ao, atol=Q16)
+    np.testing.assert_allclose(read_stored(p["height"])[..., 0], m.relief.height, atol=Q16)
+    np.testing.assert_allclose(read_stored(p["ao"])[..., 0], m.relief.ao, atol=Q16)
     side = json.loads(p["sidecar"].read_text())
     assert side["relief"]["height_scale"] == m.relief.scale == side["files"]["height"]["height_scale"]
     # the base colour is the same as without the relief: the AO never darkens it
     plain = write_target(maps.__class__(m.diffuse, m.specular, m.roughness, m.normal), tmp_path / "p", "m", target)
-    np.testing.assert_array_equal(_read_raw(p["basecolor"]), _read_raw(plain["basecolor"]))
+    np.testing.assert_array_equal(read_stored(p["basecolor"]), read_stored(plain["basecolor"]))
 
 
 def test_ambientcg_ships_both_normal_conventions(tmp_path, maps):
@@ -446,7 +434,7 @@ def test_ambientcg_ships_both_normal_conventions(tmp_path, maps):
     assert sorted(x.name for x in p.values()) == sorted(
         f"Ground 080{s}" for s in ("_Color.png", "_NormalGL.png", "_NormalDX.png", "_Roughness.png",
                                    "_Specular.png", "_Displacement.png", "_AmbientOcclusion.png", ".mtlx", ".json"))
-    gl, dx = _read_raw(p["normal"]), _read_raw(p["normal_dx"])
+    gl, dx = read_stored(p["normal"]), read_stored(p["normal_dx"])
     np.testing.assert_allclose(dx[..., 1], 1.0 - gl[..., 1], atol=3 * Q16)
     np.testing.assert_array_equal(dx[..., [0, 2]], gl[..., [0, 2]])
     files = json.loads(p["sidecar"].read_text())["files"]
