@@ -16,6 +16,9 @@ the share of the width kept, with a warning). A crop to the same aspect ratio ca
 A focal length of 0, a negative one or a field of view outside :data:`FOV_RANGE` is a warning and no answer (the
 caller, :func:`svbrdf.runtime.workflow.camera.photo_camera`, then estimates the field of view from the photo's
 own fall-off, :mod:`svbrdf.runtime.core.falloff`).
+
+Without any of that, :func:`phone_fov` is the field of view a phone's main camera (:data:`PHONE_F35_MM`, a 4:3
+frame) gives a photo of that shape, taken as the largest centred crop of the frame (the same rule as a crop above).
 """
 
 from __future__ import annotations
@@ -32,6 +35,10 @@ from .images import ImageWarning
 FULL_FRAME_DIAGONAL_MM = math.hypot(36.0, 24.0)
 #: Fields of view (degrees, across the width) taken as plausible for a photo of a material; outside: absurd.
 FOV_RANGE: Tuple[float, float] = (5.0, 120.0)
+#: A phone's main camera, the commonest camera of a flash photo: its 35 mm-equivalent focal length (mm; 26 mm on
+#: most phones since 2018, 24-28 mm on the others) and its frame's aspect ratio (width, height), landscape.
+PHONE_F35_MM = 26.0
+PHONE_FRAME: Tuple[float, float] = (4.0, 3.0)
 #: ``FocalPlaneResolutionUnit``: millimetres per unit.
 _UNIT_MM = {2: 25.4, 3: 10.0, 4: 1.0, 5: 0.001}
 
@@ -47,6 +54,32 @@ class ExifCamera:
 
     fov_deg: float
     how: str
+
+
+def fov_35mm(f35: float, frame: Tuple[float, float]) -> float:
+    """The field of view (degrees) across the width of a ``frame`` (width, height; any unit) taken with a lens of
+    35 mm-equivalent focal length ``f35`` (mm): ``2 atan(w_mm / (2 f35))``, ``w_mm`` the width's share of the
+    43.27 mm diagonal."""
+    width_mm = FULL_FRAME_DIAGONAL_MM * frame[0] / math.hypot(frame[0], frame[1])
+    return 2.0 * math.degrees(math.atan(width_mm / (2.0 * f35)))
+
+
+def crop_fov(fov_deg: float, frame: Tuple[float, float], photo: Tuple[float, float]) -> Tuple[float, float]:
+    """``(fov, kept)``: the field of view (degrees) across the width of ``photo`` (width, height) taken as the
+    largest centred crop of its aspect ratio from ``frame`` (width, height), whose width spans ``fov_deg``; ``kept``
+    is the share of the frame's width kept (1 when the photo is as wide as the frame or wider: the whole width)."""
+    kept = min(1.0, (photo[0] / photo[1]) * frame[1] / frame[0])
+    return 2.0 * math.degrees(math.atan(math.tan(math.radians(fov_deg) / 2.0) * kept)), kept
+
+
+def phone_fov(width: int, height: int) -> float:
+    """The field of view (degrees) across a ``width`` x ``height`` photo from a phone's main camera: the largest
+    centred crop of that shape from its :data:`PHONE_FRAME` in the photo's orientation, at :data:`PHONE_F35_MM`
+    (a 4:3 or wider photo: 67.3 deg; a square one: 53.1 deg), within :data:`FOV_RANGE` (a strip narrower than
+    about 1:10 gets its lower end)."""
+    frame = PHONE_FRAME if width >= height else (PHONE_FRAME[1], PHONE_FRAME[0])
+    fov = crop_fov(fov_35mm(PHONE_F35_MM, frame), frame, (width, height))[0]
+    return min(max(fov, FOV_RANGE[0]), FOV_RANGE[1])
 
 
 def _attr(spec, name: str) -> Optional[float]:
@@ -96,8 +129,7 @@ def exif_camera(path: Union[str, Path], size: Optional[Tuple[int, int]] = None) 
     if f35 is not None:
         if f35 <= 0:
             return _absurd(path, f"FocalLengthIn35mmFilm {f35:g}")
-        width_mm = FULL_FRAME_DIAGONAL_MM * shown_w / math.hypot(shown_w, shown_h)
-        fov, how = 2.0 * math.degrees(math.atan(width_mm / (2.0 * f35))), f"FocalLengthIn35mmFilm {f35:g} mm"
+        fov, how = fov_35mm(f35, (shown_w, shown_h)), f"FocalLengthIn35mmFilm {f35:g} mm"
     else:
         res, unit = _attr(spec, "Exif:FocalPlaneXResolution"), spec.get_int_attribute("Exif:FocalPlaneResolutionUnit", 2)
         if f <= 0:
@@ -110,8 +142,7 @@ def exif_camera(path: Union[str, Path], size: Optional[Tuple[int, int]] = None) 
         fov, how = 2.0 * math.degrees(math.atan(width_mm / (2.0 * f))), f"FocalLength {f:g} mm, sensor {width_mm:.2f} mm wide"
     h, w = size if size is not None else ((stored[1], stored[0]) if turned else stored)
     if abs((w / h) / (shown_w / shown_h) - 1.0) > 0.01:  # another aspect ratio: a crop of the whole height (or width)
-        kept = min(1.0, (w / h) * shown_h / shown_w)
-        fov = 2.0 * math.degrees(math.atan(math.tan(math.radians(fov) / 2.0) * kept))
+        fov, kept = crop_fov(fov, (shown_w, shown_h), (w, h))
         how += f"; {w}x{h} px of a {shown_w:.0f}x{shown_h:.0f} frame, taken as a crop of {kept:.0%} of its width"
         warnings.warn(ImageWarning(f"{path}: {w}x{h} px of a {shown_w:.0f}x{shown_h:.0f} frame (EXIF): the field of "
                                    f"view assumes a crop of {kept:.0%} of its width ({fov:.1f} deg)"), stacklevel=2)
@@ -126,4 +157,5 @@ def _absurd(path, what: str) -> None:
     return None
 
 
-__all__ = ["ExifCamera", "FOV_RANGE", "FULL_FRAME_DIAGONAL_MM", "exif_camera"]
+__all__ = ["ExifCamera", "FOV_RANGE", "FULL_FRAME_DIAGONAL_MM", "PHONE_F35_MM", "PHONE_FRAME", "crop_fov", "exif_camera",
+           "fov_35mm", "phone_fov"]

@@ -86,7 +86,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         if refine is None:
             raise ValueError("options.refine needs the refine function (svbrdf.runtime.inference.refine.load_refine)")
         image = read_image(photo, max_size=options.max_size)  # read once: the camera's estimate takes it too
-    camera = photo_camera(photo, options.fov, config.fov_deg, image=image)
+    camera = photo_camera(photo, options.fov, image=image)
     config = config.replace(fov_deg=camera["fov_deg"])
     if options.refine:
         warn_if_greyscale(image, str(photo))

@@ -118,8 +118,14 @@ def test_the_bench_method_runs_the_runtime_refine_with_the_cases_camera():
     run = method.run(case, opts, None, points.append)
     (point,) = points
     assert point.maps.shape == (S, S) and point.maps.meta["refine"] is run["refine"]
-    assert run["fov_deg"] == opts.config.fov_deg and point.train_seconds == run["refine"]["seconds"]
-    # A view of a calibrated capture: the field of view of that view's camera height over the capture's width.
+    # A real photo: the camera svbrdf-preview takes from its pixels (no EXIF here), not the bench's default.
+    from svbrdf.runtime.workflow.camera import image_camera
+
+    assert run["fov_deg"] == image_camera(photo)["fov_deg"] and point.train_seconds == run["refine"]["seconds"]
+    # A view of a calibrated capture: the same (the calibration is the evaluation's, which svbrdf-preview lacks).
     calib = CaptureCalibration(path=None, width_cm=10.0, views={0: ((1.0, 0.0, 11.0), (1.0, 0.0, 11.0))})
     view = BenchCase("v", "v.png", "photo", "photo", photo, None, (32.0, 32.0), capture=CaptureViews(calib, 0, {}))
-    assert case_render_config(view, opts.config).fov_deg == pytest.approx(2 * np.degrees(np.arctan(5.0 / 11.0)))
+    assert case_render_config(view, opts.config).fov_deg == image_camera(photo)["fov_deg"]
+    # A synthetic case: the camera it was rendered with.
+    synthetic = BenchCase("s", "s.png", "synthetic", "des18", photo, _maps(0.3, 0.3), (32.0, 32.0))
+    assert case_render_config(synthetic, opts.config) is opts.config

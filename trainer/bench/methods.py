@@ -213,15 +213,16 @@ class Preview(Method):
 
 
 def case_render_config(case: BenchCase, config: RenderConfig) -> RenderConfig:
-    """The render settings of ``case``'s camera: ``config``, with the field of view of the view's calibrated camera
-    height over the capture's width when the case is a view of a calibrated capture."""
-    if case.capture is None:
+    """The render settings of ``case``'s camera as ``svbrdf-preview`` takes it: for a real photo (a view of a
+    calibrated capture too) ``config`` with the field of view of the photo's own pixels
+    (:func:`svbrdf.runtime.workflow.camera.image_camera`: the fall-off estimate or a phone's main camera; the shared
+    photos carry no focal length, and a capture's calibration is the evaluation's, not the method's); for a
+    synthetic case ``config`` itself (its photo was rendered with it)."""
+    if case.kind != "photo":
         return config
-    import math
+    from svbrdf.runtime.workflow.camera import image_camera
 
-    calib = case.capture.calibration
-    height = calib.views[case.capture.index][0][2]
-    return config.replace(fov_deg=2.0 * math.degrees(math.atan(calib.width_cm / 2.0 / height)))
+    return config.replace(fov_deg=image_camera(case.photo)["fov_deg"])
 
 
 class Refine(Method):

@@ -48,7 +48,9 @@ def test_one_photo_writes_a_texture_set(photo, tiny_model, capsys):
     assert read_image(folder / "wood_relit.png").shape == (48, 3 * 64, 3)
     sidecar = json.loads((folder / "wood.json").read_text())
     assert sidecar["meta"]["model"]["verified"] and sidecar["meta"]["source"] == str(photo)
-    assert sidecar["brdf"]["render_config"]["fov_deg"] == 50.0  # the model's training FOV
+    # no EXIF, no reliable fall-off: a phone's main camera across a 4:3 photo (not the model's training camera, 50)
+    assert sidecar["camera"]["fov_source"] == "default"
+    assert sidecar["brdf"]["render_config"]["fov_deg"] == sidecar["camera"]["fov_deg"] == pytest.approx(67.3, abs=0.01)
 
 
 def test_a_clipped_highlight_is_filled_and_said(tiny_model, tmp_path, capsys):
