@@ -3,7 +3,7 @@
 Same steps and order as :func:`svbrdf.trainer.camera_model.expose` (exposure ``2 ** ev``, vignetting
 ``1 - v (r / r_corner)^2``, Poisson-Gaussian noise of variance ``shot * x + read^2``, the highlight roll-off
 :func:`svbrdf.trainer.camera_model.roll_off`, clip to [0, 1], 8-bit sRGB storage), one camera per photo, for the
-procedural prior's batched stream (``PriorConfig.batched``). The noise comes
+procedural prior's batched stream (``PriorConfig.materials.batched``). The noise comes
 from a generator on the photos' device seeded by the caller, so a GPU never waits for the host. Checked against the
 numpy model in ``tests/trainer/test_camera.py``.
 """

@@ -30,7 +30,7 @@ import numpy as np
 #: shot-noise variance per unit signal, read-noise standard deviation (linear units). A phone photo at base ISO
 #: has about 0.1-0.5 % read noise and a shot term that gives ~2-4 % noise at mid grey. ``white`` is the highlight
 #: roll-off's white point (1: none, a linear camera, as the benchmark's synthetic inputs are; the procedural prior
-#: may widen it: ``PriorConfig.camera``).
+#: may widen it: ``PriorConfig.photos.camera``).
 REALISTIC: Dict[str, tuple] = {
     "ev": (-0.5, 0.5),
     "vignetting": (0.0, 0.3),

@@ -17,7 +17,6 @@ the current iteration; ``--resume`` continues exactly from it).
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import signal
 import sys
 import time
@@ -66,6 +65,16 @@ class _Fail(Exception):
 #: ``svbrdf-train prior`` flags that change what a run learns: a new ``--recipe`` run takes none of them.
 RECIPE_FIXED = ("iters", "batch", "size", "photo_size", "width", "lr", "seed", "material_reuse", "slope_weight",
                 "ema", "flat_share", "black_share", "coarse_share", "height_activation")
+#: The prior setting (dotted name, :mod:`svbrdf.trainer.prior.config`) each ``svbrdf-train prior`` flag sets.
+PRIOR_FLAGS: Dict[str, str] = {
+    "iters": "optim.iters", "batch": "optim.batch", "lr": "optim.lr", "seed": "optim.seed", "ema": "optim.ema",
+    "size": "photos.size", "photo_size": "photos.photo_size", "width": "generator.width",
+    "height_activation": "generator.height_activation", "material_reuse": "materials.reuse",
+    "flat_share": "materials.flat_share", "black_share": "materials.black_share",
+    "coarse_share": "materials.coarse_share", "slope_weight": "losses.slope",
+    "checkpoint_every": "monitor.checkpoint_every", "log_every": "monitor.log_every",
+    "eval_every": "monitor.eval_every",
+}
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -176,8 +185,9 @@ def build_parser() -> argparse.ArgumentParser:
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "
                         "linear converts a tanh checkpoint where it stands (its saturated height kept the normals flat)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
-                   help="any prior setting of a new --preset run: a PriorConfig field or generator.<field>, e.g. "
-                        "--set lambda_grad=0.5 (values read as JSON, else text; after the flags above); repeatable")
+                   help="any prior setting of a new --preset run by its dotted name, e.g. --set losses.grad=0.5 or "
+                        "--set generator.width=0.5 (the flat names of earlier records, e.g. lambda_grad, too; values "
+                        "read as JSON, else text; after the flags above); repeatable")
     p.add_argument("--compile", action="store_true",
                    help="torch.compile the loss's renderings (a v2 step on one CPU thread: 11.8 -> 8.8 s after "
                         "1-2 minutes of compiling; falls back to eager if it fails; not measured on a GPU)")
@@ -272,6 +282,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
     from svbrdf.runtime.progress import Progress, loss_postfix, write
     from svbrdf.trainer import checkpoint as ckpt_io
     from svbrdf.trainer.prior import STAGE, PriorConfig, PriorTrainer
+    from svbrdf.trainer.prior.config import override
 
     def log(msg: str) -> None:
         if not args.quiet:
@@ -305,23 +316,23 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         except (TypeError, ValueError) as e:
             raise _Fail(f"{source}: bad prior settings ({e})") from None
         # How the run is kept may change on a resume; so may these learned settings, each with a note.
-        kept = {k: getattr(args, k) for k in ("iters", "log_every", "eval_every", "material_reuse", "checkpoint_every")
-                if getattr(args, k) is not None}
-        learned_now = {"lambda_slope": (args.slope_weight, "the slope term's weight {} -> {} from here on"),
-                       "ema": (args.ema, "the weights' moving average (decay {} -> {}) from here on; it is the model "
-                                         "the checkpoint gives"),
-                       "flat_share": (args.flat_share, "the share of materials with flat normals {} -> {} from here on"),
-                       "black_share": (args.black_share, "the share of near-black dielectric materials {} -> {} from "
-                                                         "here on"),
-                       "coarse_share": (args.coarse_share, "the share of materials with a coarse relief {} -> {} from "
-                                                           "here on")}
-        changed = {k: v for k, (v, _) in learned_now.items() if v is not None and v != getattr(config, k)}
+        kept = {PRIOR_FLAGS[k]: getattr(args, k) for k in ("iters", "log_every", "eval_every", "material_reuse",
+                                                           "checkpoint_every") if getattr(args, k) is not None}
+        learned_now = {"slope_weight": "the slope term's weight {} -> {} from here on",
+                       "ema": "the weights' moving average (decay {} -> {}) from here on; it is the model the "
+                              "checkpoint gives",
+                       "flat_share": "the share of materials with flat normals {} -> {} from here on",
+                       "black_share": "the share of near-black dielectric materials {} -> {} from here on",
+                       "coarse_share": "the share of materials with a coarse relief {} -> {} from here on"}
+        was = config.flat_dict()
+        changed = {k: getattr(args, k) for k in learned_now
+                   if getattr(args, k) is not None and getattr(args, k) != was[PRIOR_FLAGS[k]]}
         try:
-            new_config = dataclasses.replace(config, **kept, **changed)  # validates
+            new_config = override(config, {**kept, **{PRIOR_FLAGS[k]: v for k, v in changed.items()}})  # validates
         except ValueError as e:
             parser.error(str(e))
         for k, v in changed.items():
-            log("note: " + learned_now[k][1].format(f"{getattr(config, k):g}", f"{v:g}"))
+            log("note: " + learned_now[k].format(f"{was[PRIOR_FLAGS[k]]:g}", f"{v:g}"))
         config = new_config
         ignored = [f for f in ("batch", "size", "photo_size", "width", "lr", "seed") if getattr(args, f) is not None]
         ignored += [f for f in ("preset", "recipe") if getattr(args, f) is not None]
@@ -334,7 +345,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         trainer.load_resume(ckpt, source)
         if trainer.recipe is not None:
             log(f"recipe {trainer.recipe['name']}: its changes still to come are applied at their iterations")
-        log(f"resuming {source} at iteration {trainer.step}/{config.iters}"
+        log(f"resuming {source} at iteration {trainer.step}/{trainer.iters}"
             + ("" if source == ckpt_path else f"; saving into {ckpt_path}"))
         was = config.generator.height_activation
         if args.height_activation == "linear" and was == "tanh":
@@ -351,33 +362,21 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
                 raise _Fail(f"{out}: output folder exists and is not empty (use --force to start over, or --resume)")
             for p in (ckpt_path, out / LOG):
                 p.unlink(missing_ok=True)
-        over = {k: getattr(args, k) for k in ("iters", "batch", "size", "photo_size", "lr", "seed",
-                                              "checkpoint_every", "log_every", "eval_every", "material_reuse")
-                if getattr(args, k) is not None}
-        if args.slope_weight is not None:
-            over["lambda_slope"] = args.slope_weight
+        # the flags given (a --recipe run: only those that do not change what it learns, the others refused above)
+        over = {name: getattr(args, flag) for flag, name in PRIOR_FLAGS.items() if getattr(args, flag) is not None}
         chosen = None
         try:
-            if args.recipe:  # what it learns is the recipe's (the flags that change it were refused above)
+            if args.recipe:  # what it learns is the recipe's
                 from svbrdf.trainer.prior.recipes import recipe
 
                 chosen = recipe(args.recipe)
-                config = dataclasses.replace(chosen.config_at(0), **over)
+                config = override(chosen.config_at(0), over)
             else:
                 from svbrdf.trainer.prior import prior_preset
 
-                config = prior_preset(args.preset or "v1")
-                gen = {k: v for k, v in (("width", args.width), ("height_activation", args.height_activation))
-                       if v is not None}
-                if gen:
-                    over["generator"] = dataclasses.replace(config.generator, **gen)
-                for flag in ("ema", "flat_share", "black_share", "coarse_share"):
-                    if getattr(args, flag) is not None:
-                        over[flag] = getattr(args, flag)
-                config = dataclasses.replace(config, **over)
+                config = override(prior_preset(args.preset or "v1"), over)
                 if args.set:
                     from svbrdf.trainer.config import parse_settings
-                    from svbrdf.trainer.prior.config import override
 
                     config = override(config, parse_settings(args.set))
         except ValueError as e:
@@ -386,11 +385,12 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         trainer = PriorTrainer(config, recipe=chosen, **kw)
     trainer.say = log
     c = trainer.config
-    end = c.iters
+    end = trainer.iters
     if trainer.recipe is not None:  # the length its last change gives the schedule
-        end = next((int(s["iters"]) for _, s in reversed(trainer.recipe["changes"]) if "iters" in s), end)
+        end = next((int(s["optim.iters"]) for _, s in reversed(trainer.recipe["changes"]) if "optim.iters" in s), end)
         log(f"recipe {trainer.recipe['name']}: {len(trainer.recipe['changes'])} changes of its settings along the run")
-    log(f"prior: {end} iterations of {c.batch} procedural materials at {c.size} px, device {trainer.device}, "
+    log(f"prior: {end} iterations of {c.optim.batch} procedural materials at {c.photos.size} px, device "
+        f"{trainer.device}, "
         f"generator {c.generator.arch}, bf16 {trainer.bf16}, out {out}"
         + ("" if args.minutes is None else f", stopping after {args.minutes:g} min"))
     if trainer.bf16_note:
@@ -406,7 +406,7 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         if "s_per_iter" in rec and time.perf_counter() - state["said"] >= SPEED_LINE_SECONDS:
             state["said"] = time.perf_counter()
             total = "nan" if rec.get("total") is None else f"{rec['total']:.4f}"
-            log(f"it {rec['step']}/{tr.config.iters}: {rec['s_per_iter']:.4f} s/it ({rec['data_seconds']:.4f} s data), "
+            log(f"it {rec['step']}/{tr.iters}: {rec['s_per_iter']:.4f} s/it ({rec['data_seconds']:.4f} s data), "
                 f"{rec['samples']} samples seen, loss {total}, lr {rec['lr']:.2e}")
         if "eval" in rec:
             ev = rec["eval"]
@@ -431,12 +431,12 @@ def _run_prior(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int
         restore()
     bar.close()
     if trainer.interrupted:
-        print(f"{PROG}: interrupted at iteration {trainer.step}/{trainer.config.iters}; checkpoint saved to {ckpt_path}; "
+        print(f"{PROG}: interrupted at iteration {trainer.step}/{trainer.iters}; checkpoint saved to {ckpt_path}; "
               f"resume with: {resume_cmd}", file=sys.stderr)
         return 130
     if trainer.timed_out:
         size = ckpt_path.stat().st_size / 2 ** 20
-        log(f"time limit: stopped at iteration {trainer.step}/{trainer.config.iters} ({trainer.step * c.batch} samples, "
+        log(f"time limit: stopped at iteration {trainer.step}/{trainer.iters} ({trainer.step * c.optim.batch} samples, "
             f"{trainer.seconds:.0f} s of training in all); checkpoint {ckpt_path} ({size:.2f} MiB); "
             f"resume with: {resume_cmd}")
         return 0

@@ -390,13 +390,6 @@ class TrainConfig:
         return cls(**kw)
 
 
-def setting_name(key: str) -> str:
-    """The dotted name of a training setting: a flat name of an earlier record or override (:data:`FLAT_NAMES`,
-    e.g. ``lambda_fourier`` -> ``losses.fourier``, a post-processing field's bare name -> ``post.<field>``); any
-    other name unchanged."""
-    return FLAT_NAMES.get(key, key)
-
-
 def _as_mapping(value: Any) -> Any:
     """A sub-config or group given as an object -> its settings by name; anything else as it is."""
     if isinstance(value, (GeneratorConfig, DiscriminatorConfig, RenderConfig)):
@@ -406,56 +399,107 @@ def _as_mapping(value: Any) -> Any:
     return value
 
 
+@dataclass(frozen=True)
+class SettingsLayout:
+    """How a settings class names its settings, one dotted name each (:class:`TrainConfig`,
+    :class:`svbrdf.trainer.prior.config.PriorConfig`).
+
+    Attributes:
+        kind: what the settings are, in errors ("unknown training settings: ...").
+        groups: the groups by attribute name (``losses`` -> ``losses.<field>``).
+        components: the other top-level names; those in ``scalars`` are values, the others sub-configs (mappings of
+            their fields, or their objects).
+        scalars: the top-level names whose value is taken as it is (``preset``).
+        flat_names: flat names of earlier records -> dotted names.
+        retired: names of earlier records that are dropped when read.
+    """
+
+    kind: str
+    groups: Mapping[str, type]
+    components: Tuple[str, ...]
+    scalars: Tuple[str, ...]
+    flat_names: Mapping[str, str]
+    retired: frozenset = frozenset()
+
+    def name(self, key: str) -> str:
+        """The dotted name of ``key``: a flat name of an earlier record -> its dotted name; any other unchanged."""
+        return self.flat_names.get(key, key)
+
+    def put(self, out: Dict[str, Any], name: str, value: Any) -> None:
+        """Set dotted ``name`` in nested ``out``; a mapping given for a group or sub-config is merged field by
+        field."""
+        head, _, rest = name.partition(".")
+        if head not in self.groups and head not in self.components:
+            raise ValueError(f"unknown {self.kind} settings: {name}")
+        if not rest:
+            value = _as_mapping(value)
+            if head in self.scalars:
+                out[head] = value
+                return
+            if not isinstance(value, Mapping):
+                raise ValueError(f"{head} must be a mapping of its settings, got {value!r}")
+            for k, v in value.items():
+                self.put(out, f"{head}.{k}", v)
+            return
+        if head in self.scalars:
+            raise ValueError(f"unknown {self.kind} settings: {name}")
+        sub = out.setdefault(head, {})
+        if not isinstance(sub, dict):
+            raise ValueError(f"{head} must be a mapping of its settings, got {sub!r}")
+        sub[rest] = value
+
+    def nested(self, d: Mapping[str, Any]) -> Dict[str, Any]:
+        """Settings by any of their names (nested groups, dotted names, flat names of earlier records) as one nested
+        dict, later entries over earlier ones. Raises ValueError for a name that is none of those."""
+        out: Dict[str, Any] = {}
+        for key, value in d.items():
+            if key in self.retired:
+                continue
+            self.put(out, self.name(key), value)
+        return out
+
+    def flat(self, d: Mapping[str, Any]) -> Dict[str, Any]:
+        """Settings (any form :meth:`nested` reads) as one dotted name per setting of a group; the components keep
+        their values (sub-configs as dicts)."""
+        out: Dict[str, Any] = {}
+        for key, value in self.nested(d).items():
+            if key in self.groups:
+                out.update({f"{key}.{k}": v for k, v in value.items()})
+            else:
+                out[key] = value
+        return out
+
+
 #: The top-level names of :class:`TrainConfig` that are not a group.
 COMPONENTS = ("preset", "generator", "discriminator", "render")
+#: How :class:`TrainConfig` names its settings.
+LAYOUT = SettingsLayout("training", GROUPS, COMPONENTS, ("preset",), FLAT_NAMES, RETIRED_SETTINGS)
+
+
+def setting_name(key: str) -> str:
+    """The dotted name of a training setting: a flat name of an earlier record or override (:data:`FLAT_NAMES`,
+    e.g. ``lambda_fourier`` -> ``losses.fourier``, a post-processing field's bare name -> ``post.<field>``); any
+    other name unchanged."""
+    return LAYOUT.name(key)
 
 
 def _put(out: Dict[str, Any], name: str, value: Any) -> None:
     """Set dotted ``name`` in nested ``out``; a mapping given for a group or sub-config is merged field by field."""
-    head, _, rest = name.partition(".")
-    if head not in GROUPS and head not in COMPONENTS:
-        raise ValueError(f"unknown training settings: {name}")
-    if not rest:
-        value = _as_mapping(value)
-        if head == "preset":
-            out[head] = value
-            return
-        if not isinstance(value, Mapping):
-            raise ValueError(f"{head} must be a mapping of its settings, got {value!r}")
-        for k, v in value.items():
-            _put(out, f"{head}.{k}", v)
-        return
-    if head == "preset":
-        raise ValueError(f"unknown training settings: {name}")
-    sub = out.setdefault(head, {})
-    if not isinstance(sub, dict):
-        raise ValueError(f"{head} must be a mapping of its settings, got {sub!r}")
-    sub[rest] = value
+    LAYOUT.put(out, name, value)
 
 
 def nested_settings(d: Mapping[str, Any]) -> Dict[str, Any]:
     """Settings by any of their names (nested groups as :meth:`TrainConfig.to_dict` gives them, dotted names,
     the flat names of :data:`FLAT_NAMES`) as one nested dict, later entries over earlier ones. Raises ValueError
     for a name that is none of those."""
-    out: Dict[str, Any] = {}
-    for key, value in d.items():
-        if key in RETIRED_SETTINGS:
-            continue
-        _put(out, setting_name(key), value)
-    return out
+    return LAYOUT.nested(d)
 
 
 def flat_settings(d: Mapping[str, Any]) -> Dict[str, Any]:
     """Settings (any form :func:`nested_settings` reads) as one dotted name per setting of a group
     (``losses.fourier``, ``post.even_lighting``), as overrides, ``--set`` and ``refine`` records name them;
     ``preset``, ``generator``, ``discriminator`` and ``render`` keep their values (dicts)."""
-    out: Dict[str, Any] = {}
-    for key, value in nested_settings(d).items():
-        if key in GROUPS:
-            out.update({f"{key}.{k}": v for k, v in value.items()})
-        else:
-            out[key] = value
-    return out
+    return LAYOUT.flat(d)
 
 
 def _preset(name: str, model: str, settings: Mapping[str, Any] = ()) -> TrainConfig:
@@ -610,6 +654,7 @@ def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
 
 
 __all__ = ["TrainConfig", "Optimisation", "Losses", "PhotoModel", "Monitoring", "Guard", "Prediction", "GROUPS",
-           "FLAT_NAMES", "COMPONENTS", "NO_POST", "POST_FIELDS", "setting_name", "nested_settings", "flat_settings",
+           "FLAT_NAMES", "COMPONENTS", "LAYOUT", "SettingsLayout", "NO_POST", "POST_FIELDS", "setting_name",
+           "nested_settings", "flat_settings",
            "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS",
            "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS", "QUALITY_MODES", "SCHEDULES"]

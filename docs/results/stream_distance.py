@@ -14,7 +14,6 @@ absolute deviation), ``W1`` the 1-D Wasserstein distance over the same spread.
 from __future__ import annotations
 
 import argparse
-import dataclasses
 from pathlib import Path
 
 import numpy as np
@@ -24,10 +23,12 @@ from svbrdf.trainer.bench.cases import prepare_case
 from svbrdf.trainer.bench.datasets import find_cases
 from svbrdf.trainer.bench.split import select_split
 from svbrdf.trainer.prior.photos import sample_batch
+from svbrdf.trainer.prior.config import override
 from svbrdf.trainer.prior.recipes import RECIPES
 
 STATS = ("brightness", "fall_off", "clipped", "saturation")
-ARM_A = dict(fov_deg=(45.0, 75.0), print_share=0.0, block_mean=1, block_share=1.0)
+ARM_A = {"photos.fov_deg": (45.0, 75.0), "materials.print_share": 0.0, "photos.block_mean": 1,
+         "photos.block_share": 1.0}
 
 
 def stats(photo: np.ndarray) -> np.ndarray:
@@ -45,8 +46,8 @@ def stats(photo: np.ndarray) -> np.ndarray:
 
 
 def stream_stats(overrides: dict, n: int, size: int, photo_size: int, seed: int) -> np.ndarray:
-    config = dataclasses.replace(RECIPES["v4"].config_at(0), size=size, photo_size=photo_size, seed=seed,
-                                 **overrides)
+    config = override(RECIPES["v4"].config_at(0), {"photos.size": size, "photos.photo_size": photo_size,
+                                                   "optim.seed": seed, **overrides})
     rng, rows = torch.Generator().manual_seed(seed), []
     while len(rows) < n:
         photos, _, _ = sample_batch(config, rng)
@@ -72,8 +73,8 @@ def main() -> None:
     a = ap.parse_args()
     torch.set_num_threads(1)
     real = real_stats(a.data, a.split)
-    arms = {"A (v2 stream)": stream_stats(dict(ARM_A, batch=a.batch), a.n, a.size, a.photo_size, a.seed),
-            "B (v4 stream)": stream_stats(dict(batch=a.batch), a.n, a.size, a.photo_size, a.seed)}
+    arms = {"A (v2 stream)": stream_stats({**ARM_A, "optim.batch": a.batch}, a.n, a.size, a.photo_size, a.seed),
+            "B (v4 stream)": stream_stats({"optim.batch": a.batch}, a.n, a.size, a.photo_size, a.seed)}
     med = np.median(real, 0)
     sd = 1.4826 * np.median(np.abs(real - med), 0)
     print(f"stream: {a.n} photos an arm at {a.size} px (crops of {a.photo_size} px); real: {len(real)} photos "

@@ -159,7 +159,7 @@ def test_the_packaged_stage_one_loads_and_its_fine_tune_resolves_as_before():
     assert "lambda_anchor" in ckpt["train_config"] and "losses" not in ckpt["train_config"]  # the flat form
     assert TrainConfig.from_dict(ckpt["train_config"]) == resolve("fast")
     prior = PriorConfig.from_dict(ckpt["prior_config"])
-    assert prior.generator.arch == "unet" and prior.iters == 20000
+    assert prior.generator.arch == "unet" and prior.optim.iters == 20000
     cfg, notes = finetune_config(resolve("fast"), ckpt)
     # The values the fine-tune resolved to before the groups (snapshot of the flat config, 2026-11-29).
     assert (cfg.losses.specular_prior, cfg.losses.anchor) == (0.0, 1.0)
@@ -213,10 +213,10 @@ def test_prior_set_overrides_a_field_or_the_generator():
     from svbrdf.trainer.prior.presets import prior_preset
 
     base = prior_preset("v1")
-    cfg = override(base, parse_settings(["lambda_grad=0.5", "generator.width=0.5", "amount_windows=[16]"]))
-    assert cfg.lambda_grad == 0.5 and cfg.generator.width == 0.5 and cfg.amount_windows == (16,)
-    assert cfg.batch == base.batch and override(base, {}) == base
+    cfg = override(base, parse_settings(["lambda_grad=0.5", "generator.width=0.5", "losses.amount_windows=[16]"]))
+    assert cfg.losses.grad == 0.5 and cfg.generator.width == 0.5 and cfg.losses.amount_windows == (16,)
+    assert cfg.optim.batch == base.optim.batch and override(base, {}) == base
     for bad, match in (({"nope": 1}, "unknown prior settings"), ({"generator.nope": 1}, "unknown"),
-                       ({"ema": 1.0}, "ema must be")):
+                       ({"ema": 1.0}, "optim.ema must be")):
         with pytest.raises(ValueError, match=match):
             override(base, bad)

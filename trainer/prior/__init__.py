@@ -6,32 +6,35 @@ unchanged) is trained on an endless, seeded stream of procedural materials
 (:func:`svbrdf.trainer.procedural.sample_materials`), each turned into a *realistic* flash photo:
 
 1. rendered by the one renderer (:func:`svbrdf.trainer.render.render_maps`) with inverse-square fall-off, a
-   random field of view (``fov_deg``) and a flash a little off the lens axis (``light_offset``), half of the
-   photos with the physical settings of the benchmark's Mitsuba inputs
+   random field of view (``photos.fov_deg``) and a flash a little off the lens axis (``photos.light_offset``), a
+   share of the photos (``photos.physical_share``) with the physical settings of the benchmark's Mitsuba inputs
    (:func:`svbrdf.runtime.core.render.physical_config`: exact Smith masking, F = F0);
 2. recorded by a random camera of :mod:`svbrdf.trainer.camera_model` (exposure that clips bright highlights,
    vignetting, Poisson-Gaussian noise, 8-bit sRGB);
-3. half of the batches are ``size`` px crops of ``photo_size`` px photos (the highlight anywhere in the tile, or
-   outside it, as in the fine-tune's tiles), the other half whole ``size`` px photos.
+3. a share of the batches (``photos.crop_share``) are ``photos.size`` px crops of ``photos.photo_size`` px photos
+   (the highlight anywhere in the tile, or outside it, as in the fine-tune's tiles), the others whole
+   ``photos.size`` px photos.
 
-Loss: :func:`~svbrdf.trainer.losses.supervised_maps_loss` (per-map L1) + ``lambda_render`` times
-:func:`~svbrdf.trainer.losses.relit_loss` (log radiance under the flash and ``render_lights`` random point
-lights, rendered with the fine-tune's renderer settings; with ``render_views``, also under random distant views and
-lights, grazing ones included) + ``lambda_grad`` times :func:`~svbrdf.trainer.losses.gradient_loss` (detail of the
-normal and roughness maps) + ``lambda_amount`` times :func:`~svbrdf.trainer.losses.detail_amount_loss` (their
-amount of local variation). Adam with a cosine learning-rate decay.
+Loss: :func:`~svbrdf.trainer.losses.supervised_maps_loss` (per-map L1) + ``losses.render`` times
+:func:`~svbrdf.trainer.losses.relit_loss` (log radiance under the flash and ``losses.render_lights`` random point
+lights, rendered with the fine-tune's renderer settings; with ``losses.render_views``, also under random distant
+views and lights, grazing ones included) + ``losses.grad`` times :func:`~svbrdf.trainer.losses.gradient_loss`
+(detail of the normal and roughness maps) + ``losses.amount`` times
+:func:`~svbrdf.trainer.losses.detail_amount_loss` (their amount of local variation) + ``losses.slope`` times
+:func:`~svbrdf.trainer.losses.slope_correlation_loss`. Adam with a cosine learning-rate decay.
 
-GPU scale (issue 26): with ``batched`` the materials, photos and relighting geometry of a batch are built with torch
-on the training device (:func:`simulate_photos_batched`, :func:`svbrdf.trainer.camera.expose_batch`), ``bf16``
-runs the generator under bfloat16 autocast, ``log_every`` averages the log over that many iterations (one read-back
-per record), and ``compact_checkpoint`` stores weights in float16 and Adam's moments in bfloat16.
+GPU scale (issue 26): with ``materials.batched`` the materials, photos and relighting geometry of a batch are built
+with torch on the training device (:func:`simulate_photos_batched`, :func:`svbrdf.trainer.camera.expose_batch`),
+``optim.bf16`` runs the generator under bfloat16 autocast, ``monitor.log_every`` averages the log over that many
+iterations (one read-back per record), and ``monitor.compact_checkpoint`` stores weights in float16 and Adam's
+moments in bfloat16.
 :meth:`PriorTrainer.run` takes a wall-clock limit (``max_seconds``) after which it saves and stops; the next run
 resumes the checkpoint on any device. :data:`PRIOR_PRESETS` names starting settings: ``v1`` (the first procedural
 stage one's) and ``v2`` (the U-Net with all of the above, for a GPU, as the shipped run started);
 :data:`svbrdf.trainer.prior.recipes.RECIPES` are the shipped runs as trained (``v2``: the settings it changed
 along the way, each at its iteration).
 
-Device stream and data parallel (issue 64): ``stream="device"`` draws the materials and photos batched on the
+Device stream and data parallel (issue 64): ``materials.stream="device"`` draws the materials and photos batched on the
 training device, every random number but one seed per draw from a generator there
 (:mod:`~svbrdf.trainer.prior.device_stream`; the same distributions as the host stream, reproducible on one device
 type only; the host stream stays the reference, identical on every device, and what v2 was trained on). Under
@@ -44,7 +47,7 @@ stream of materials and photos), :mod:`~svbrdf.trainer.prior.loss`, :mod:`~svbrd
 (:class:`PriorTrainer`), :mod:`~svbrdf.trainer.prior.presets`, :mod:`~svbrdf.trainer.prior.recipes`,
 :mod:`~svbrdf.trainer.prior.device_stream`, :mod:`~svbrdf.trainer.prior.chunk`.
 
-Weight averaging (``ema`` > 0): beside the weights it trains, the trainer keeps an exponential moving average of
+Weight averaging (``optim.ema`` > 0): beside the weights it trains, the trainer keeps an exponential moving average of
 them (:class:`torch.optim.swa_utils.AveragedModel`, updated after every optimiser step); that average is the model:
 the held-out evaluations, :attr:`PriorTrainer.model`, and every consumer of the checkpoint
 (:func:`svbrdf.trainer.checkpoint.generator_from_checkpoint`, the fine-tune's ``--init``, the export,

@@ -1,4 +1,4 @@
-"""The procedural stream drawn on the training device (``PriorConfig.stream = "device"``, issue 64).
+"""The procedural stream drawn on the training device (``PriorConfig.materials.stream = "device"``, issue 64).
 
 The host stream (:func:`svbrdf.trainer.procedural.sample_materials` and
 :func:`~svbrdf.trainer.prior.photos.simulate_photos_batched`) draws every random number from the caller's CPU
@@ -20,14 +20,14 @@ Here the same families, class materials, augmentations and photo model are built
   per material (``torch.where``), per-material counts index tables of their largest size. At most twelve batched
   family calls instead of one Python call per material: 6.7 k torch operations for a batch of 32 and 7.4 k for 128,
   against 14.9 k and 58.8 k for the host stream (``trainer/tools/throughput.py``'s ``ops_per_batch``). Nothing is
-  read back from the device (checked on the meta device by ``tests/trainer/prior/test_prior.py``,
+  read back from the device (checked on the meta device by ``tests/trainer/prior/test_device_stream.py``,
   ``test_the_device_stream_batch_and_loss_never_make_a_gpu_wait``). On a CPU it is no faster than the host stream
   (it computes both sides of every branch and Worley distances over tables of the largest size): it is built for
   a GPU.
 
 Reproducibility: the same ``rng`` state gives the same batch **on one device** (and one torch version): a CUDA
 generator and a CPU generator draw different numbers from one seed, so a run resumed on another device type continues
-with another stream of the same distribution (the host stream, ``stream="host"``, stays the reference that is the
+with another stream of the same distribution (the host stream, ``materials.stream="host"``, stays the reference that is the
 same everywhere). The distributions are the host stream's: same :data:`~svbrdf.trainer.procedural.PARAMS`, same
 families and shares (checked by the statistics test: family shares, per-map means, the photos' brightness and
 clipped fraction).
@@ -635,35 +635,35 @@ def add_coarse_relief_device(maps: torch.Tensor, chosen: torch.Tensor, d: Draws)
 def draw_materials_device(config, rng: torch.Generator, batch: Optional[int] = None,
                           device: Optional[Union[str, torch.device]] = None) -> Tuple[torch.Tensor, List[str], bool]:
     """:func:`~svbrdf.trainer.prior.photos.draw_materials` of the device stream: one seed from ``rng``, then the
-    batch's crop choice, its block-mean choice (``block_share``; the maps are then ``block_mean`` times the side) and
-    families on the host (:func:`sample_materials_device`) and the shares (coarse relief, flat, near-black, prints)
-    on the device."""
+    batch's crop choice, its block-mean choice (``photos.block_share``; the maps are then ``photos.block_mean``
+    times the side) and families on the host (:func:`sample_materials_device`) and the shares (coarse relief, flat,
+    near-black, prints) on the device."""
     from svbrdf.trainer.prior.photos import BLACK_LEVEL, blacken_dielectrics
 
-    n = config.batch if batch is None else batch
+    n = config.optim.batch if batch is None else batch
     dev = torch.device(device if device is not None else "cpu")
     seed = int(torch.randint(0, SEED_MAX, (), generator=rng))
     host = torch.Generator().manual_seed(seed + 1)
-    crop = bool(torch.rand((), generator=host) < config.crop_share)
-    block = config.block_mean if config.block_mean > 1 and bool(torch.rand((), generator=host) < config.block_share) \
-        else 1
-    side = (config.photo_size if crop else config.size) * block
-    maps, families = sample_materials_device(n, side, seed, config.families, dev)
+    crop = bool(torch.rand((), generator=host) < config.photos.crop_share)
+    ph = config.photos
+    block = ph.block_mean if ph.block_mean > 1 and bool(torch.rand((), generator=host) < ph.block_share) else 1
+    side = (config.photos.photo_size if crop else config.photos.size) * block
+    maps, families = sample_materials_device(n, side, seed, config.materials.families, dev)
     d = Draws(seed + 2, dev)
     with torch.no_grad():
-        if config.coarse_share > 0:
-            maps = add_coarse_relief_device(maps, d.chance(n, config.coarse_share), d)
-        if config.flat_share > 0:
+        if config.materials.coarse_share > 0:
+            maps = add_coarse_relief_device(maps, d.chance(n, config.materials.coarse_share), d)
+        if config.materials.flat_share > 0:
             sl = SLICES["normal"]
             up = torch.tensor([0.0, 0.0, 1.0], device=dev)[None, :, None, None].expand_as(maps[:, sl])
-            maps = torch.cat([maps[:, :sl.start], _where(d.chance(n, config.flat_share), up, maps[:, sl]),
+            maps = torch.cat([maps[:, :sl.start], _where(d.chance(n, config.materials.flat_share), up, maps[:, sl]),
                               maps[:, sl.stop:]], 1)
-        if config.black_share > 0:
-            chosen = d.chance(n, config.black_share)
+        if config.materials.black_share > 0:
+            chosen = d.chance(n, config.materials.black_share)
             level = d.logu(n, *BLACK_LEVEL)
             maps = blacken_dielectrics(maps, chosen, level, check=False)
-        if config.print_share > 0:
-            maps = add_prints(maps, d.chance(n, config.print_share), d)
+        if config.materials.print_share > 0:
+            maps = add_prints(maps, d.chance(n, config.materials.print_share), d)
     return maps, families, crop
 
 
@@ -730,14 +730,14 @@ def simulate_photos_device(maps: torch.Tensor, config, seed: int, crop: Optional
     dev = maps.device
     d = Draws(seed, dev)
     base = resolve(config.finetune_preset).render_config.replace(falloff=True)
-    fov = d.u(b, *config.fov_deg)
-    physical = d.chance(b, config.physical_share)
+    fov = d.u(b, *config.photos.fov_deg)
+    physical = d.chance(b, config.photos.physical_share)
     dist = 1.0 / torch.tan(torch.deg2rad(fov) / 2.0)
-    o = config.light_offset
+    o = config.photos.light_offset
     light = torch.stack([d.u(b, -o, o), d.u(b, -o, o), dist], 1)
     cams = torch.stack([torch.zeros_like(dist), torch.zeros_like(dist), dist], 1)
-    keys = CAMERA_KEYS if config.camera["white"] != (1.0, 1.0) else CAMERA_KEYS[:-1]
-    param = {k: d.u(b, *config.camera[k]) for k in keys}
+    keys = CAMERA_KEYS if config.photos.camera["white"] != (1.0, 1.0) else CAMERA_KEYS[:-1]
+    param = {k: d.u(b, *config.photos.camera[k]) for k in keys}
     pos, r2 = plane_grid(h, w, dev), None
     maps = maps.float()
     if crop is not None and crop < h:
@@ -763,8 +763,8 @@ def photograph_device(config, rng: torch.Generator, maps: torch.Tensor, families
                       ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
     """:func:`~svbrdf.trainer.prior.photos.photograph` of the device stream (one seed from ``rng``)."""
     seed = int(torch.randint(0, SEED_MAX, (), generator=rng))
-    k = maps.shape[-1] // (config.photo_size if crop else config.size)  # block_mean, or 1 (draw_materials_device)
-    photos, maps, draws = simulate_photos_device(maps, config, seed, crop=config.size * k if crop else None)
+    k = maps.shape[-1] // (config.photos.photo_size if crop else config.photos.size)  # photos.block_mean, or 1
+    photos, maps, draws = simulate_photos_device(maps, config, seed, crop=config.photos.size * k if crop else None)
     photos, maps = block_means(photos, maps, k)
     return photos, maps, {"families": families, "crop": crop, "draws": draws}
 

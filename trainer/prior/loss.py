@@ -60,27 +60,27 @@ class CompiledRelit:
 def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rng: torch.Generator,
                relit: Callable[..., torch.Tensor] = relit_pair) -> Dict[str, torch.Tensor]:
     """The prior's loss terms: per-map L1 (``maps/*``), relighting (``render``), detail (``grad``), amount of detail
-    (``amount``, with ``config.lambda_amount > 0``: :func:`~svbrdf.trainer.losses.detail_amount_loss`), pattern of
-    the normals' slopes (``slope``, with ``config.lambda_slope > 0``: :func:`~svbrdf.trainer.losses.slope_correlation_loss`)
-    and ``total``.
+    (``amount``, with ``config.losses.amount > 0``: :func:`~svbrdf.trainer.losses.detail_amount_loss`), pattern of
+    the normals' slopes (``slope``, with ``config.losses.slope > 0``:
+    :func:`~svbrdf.trainer.losses.slope_correlation_loss`) and ``total``.
 
     Relighting renders both map sets with the fine-tune's renderer settings under the flash and
-    ``config.render_lights`` random lights (:func:`lights_for`), on the training image as a whole photo, and
-    under ``config.render_views`` random distant (view, light) pairs (:func:`view_light_directions`, no fall-off);
-    ``render`` is the mean over all these renderings, each pair compared by ``relit`` (:func:`relit_pair`, or its
-    :class:`CompiledRelit`). ``grad`` (with ``config.lambda_grad > 0``) is
-    :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps. With ``config.batched`` the
-    geometry is computed with torch on ``pred``'s device (the same formula as the numpy one).
+    ``config.losses.render_lights`` random lights (:func:`lights_for`), on the training image as a whole photo, and
+    under ``config.losses.render_views`` random distant (view, light) pairs (:func:`view_light_directions`, no
+    fall-off); ``render`` is the mean over all these renderings, each pair compared by ``relit``
+    (:func:`relit_pair`, or its :class:`CompiledRelit`). ``grad`` (with ``config.losses.grad > 0``) is
+    :func:`~svbrdf.trainer.losses.gradient_loss` on the normal and roughness maps. With ``config.materials.batched``
+    the geometry is computed with torch on ``pred``'s device (the same formula as the numpy one).
     """
     terms = supervised_maps_loss(pred, target)
     out = {f"maps/{k}": v for k, v in terms.items() if k != "total"}
     total = terms["total"]
-    if config.lambda_render > 0:
+    if config.losses.render > 0:
         rc = resolve(config.finetune_preset).render_config.replace(falloff=True)
         h, w = pred.shape[-2:]
         rel = []
-        lights = [None] + lights_for(rc, config.render_lights, rng)
-        if config.batched:
+        lights = [None] + lights_for(rc, config.losses.render_lights, rng)
+        if config.materials.batched:
             cam = to_device(camera_position(rc)[None], pred.device)
             pos = plane_grid(h, w, pred.device)
             for light in lights:
@@ -91,23 +91,23 @@ def prior_loss(pred: torch.Tensor, target: torch.Tensor, config: PriorConfig, rn
             for light in lights:
                 v, l, d2 = (t.to(pred.device) for t in _geometry(h, w, light, rc))
                 rel.append(relit(pred, target, v, l, rc, d2))
-        if config.render_views:
+        if config.losses.render_views:
             distant = rc.replace(falloff=False)
-            pairs = to_device(view_light_directions(config.render_views, config, rng), pred.device)
+            pairs = to_device(view_light_directions(config.losses.render_views, config, rng), pred.device)
             for pair in pairs:
                 v, l = (direction_vectors(d[None], h, w) for d in pair)
                 rel.append(relit(pred, target, v, l, distant))
         out["render"] = torch.stack(rel).mean()
-        total = total + config.lambda_render * out["render"]
-    if config.lambda_grad > 0:
+        total = total + config.losses.render * out["render"]
+    if config.losses.grad > 0:
         out["grad"] = gradient_loss(pred, target)
-        total = total + config.lambda_grad * out["grad"]
-    if config.lambda_amount > 0:
-        out["amount"] = detail_amount_loss(pred, target, config.amount_maps, config.amount_windows)
-        total = total + config.lambda_amount * out["amount"]
-    if config.lambda_slope > 0:
+        total = total + config.losses.grad * out["grad"]
+    if config.losses.amount > 0:
+        out["amount"] = detail_amount_loss(pred, target, config.losses.amount_maps, config.losses.amount_windows)
+        total = total + config.losses.amount * out["amount"]
+    if config.losses.slope > 0:
         out["slope"] = slope_correlation_loss(pred, target)
-        total = total + config.lambda_slope * out["slope"]
+        total = total + config.losses.slope * out["slope"]
     out["total"] = total
     return out
 

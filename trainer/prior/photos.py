@@ -26,10 +26,11 @@ def _uniform(rng: torch.Generator, lo: float, hi: float) -> float:
 
 
 def _draw_camera(config: PriorConfig, rng: torch.Generator) -> Dict[str, float]:
-    """One photo's camera parameters from ``config.camera``'s ranges (:data:`~svbrdf.trainer.camera_model.CAMERA_KEYS`,
-    in order); ``white`` is drawn only when its range is not (1, 1), else it is 1 and nothing is drawn for it."""
-    keys = CAMERA_KEYS if config.camera["white"] != (1.0, 1.0) else CAMERA_KEYS[:-1]
-    return {"white": 1.0, **{k: _uniform(rng, *config.camera[k]) for k in keys}}
+    """One photo's camera parameters from ``config.photos.camera``'s ranges
+    (:data:`~svbrdf.trainer.camera_model.CAMERA_KEYS`, in order); ``white`` is drawn only when its range is not (1, 1),
+    else it is 1 and nothing is drawn for it."""
+    keys = CAMERA_KEYS if config.photos.camera["white"] != (1.0, 1.0) else CAMERA_KEYS[:-1]
+    return {"white": 1.0, **{k: _uniform(rng, *config.photos.camera[k]) for k in keys}}
 
 
 def lights_for(config: RenderConfig, n: int, rng: torch.Generator) -> List[Tuple[float, float, float]]:
@@ -42,16 +43,16 @@ def lights_for(config: RenderConfig, n: int, rng: torch.Generator) -> List[Tuple
 def view_light_directions(n: int, config: "PriorConfig", rng: torch.Generator) -> torch.Tensor:
     """``n`` random (view, light) pairs of distant directions for the relighting loss: (n, 2, 3) unit vectors.
 
-    Each direction's polar angle from the normal (+z) is in ``config.grazing_deg`` with probability
-    ``config.grazing_share``, else uniform in cosine up to the start of that range; azimuths are uniform. Half of
+    Each direction's polar angle from the normal (+z) is in ``config.losses.grazing_deg`` with probability
+    ``config.losses.grazing_share``, else uniform in cosine up to the start of that range; azimuths are uniform. Half of
     the pairs (every other one) put the light in the mirror direction of the view, so the highlight is in view.
     """
-    lo, hi = (math.radians(a) for a in config.grazing_deg)
+    lo, hi = (math.radians(a) for a in config.losses.grazing_deg)
     out = torch.empty(n, 2, 3)
     for i in range(n):
         dirs = []
         for _ in range(2):
-            if _uniform(rng, 0.0, 1.0) < config.grazing_share:
+            if _uniform(rng, 0.0, 1.0) < config.losses.grazing_share:
                 theta = _uniform(rng, lo, hi)
             else:
                 theta = math.acos(_uniform(rng, math.cos(lo), 1.0))
@@ -86,11 +87,11 @@ def simulate_photos(maps: torch.Tensor, config: PriorConfig, rng: torch.Generato
     base = resolve(config.finetune_preset).render_config.replace(falloff=True)
     photos, crops, draws = [], [], []
     for i in range(b):
-        fov = _uniform(rng, *config.fov_deg)
-        physical = _uniform(rng, 0.0, 1.0) < config.physical_share
+        fov = _uniform(rng, *config.photos.fov_deg)
+        physical = _uniform(rng, 0.0, 1.0) < config.photos.physical_share
         rc = base.replace(fov_deg=fov)
         rc = physical_config(rc) if physical else rc
-        o = config.light_offset
+        o = config.photos.light_offset
         light = (_uniform(rng, -o, o), _uniform(rng, -o, o), rc.camera_distance)
         v, l, d2 = _geometry(h, w, light, rc)
         with torch.no_grad():
@@ -111,7 +112,7 @@ def simulate_photos(maps: torch.Tensor, config: PriorConfig, rng: torch.Generato
 
 def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.Generator,
                             crop: Optional[int] = None) -> Tuple[torch.Tensor, torch.Tensor, List[Dict[str, Any]]]:
-    """:func:`simulate_photos` for a whole batch at once, with torch on ``maps``' device (``config.batched``).
+    """:func:`simulate_photos` for a whole batch at once, with torch on ``maps``' device (``config.materials.batched``).
 
     The same draws per photo (field of view, renderer mix, flash offset, camera, crop) from ``rng`` on the host;
     the geometry (:func:`svbrdf.trainer.render.point_light_vectors`), the rendering and the camera
@@ -123,10 +124,10 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
     base = resolve(config.finetune_preset).render_config.replace(falloff=True)
     cams, lights, physical, cam_draws, draws, boxes = [], [], [], [], [], []
     for _ in range(b):
-        fov = _uniform(rng, *config.fov_deg)
-        phys = _uniform(rng, 0.0, 1.0) < config.physical_share
+        fov = _uniform(rng, *config.photos.fov_deg)
+        phys = _uniform(rng, 0.0, 1.0) < config.photos.physical_share
         rc = base.replace(fov_deg=fov)
-        o = config.light_offset
+        o = config.photos.light_offset
         light = (_uniform(rng, -o, o), _uniform(rng, -o, o), rc.camera_distance)
         cam = _draw_camera(config, rng)
         cams.append(camera_position(rc))
@@ -172,11 +173,12 @@ def _windows(t: torch.Tensor, rows: torch.Tensor, cols: torch.Tensor) -> torch.T
 def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None,
                  device: Optional[Union[str, torch.device]] = None
                  ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
-    """One training batch: ``(photos (B, 3, S, S), maps (B, 8, S, S), info)`` with ``S = config.size``.
+    """One training batch: ``(photos (B, 3, S, S), maps (B, 8, S, S), info)`` with ``S = config.photos.size``.
 
-    With ``config.batched`` it is built on ``device`` (default CPU) by :func:`simulate_photos_batched`; otherwise
-    on the CPU photo by photo (:func:`simulate_photos`, v1), whatever ``device``. With ``config.stream`` "device"
-    everything is drawn and built on ``device`` (:mod:`svbrdf.trainer.prior.device_stream`).
+    With ``config.materials.batched`` it is built on ``device`` (default CPU) by :func:`simulate_photos_batched`;
+    otherwise on the CPU photo by photo (:func:`simulate_photos`, v1), whatever ``device``. With
+    ``config.materials.stream`` "device" everything is drawn and built on ``device``
+    (:mod:`svbrdf.trainer.prior.device_stream`).
     """
     return photograph(config, rng, *draw_materials(config, rng, batch, device))
 
@@ -184,30 +186,32 @@ def sample_batch(config: PriorConfig, rng: torch.Generator, batch: Optional[int]
 def draw_materials(config: PriorConfig, rng: torch.Generator, batch: Optional[int] = None,
                    device: Optional[Union[str, torch.device]] = None) -> Tuple[torch.Tensor, List[str], bool]:
     """The materials of one batch (first half of :func:`sample_batch`): ``(maps, families, crop)``, the maps at
-    ``photo_size`` when the batch is cropped (``crop``), else at ``size``. With ``config.stream`` "device":
-    :func:`svbrdf.trainer.prior.device_stream.draw_materials_device` (one seed from ``rng``, the rest drawn on
-    ``device``; its maps are ``block_mean`` times larger in a block-mean batch)."""
-    if config.stream == "device":
+    ``photos.photo_size`` when the batch is cropped (``crop``), else at ``photos.size``. With
+    ``config.materials.stream`` "device": :func:`svbrdf.trainer.prior.device_stream.draw_materials_device` (one seed
+    from ``rng``, the rest drawn on ``device``; its maps are ``photos.block_mean`` times larger in a block-mean
+    batch)."""
+    if config.materials.stream == "device":
         from svbrdf.trainer.prior.device_stream import draw_materials_device
 
         return draw_materials_device(config, rng, batch, device)
-    n = config.batch if batch is None else batch
-    crop = _uniform(rng, 0.0, 1.0) < config.crop_share
-    side = config.photo_size if crop else config.size
-    maps, families = sample_materials(n, side, rng, config.families, device=device if config.batched else None)
-    if config.coarse_share > 0:
-        maps = add_coarse_relief(maps, torch.rand(n, generator=rng) < config.coarse_share, rng)
-    if config.flat_share > 0:
-        maps = flatten_normals(maps, torch.rand(n, generator=rng) < config.flat_share)
-    if config.black_share > 0:
-        chosen = torch.rand(n, generator=rng) < config.black_share
+    n = config.optim.batch if batch is None else batch
+    crop = _uniform(rng, 0.0, 1.0) < config.photos.crop_share
+    side = config.photos.photo_size if crop else config.photos.size
+    maps, families = sample_materials(n, side, rng, config.materials.families,
+                                      device=device if config.materials.batched else None)
+    if config.materials.coarse_share > 0:
+        maps = add_coarse_relief(maps, torch.rand(n, generator=rng) < config.materials.coarse_share, rng)
+    if config.materials.flat_share > 0:
+        maps = flatten_normals(maps, torch.rand(n, generator=rng) < config.materials.flat_share)
+    if config.materials.black_share > 0:
+        chosen = torch.rand(n, generator=rng) < config.materials.black_share
         lo, hi = (math.log(v) for v in BLACK_LEVEL)
         level = torch.exp(lo + (hi - lo) * torch.rand(n, generator=rng))
         maps = blacken_dielectrics(maps, chosen, level)
     return maps, families, crop
 
 
-#: (lo, hi) of the mean linear base colour a ``black_share`` material is darkened to (log-uniform): below the
+#: (lo, hi) of the mean linear base colour a ``materials.black_share`` material is darkened to (log-uniform): below the
 #: procedural dielectric classes' darkest (``PARAMS["value_srgb"]`` 0.1, 0.01 linear), where only metals were.
 BLACK_LEVEL = (0.001, 0.01)
 
@@ -275,14 +279,14 @@ def flatten_normals(maps: torch.Tensor, chosen: torch.Tensor) -> torch.Tensor:
 def photograph(config: PriorConfig, rng: torch.Generator, maps: torch.Tensor, families: List[str], crop: bool
                ) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
     """Photos of materials from :func:`draw_materials` (second half of :func:`sample_batch`): ``(photos (B, 3, S,
-    S), maps (B, 8, S, S), info)`` with ``info`` = ``{"families", "crop", "draws"}``. With ``config.stream``
+    S), maps (B, 8, S, S), info)`` with ``info`` = ``{"families", "crop", "draws"}``. With ``config.materials.stream``
     "device": :func:`svbrdf.trainer.prior.device_stream.photograph_device` (``draws`` then holds device tensors)."""
-    if config.stream == "device":
+    if config.materials.stream == "device":
         from svbrdf.trainer.prior.device_stream import photograph_device
 
         return photograph_device(config, rng, maps, families, crop)
-    simulate = simulate_photos_batched if config.batched else simulate_photos
-    photos, maps, draws = simulate(maps, config, rng, crop=config.size if crop else None)
+    simulate = simulate_photos_batched if config.materials.batched else simulate_photos
+    photos, maps, draws = simulate(maps, config, rng, crop=config.photos.size if crop else None)
     return photos, maps, {"families": families, "crop": crop, "draws": draws}
 
 

@@ -17,10 +17,10 @@ from svbrdf.trainer.config import resolve
 from svbrdf.trainer.device import bf16_support, pick_device, set_threads
 from svbrdf.trainer.loop import TrainingLoop
 from svbrdf.trainer.models import Generator, linearise_height
-from svbrdf.trainer.prior.config import STAGE, PriorConfig
+from svbrdf.trainer.prior.config import STAGE, PriorConfig, override
 from svbrdf.trainer.prior.loss import CompiledRelit, map_errors, prior_loss, relit_pair
 from svbrdf.trainer.prior.photos import draw_materials, photograph, sample_batch
-from svbrdf.trainer.prior.recipes import HEIGHT, Recipe, apply_settings, pending
+from svbrdf.trainer.prior.recipes import HEIGHT, Recipe, dotted, pending
 
 PathLike = Union[str, Path]
 #: Callback ``(trainer, record) -> stop?`` called after every iteration.
@@ -49,8 +49,8 @@ class PriorTrainer(TrainingLoop):
     Data parallel (issue 64): under ``torchrun`` (``WORLD_SIZE`` > 1 in the environment, or a process group already
     initialised) the trainer joins the process group (NCCL on CUDA, each process on ``cuda:LOCAL_RANK``; gloo on a
     CPU), starts every process at rank 0's weights, and each process trains on its own share of every step:
-    ``config.batch`` materials per process (``batch`` x world size in all), drawn from a generator seeded with
-    one number of the common stream plus the rank (:meth:`_draw`). After the backward pass the gradients are
+    ``config.optim.batch`` materials per process (``optim.batch`` x world size in all), drawn from a generator seeded
+    with one number of the common stream plus the rank (:meth:`_draw`). After the backward pass the gradients are
     averaged over the processes (one all-reduce of all of them, flattened), so every process takes the same Adam
     step: the update of one process with the combined batch (``combine`` = world size; checked by
     ``tests/trainer/prior/test_ddp.py``), since every loss term is a mean over the batch's materials and the
@@ -77,20 +77,20 @@ class PriorTrainer(TrainingLoop):
         self.checkpoint_path = None if checkpoint_path is None or self.rank else Path(checkpoint_path)
         self.log_path = None if log_path is None or self.rank else Path(log_path)
         self.callback = callback
-        torch.manual_seed(config.seed)
+        torch.manual_seed(config.optim.seed)
         #: The networks' memory layout: channels-last on a CPU, where oneDNN's convolutions (forward and backward)
         #: take half the time in it (one thread, v2 batch: 5.6-6.2 -> 3.2 s a step, profiled); as is on a GPU (not measured).
         self.memory_format = torch.channels_last if self.device.type == "cpu" else torch.contiguous_format
         self.generator = Generator(config.generator).to(self.device, memory_format=self.memory_format)
         self.optimizer = torch.optim.Adam([p for p in self.generator.parameters() if p.requires_grad],
-                                          lr=config.lr, betas=config.betas)
-        self.rng = torch.Generator().manual_seed(config.seed)
+                                          lr=config.optim.lr, betas=config.optim.betas)
+        self.rng = torch.Generator().manual_seed(config.optim.seed)
         self.step = 0
         self.history: List[Dict[str, Any]] = []
         self.evals: List[Dict[str, Any]] = []
         self.seconds = 0.0
         self._init_loop()  # interrupted, stop_requested, timed_out (svbrdf.trainer.loop.TrainingLoop)
-        self.bf16, self.bf16_note = (bf16_support(self.device) if config.bf16 else (False, None))
+        self.bf16, self.bf16_note = (bf16_support(self.device) if config.optim.bf16 else (False, None))
         self._relit: Callable[..., torch.Tensor] = CompiledRelit() if compile else relit_pair
         self._eval_set: Optional[Tuple[torch.Tensor, torch.Tensor]] = None
         self._materials: Optional[Tuple[torch.Tensor, List[str], bool]] = None
@@ -100,9 +100,9 @@ class PriorTrainer(TrainingLoop):
                 torch.distributed.broadcast(t, 0)
         self._part_rngs: List[torch.Generator] = []
         self._average()
-        #: The recipe's record (:meth:`~svbrdf.trainer.prior.recipes.Recipe.to_record`) or None.
+        #: The recipe's record (:meth:`~svbrdf.trainer.prior.recipes.Recipe.to_record`; settings dotted) or None.
         self.recipe: Optional[Dict[str, Any]] = (recipe.to_record() if isinstance(recipe, Recipe)
-                                                 else None if recipe is None else dict(recipe))
+                                                 else None if recipe is None else _dotted_record(recipe))
         #: Called with a line for every change :meth:`apply` makes (the CLI prints them).
         self.say: Callable[[str], None] = lambda line: None
 
@@ -123,17 +123,17 @@ class PriorTrainer(TrainingLoop):
         return 0, 1
 
     def _draw(self) -> Tuple[torch.Tensor, torch.Tensor, Dict[str, Any]]:
-        """This step's batch: new materials every ``material_reuse`` iterations, photographed anew every iteration.
+        """This step's batch: new materials every ``materials.reuse`` iterations, photographed anew every iteration.
 
         One process, one share (``combine`` 1): the stream as it always was (materials and photos from ``rng``).
         Several shares (data parallel, or ``combine``): at each new draw of materials one number ``s`` is drawn from
         ``rng`` (the same in every process) and share ``k`` draws its materials and photos from a CPU generator
         seeded ``s + k``; the shares are concatenated in order."""
         if len(self.shares) == 1 and self.world == 1:
-            if self._materials is None or self.step % self.config.material_reuse == 0:
+            if self._materials is None or self.step % self.config.materials.reuse == 0:
                 self._materials = draw_materials(self.config, self.rng, device=self.device)
             return photograph(self.config, self.rng, *self._materials)
-        if self._materials is None or self.step % self.config.material_reuse == 0:
+        if self._materials is None or self.step % self.config.materials.reuse == 0:
             s = int(torch.randint(0, 2 ** 62, (), generator=self.rng))
             self._part_rngs = [torch.Generator().manual_seed(s + k) for k in self.shares]
             self._materials = [draw_materials(self.config, g, device=self.device) for g in self._part_rngs]
@@ -168,24 +168,25 @@ class PriorTrainer(TrainingLoop):
         return bool(flag.item())
 
     def _average(self) -> None:
-        """(Re)start the weights' moving average at the current weights (``config.ema`` > 0), else none."""
+        """(Re)start the weights' moving average at the current weights (``config.optim.ema`` > 0), else none."""
         from torch.optim.swa_utils import AveragedModel, get_ema_multi_avg_fn
 
-        self.averaged = (AveragedModel(self.generator, multi_avg_fn=get_ema_multi_avg_fn(self.config.ema),
-                                       use_buffers=True) if self.config.ema > 0 else None)
+        ema = self.config.optim.ema
+        self.averaged = (AveragedModel(self.generator, multi_avg_fn=get_ema_multi_avg_fn(ema), use_buffers=True)
+                         if ema > 0 else None)
 
     @property
     def model(self) -> Generator:
-        """The model this run has learned: the weights' moving average with ``ema`` > 0 (once it has been updated),
-        else the trained weights."""
+        """The model this run has learned: the weights' moving average with ``optim.ema`` > 0 (once it has been
+        updated), else the trained weights."""
         if self.averaged is None or int(self.averaged.n_averaged) == 0:
             return self.generator
         return self.averaged.module
 
     # ------------------------------------------------------------------ schedule
     def lr_at(self, step: int) -> float:
-        """Cosine decay from ``lr`` (step 0) to ``lr_min`` (step ``iters``)."""
-        c = self.config
+        """Cosine decay from ``optim.lr`` (step 0) to ``optim.lr_min`` (step ``optim.iters``)."""
+        c = self.config.optim
         t = min(max(step, 0), c.iters) / c.iters
         return c.lr_min + 0.5 * (c.lr - c.lr_min) * (1.0 + math.cos(math.pi * t))
 
@@ -203,7 +204,7 @@ class PriorTrainer(TrainingLoop):
             pred = self.generator(photos)
         terms = prior_loss(pred.float(), maps, self.config, self.rng, relit=self._relit)
         self.optimizer.zero_grad(set_to_none=True)
-        if self.config.batched or self.world > 1:
+        if self.config.materials.batched or self.world > 1:
             # No read-back: a non-finite loss zeroes its gradients on the device (Adam then takes a step with a
             # zero gradient) and is counted at the next log record.
             finite = torch.isfinite(terms["total"])
@@ -238,11 +239,11 @@ class PriorTrainer(TrainingLoop):
 
     def _record(self, window: List[Tuple[Dict[str, torch.Tensor], Dict[str, Any]]], seconds: float
                 ) -> Dict[str, Any]:
-        """The mean log record of ``window`` (``log_every`` > 1): terms averaged over its finite iterations,
+        """The mean log record of ``window`` (``monitor.log_every`` > 1): terms averaged over its finite iterations,
         ``iters`` in it, ``samples`` seen so far, ``seconds`` of wall time and ``s_per_iter``."""
         last = window[-1][1]
         rec: Dict[str, Any] = {"step": last["step"], "lr": last["lr"], "iters": len(window),
-                               "samples": last["step"] * self.config.batch * len(self.shares) * self.world,
+                               "samples": last["step"] * self.config.optim.batch * len(self.shares) * self.world,
                                "seconds": seconds,
                                "s_per_iter": seconds / len(window),
                                "data_seconds": sum(f["data_seconds"] for _, f in window) / len(window),
@@ -258,13 +259,15 @@ class PriorTrainer(TrainingLoop):
         return rec
 
     def eval_set(self) -> Tuple[torch.Tensor, torch.Tensor]:
-        """The fixed validation batch: whole ``size`` px photos from their own seed (never a training batch), from
-        the host stream whatever ``stream`` (the same batch on every device)."""
+        """The fixed validation batch: whole ``photos.size`` px photos from their own seed (never a training batch),
+        from the host stream whatever ``materials.stream`` (the same batch on every device)."""
         if self._eval_set is None:
-            rng = torch.Generator().manual_seed(10_000_019 + self.config.seed)
-            cfg = dataclasses.replace(self.config, crop_share=0.0, flat_share=0.0, black_share=0.0, coarse_share=0.0,
-                                      stream="host", print_share=0.0, block_mean=1)
-            photos, maps, _ = sample_batch(cfg, rng, batch=self.config.eval_batch, device=self.device)
+            rng = torch.Generator().manual_seed(10_000_019 + self.config.optim.seed)
+            cfg = override(self.config, {"photos.crop_share": 0.0, "materials.flat_share": 0.0,
+                                         "materials.black_share": 0.0, "materials.coarse_share": 0.0,
+                                         "materials.stream": "host", "materials.print_share": 0.0,
+                                         "photos.block_mean": 1})
+            photos, maps, _ = sample_batch(cfg, rng, batch=self.config.monitor.eval_batch, device=self.device)
             self._eval_set = photos.to(self.device), maps.to(self.device)
         return self._eval_set
 
@@ -281,17 +284,19 @@ class PriorTrainer(TrainingLoop):
         return map_errors(self.model(photos), maps)
 
     def apply(self, settings: Mapping[str, Any]) -> List[str]:
-        """Change settings mid-run as a resume with the matching flags does (``{PriorConfig field: value}``, or
-        ``"height_activation": "linear"``: :meth:`linearise_height`); a setting already at its value is left alone.
-        Turning ``ema`` on starts the average at the current weights; after any change the next iteration draws new
-        materials (as a resume does). Returns one line per change made.
+        """Change settings mid-run as a resume with the matching flags does (``{dotted name: value}``, flat names
+        of earlier records converted; ``"generator.height_activation": "linear"``: :meth:`linearise_height`); a
+        setting already at its value is left alone. Turning ``optim.ema`` on starts the average at the current
+        weights; after any change the next iteration draws new materials (as a resume does). Returns one line per
+        change made.
 
         Raises:
             ValueError: an unknown setting, an invalid value, or a linear height made tanh again.
         """
         lines = []
-        for key, value in settings.items():
-            was = self.config.generator.height_activation if key == HEIGHT else getattr(self.config, key, None)
+        for key, value in dotted(settings).items():
+            group, _, name = key.partition(".")
+            was = getattr(getattr(self.config, group, None), name, None)
             if was == value:
                 continue
             if key == HEIGHT:
@@ -300,8 +305,8 @@ class PriorTrainer(TrainingLoop):
                 k = self.linearise_height()
                 lines.append(f"height: tanh -> linear at iteration {self.step} (the height layer scaled by {k:.4f})")
                 continue
-            self.config = apply_settings(self.config, {key: value})
-            if key == "ema":
+            self.config = override(self.config, {key: value})
+            if key == "optim.ema":
                 self._average()
             lines.append(f"{key}: {was} -> {value} at iteration {self.step}")
         if lines:
@@ -320,18 +325,23 @@ class PriorTrainer(TrainingLoop):
     # ------------------------------------------------------------------ the loop's hooks (svbrdf.trainer.loop)
     @property
     def iters(self) -> int:
-        """The iteration the run ends at (``config.iters``)."""
-        return self.config.iters
+        """The iteration the run ends at (``config.optim.iters``)."""
+        return self.config.optim.iters
+
+    @property
+    def checkpoint_every(self) -> int:
+        """Iterations between checkpoints (``config.monitor.checkpoint_every``; 0: only when the run stops)."""
+        return self.config.monitor.checkpoint_every
 
     def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
-        """Train up to ``config.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback: the loop of
+        """Train up to ``config.optim.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback: the loop of
         :class:`~svbrdf.trainer.loop.TrainingLoop`.
 
         Args:
             max_seconds: wall-clock limit of this call. Checked after every log record where a new draw of
-                materials starts (every ``material_reuse`` iterations): past it, the run writes the (possibly short)
+                materials starts (every ``materials.reuse`` iterations): past it, the run writes the (possibly short)
                 log record, saves its checkpoint and stops with ``timed_out`` set; a later ``resume`` continues the
-                same schedule. Log records fall on multiples of ``log_every``, so a resumed run realigns its
+                same schedule. Log records fall on multiples of ``monitor.log_every``, so a resumed run realigns its
                 records after a short one.
 
         A recipe's changes (``recipe``) are applied before the iteration after the one they name.
@@ -346,17 +356,17 @@ class PriorTrainer(TrainingLoop):
         self._apply_due()
 
     def _can_stop_in_time(self) -> bool:
-        return self.step % self.config.material_reuse == 0
+        return self.step % self.config.materials.reuse == 0
 
     def _next_record(self) -> Optional[Dict[str, Any]]:
-        """One iteration's record (``log_every`` 1), or one step into the log window and, where a record is due
-        (every ``log_every`` steps, at the end, at an evaluation, a checkpoint, the time limit or a stop request),
+        """One iteration's record (``monitor.log_every`` 1), or one step into the log window and, where a record is
+        due (every ``monitor.log_every`` steps, at the end, at an evaluation, a checkpoint, the time limit or a stop request),
         the window's mean record (:meth:`_record`)."""
-        c = self.config
+        c = self.config.monitor
         if c.log_every == 1:
             return self.iteration()
         self._window.append(self._step())
-        due = (self.step % c.log_every == 0 or self.step >= c.iters or self._time_up()
+        due = (self.step % c.log_every == 0 or self.step >= self.iters or self._time_up()
                or (c.eval_every and self.step % c.eval_every == 0)
                or (c.checkpoint_every and self.step % c.checkpoint_every == 0)
                or self.stop_requested)
@@ -368,8 +378,8 @@ class PriorTrainer(TrainingLoop):
 
     def _on_record(self, record: Dict[str, Any]) -> None:
         self.seconds += record["seconds"]
-        c = self.config
-        if c.eval_every and (self.step % c.eval_every == 0 or self.step == c.iters):
+        c = self.config.monitor
+        if c.eval_every and (self.step % c.eval_every == 0 or self.step == self.iters):
             ev = {"step": self.step, **self.evaluate()}
             self.evals.append(ev)
             record["eval"] = ev
@@ -383,11 +393,12 @@ class PriorTrainer(TrainingLoop):
         finetune = resolve(self.config.finetune_preset)
         ckpt = ckpt_io.build_checkpoint(
             generator=self.generator, discriminator=None, train_config=finetune.to_dict(), stage=STAGE,
-            step=self.step, iters=self.config.iters, optimizers={"g": self.optimizer}, history=self.history,
-            photo={"name": "procedural materials", "sha256": None, "height": self.config.size,
-                   "width": self.config.size},
+            step=self.step, iters=self.iters, optimizers={"g": self.optimizer}, history=self.history,
+            photo={"name": "procedural materials", "sha256": None, "height": self.config.photos.size,
+                   "width": self.config.photos.size},
             rng={"torch": torch.get_rng_state(), "stream": self.rng.get_state()},
-            notes=[f"stage one learned from procedural materials ({self.step} iterations of {self.config.batch})"])
+            notes=[f"stage one learned from procedural materials ({self.step} iterations of "
+                   f"{self.config.optim.batch})"])
         ckpt["prior_config"] = self.config.to_dict()
         ckpt["evals"] = [dict(e) for e in self.evals]
         ckpt["seconds"] = float(self.seconds)
@@ -398,7 +409,7 @@ class PriorTrainer(TrainingLoop):
             ckpt["generator_ema"] = {k: v.detach().float().cpu().clone() if v.is_floating_point() else v.cpu().clone()
                                      for k, v in self.averaged.module.state_dict().items()}
             ckpt["ema_updates"] = int(self.averaged.n_averaged)
-        if self.config.compact_checkpoint:
+        if self.config.monitor.compact_checkpoint:
             compact(ckpt)
         return ckpt
 
@@ -449,11 +460,17 @@ class PriorTrainer(TrainingLoop):
         torch.set_rng_state(ckpt["rng"]["torch"])
         self.rng.set_state(ckpt["rng"]["stream"])
         if ckpt.get("recipe") is not None:
-            self.recipe = {"name": str(ckpt["recipe"]["name"]), "changes": list(ckpt["recipe"]["changes"])}
+            self.recipe = _dotted_record(ckpt["recipe"])
+
+
+def _dotted_record(record: Mapping[str, Any]) -> Dict[str, Any]:
+    """A recipe's record (:meth:`~svbrdf.trainer.prior.recipes.Recipe.to_record`, as a checkpoint keeps it) with
+    its settings dotted (records written before the groups name them flat)."""
+    return {"name": str(record["name"]), "changes": [[int(it), dotted(s)] for it, s in record["changes"]]}
 
 
 def compact(ckpt: Dict[str, Any]) -> Dict[str, Any]:
-    """Shrink a prior checkpoint in place for ``compact_checkpoint``: float32 weights (and their average) -> float16,
+    """Shrink a prior checkpoint in place for ``monitor.compact_checkpoint``: float32 weights (and their average) -> float16,
     Adam's moments (``exp_avg``, ``exp_avg_sq``) -> bfloat16 (float16 would flush small second moments to zero).
     Loading casts them back to the parameters' float32 (``load_state_dict`` of the module and of Adam). About 6 bytes
     per parameter instead of 12 (8 with the average): the resumed run differs from an uninterrupted one by these
@@ -479,12 +496,12 @@ def train_prior(config: PriorConfig, **kw) -> PriorTrainer:
 
 def resume_prior(checkpoint: Union[PathLike, Mapping[str, Any]], *, iters: Optional[int] = None,
                  **kw) -> PriorTrainer:
-    """Continue a prior run where ``checkpoint`` stood (its settings; ``iters`` may extend it)."""
+    """Continue a prior run where ``checkpoint`` stood (its settings; ``iters`` may extend its ``optim.iters``)."""
     source = checkpoint if not isinstance(checkpoint, Mapping) else "checkpoint"
     ckpt = ckpt_io.load_checkpoint(checkpoint) if not isinstance(checkpoint, Mapping) else checkpoint
     cfg = PriorConfig.from_dict(ckpt["prior_config"])
     if iters is not None:
-        cfg = dataclasses.replace(cfg, iters=int(iters))
+        cfg = override(cfg, {"optim.iters": int(iters)})
     trainer = PriorTrainer(cfg, **kw)
     trainer.load_resume(ckpt, source)
     trainer.run()

@@ -39,8 +39,9 @@ def make_photo(family: str, seed: int, size: int, ev: float) -> np.ndarray:
     from svbrdf.trainer.prior import PriorConfig, simulate_photos
     from svbrdf.trainer.procedural import sample_materials
 
-    cfg = PriorConfig(fov_deg=(60.0, 60.0), light_offset=0.0, physical_share=0.0,
-                      camera={"ev": (ev, ev), "vignetting": (0.1, 0.1), "shot": (1e-4, 1e-4), "read": (0.002, 0.002)})
+    cfg = PriorConfig.from_dict({"photos": {
+        "fov_deg": (60.0, 60.0), "light_offset": 0.0, "physical_share": 0.0,
+        "camera": {"ev": (ev, ev), "vignetting": (0.1, 0.1), "shot": (1e-4, 1e-4), "read": (0.002, 0.002)}}})
     g = torch.Generator().manual_seed(seed)
     maps, _ = sample_materials(1, size, g, families=[family])
     photos, _, _ = simulate_photos(maps, cfg, g)

@@ -32,8 +32,8 @@
 # THROUGHPUT (default 1), THROUGHPUT_ARGS (default none; e.g. "--device cpu --small" for a dry run), THROUGHPUT_S
 # (150), MINUTES (default: the time left, see 3), LIMIT_S (default 570: seconds from the script's start by which
 # everything has ended, inside the device tool's 600 s), EXPORT (default 1), EXPORT_S (default 90). Extra arguments
-# go to the trainer (python -m svbrdf.trainer.prior.chunk), e.g. `--device cpu --threads 1 --set size=32
-# --set photo_size=64 --set batch=1 --iters 2` for a dry run on a CPU. Exit status: the trainer's.
+# go to the trainer (python -m svbrdf.trainer.prior.chunk), e.g. `--device cpu --threads 1 --set photos.size=32
+# --set photos.photo_size=64 --set optim.batch=1 --iters 2` for a dry run on a CPU. Exit status: the trainer's.
 set -uo pipefail
 
 : "${OUT:?set OUT to the folder that receives the checkpoint, the logs and the tables}"

@@ -6,7 +6,7 @@
 Both paths time the same full training step of the v2 recipe's settings (``PRIOR_PRESETS["v2"]``: batch building,
 the generator's forward under bf16 autocast where the device has fast bf16, the prior loss, backward and Adam),
 with the same network and image size (and the same share of crop batches, ``--crop-share``: over a few steps on a
-CPU give 1 or 0, so that both paths do the same work); only ``stream`` differs: ``host`` (every random number drawn
+CPU give 1 or 0, so that both paths do the same work); only ``materials.stream`` differs: ``host`` (every random number drawn
 on the CPU material by material, the shipped v2 stream: :mod:`svbrdf.trainer.procedural`) and ``device`` (families
 vectorised over the batch, random numbers on the device: :mod:`svbrdf.trainer.prior.device_stream`). Each path first
 runs ``--warmup`` untimed steps; then the paths are timed in ``--rounds`` alternating blocks (:func:`time_paths`) of at
@@ -31,7 +31,6 @@ and ``ratio`` = device / host samples per second. Prints one line per path and t
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import json
 import platform
 import sys
@@ -63,7 +62,7 @@ def _sync(device: torch.device) -> None:
 
 
 class Bench:
-    """One path's training step: the v2 settings with ``stream`` = ``path``, a fresh generator and Adam."""
+    """One path's training step: the v2 settings with ``materials.stream`` = ``path``, a fresh generator and Adam."""
 
     def __init__(self, path: str, device: torch.device, batch: int, size: int, photo_size: int, seed: int = 0,
                  crop_share: Optional[float] = None):
@@ -72,15 +71,17 @@ class Bench:
         from svbrdf.trainer.prior import prior_preset
 
         self.device = device
-        self.config = dataclasses.replace(prior_preset("v2"), size=size, photo_size=photo_size, batch=batch,
-                                          stream=path, seed=seed)
+        from svbrdf.trainer.prior.config import override
+
+        self.config = override(prior_preset("v2"), {"photos.size": size, "photos.photo_size": photo_size,
+                                                    "optim.batch": batch, "materials.stream": path, "optim.seed": seed})
         if crop_share is not None:
-            self.config = dataclasses.replace(self.config, crop_share=crop_share)
+            self.config = override(self.config, {"photos.crop_share": crop_share})
         torch.manual_seed(seed)
         self.fmt = torch.channels_last
         self.net = Generator(self.config.generator).to(device, memory_format=self.fmt)
-        self.adam = torch.optim.Adam([p for p in self.net.parameters() if p.requires_grad], lr=self.config.lr)
-        self.bf16 = bf16_support(device)[0] if self.config.bf16 else False
+        self.adam = torch.optim.Adam([p for p in self.net.parameters() if p.requires_grad], lr=self.config.optim.lr)
+        self.bf16 = bf16_support(device)[0] if self.config.optim.bf16 else False
         self.rng = torch.Generator().manual_seed(seed)
 
     def batch(self):
@@ -116,7 +117,7 @@ class Bench:
             n += 1
         _sync(self.device)
         dt = time.perf_counter() - t0
-        return {"samples_per_s": n * self.config.batch / dt, "s_per_step": dt / n, "data_s_per_step": data / n,
+        return {"samples_per_s": n * self.config.optim.batch / dt, "s_per_step": dt / n, "data_s_per_step": data / n,
                 "steps": n}
 
 
@@ -145,7 +146,7 @@ def time_paths(benches: Dict[str, Bench], warmup: int, steps: int, seconds: floa
             sums[key]["data"] += data
     out = {}
     for key, t in sums.items():
-        batch = benches[key].config.batch
+        batch = benches[key].config.optim.batch
         out[key] = {"samples_per_s": t["steps"] * batch / t["seconds"], "s_per_step": t["seconds"] / t["steps"],
                     "data_s_per_step": t["data"] / t["steps"], "steps": t["steps"]}
     return out
@@ -253,7 +254,7 @@ def run(device: str, small: bool = False, batch: Optional[int] = None, size: Opt
     record["host_batch"] = host_batch
     benches = {path: Bench(path, dev, host_batch if path == "host" else batch, size, photo_size,
                            crop_share=crop_share) for path in PATHS}
-    record["crop_share"] = benches["host"].config.crop_share
+    record["crop_share"] = benches["host"].config.photos.crop_share
     record["bf16"] = bool(benches["device"].bf16)
     record["rounds"] = rounds
     shapes = {path: {**describe(*bench.batch()[:2]), "ops_per_batch": ops_per_batch(bench),
@@ -261,7 +262,7 @@ def run(device: str, small: bool = False, batch: Optional[int] = None, size: Opt
     for path, got in time_paths(benches, warmup, steps, seconds, rounds).items():
         got = record["paths"][path] = {**got, **shapes[path]}
         say(f"throughput: {path:6s} stream: {got['samples_per_s']:8.2f} samples/s ({got['s_per_step']:.3f} s a step of "
-            f"{benches[path].config.batch}, {got['data_s_per_step']:.3f} s of it building the batch on the host) on "
+            f"{benches[path].config.optim.batch}, {got['data_s_per_step']:.3f} s of it building the batch on the host) on "
             f"{record['device']}")
     del benches
     if dev.type == "cuda":

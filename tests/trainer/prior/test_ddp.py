@@ -3,7 +3,6 @@ process with the combined batch."""
 
 from __future__ import annotations
 
-import dataclasses
 import os
 import socket
 import subprocess
@@ -15,16 +14,18 @@ import torch
 
 from svbrdf.trainer.models import GeneratorConfig
 from svbrdf.trainer.prior import PriorTrainer, prior_preset
+from svbrdf.trainer.prior.config import override
 
 STEPS = 2
 
 
 def tiny():
     """The v2 loss and stream (batched, relighting, detail and slope terms) at test size: 2 materials per process."""
-    return dataclasses.replace(prior_preset("v2"), generator=GeneratorConfig(width=0.125, decoder_blocks=3,
-                                                                             train_encoder=True, arch="unet"),
-                               size=32, photo_size=64, batch=2, bf16=False, lambda_slope=1.0, ema=0.9,
-                               checkpoint_every=0, eval_every=0, log_every=1, iters=10)
+    return override(prior_preset("v2"), {
+        "generator": GeneratorConfig(width=0.125, decoder_blocks=3, train_encoder=True, arch="unet"),
+        "photos.size": 32, "photos.photo_size": 64, "optim.batch": 2, "optim.bf16": False, "losses.slope": 1.0,
+        "optim.ema": 0.9, "monitor.checkpoint_every": 0, "monitor.eval_every": 0, "monitor.log_every": 1,
+        "optim.iters": 10})
 
 
 #: One process of the data-parallel run, started as torchrun starts it (RANK, WORLD_SIZE, MASTER_ADDR/PORT in the
@@ -88,7 +89,7 @@ def test_two_gloo_processes_take_the_update_of_one_process_with_the_combined_bat
     # (g / |g| on the first step), so where a gradient is about Adam's eps (1e-8) a rounding difference of the
     # gradient changes that weight's move by up to 2 lr per step: nearly every weight within 5 % of one step, a
     # few (at most 1 in 1000) up to the 2 lr per step Adam can differ by.
-    lr = tiny().lr
+    lr = tiny().optim.lr
     moved, off, total = 0.0, 0, 0
     for which in ("weights", "ema"):
         final = (one.generator if which == "weights" else one.model).state_dict()

@@ -3,7 +3,6 @@ device; and the host stream itself unchanged by it (the shipped v2's stream)."""
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import math
 import platform
@@ -12,16 +11,12 @@ import pytest
 import torch
 
 from svbrdf.trainer.prior import prior_preset, sample_batch
+from svbrdf.trainer.prior.config import override
 from svbrdf.trainer.prior.device_stream import BATCHED_FAMILIES, sample_materials_device
 from svbrdf.trainer.procedural import FAMILIES
 
 
-@pytest.fixture(autouse=True)
-def one_thread():
-    was = torch.get_num_threads()
-    torch.set_num_threads(1)
-    yield
-    torch.set_num_threads(was)
+pytestmark = pytest.mark.usefixtures("one_thread")
 
 
 def _hash(*ts) -> str:
@@ -41,27 +36,31 @@ HOST_HASHES = {(True, 0.0): "8bff3dc9f149a30a", (True, 1.0): "37f6c228415e08fb",
                     reason="the hashes were taken with torch 2.13.0+cpu on x86_64")
 @pytest.mark.parametrize("batched,crop", sorted(HOST_HASHES))
 def test_the_host_stream_is_bit_identical_to_the_one_before_the_device_stream(batched, crop):
-    cfg = dataclasses.replace(prior_preset("v2"), size=32, photo_size=64, batch=12, batched=batched, crop_share=crop,
-                              flat_share=0.1, black_share=0.3, coarse_share=0.3)
-    assert cfg.stream == "host"
+    cfg = override(prior_preset("v2"), {"photos.size": 32, "photos.photo_size": 64, "optim.batch": 12,
+                                        "materials.batched": batched, "photos.crop_share": crop,
+                                        "materials.flat_share": 0.1, "materials.black_share": 0.3,
+                                        "materials.coarse_share": 0.3})
+    assert cfg.materials.stream == "host"
     photos, maps, info = sample_batch(cfg, torch.Generator().manual_seed(3))
     assert info["families"][:3] == ["scratches", "cells", "wood"]
     assert _hash(photos, maps) == HOST_HASHES[(batched, crop)]
 
 
-def device_cfg(**kw):
-    return dataclasses.replace(prior_preset("v2"), size=32, photo_size=64, batch=6, stream="device", **kw)
+def device_cfg(settings):
+    return override(prior_preset("v2"), {"photos.size": 32, "photos.photo_size": 64, "optim.batch": 6,
+                                         "materials.stream": "device", **settings})
 
 
 @pytest.mark.parametrize("crop", [0.0, 1.0])
 def test_the_device_stream_is_seeded_on_one_device_and_has_the_host_streams_shapes(crop):
-    cfg = device_cfg(crop_share=crop, flat_share=0.3, black_share=0.3, coarse_share=0.3)
+    cfg = device_cfg({"photos.crop_share": crop, "materials.flat_share": 0.3, "materials.black_share": 0.3,
+                      "materials.coarse_share": 0.3})
     a = sample_batch(cfg, torch.Generator().manual_seed(5))
     b = sample_batch(cfg, torch.Generator().manual_seed(5))
     c = sample_batch(cfg, torch.Generator().manual_seed(6))
     assert torch.equal(a[0], b[0]) and torch.equal(a[1], b[1]) and a[2]["families"] == b[2]["families"]
     assert not torch.equal(a[1], c[1])
-    host = sample_batch(dataclasses.replace(cfg, stream="host"), torch.Generator().manual_seed(5))
+    host = sample_batch(override(cfg, {"materials.stream": "host"}), torch.Generator().manual_seed(5))
     for x, y in zip(a[:2], host[:2]):
         assert x.shape == y.shape and x.dtype == y.dtype
     photos, maps = a[:2]
@@ -70,10 +69,10 @@ def test_the_device_stream_is_seeded_on_one_device_and_has_the_host_streams_shap
 
 
 def test_the_stream_setting_is_validated():
-    with pytest.raises(ValueError, match="stream"):
-        dataclasses.replace(prior_preset("v2"), stream="gpu")
+    with pytest.raises(ValueError, match="materials.stream must be 'host' or 'device'"):
+        override(prior_preset("v2"), {"materials.stream": "gpu"})
     with pytest.raises(ValueError, match="batched"):
-        dataclasses.replace(prior_preset("v1"), stream="device")
+        override(prior_preset("v1"), {"materials.stream": "device"})
 
 
 def test_every_batched_family_builds_finite_unit_normal_maps():
@@ -92,7 +91,8 @@ BATCHES = 8
 
 
 def _features(stream: str, seed: int):
-    cfg = dataclasses.replace(prior_preset("v2"), size=64, photo_size=128, batch=32, stream=stream, crop_share=0.0)
+    cfg = override(prior_preset("v2"), {"photos.size": 64, "photos.photo_size": 128, "optim.batch": 32,
+                                        "materials.stream": stream, "photos.crop_share": 0.0})
     rng = torch.Generator().manual_seed(seed)
     fams, rows = [], []
     for _ in range(BATCHES):
@@ -152,15 +152,18 @@ def test_block_means_average_photos_and_maps_and_keep_unit_normals():
     torch.testing.assert_close(p[:, :, 3, 5], photos[:, :, 6:8, 10:12].mean((2, 3)))
     torch.testing.assert_close(m[:, :5, 3, 5], maps[:, :5, 6:8, 10:12].mean((2, 3)))
     assert torch.allclose(m[:, 5:].norm(dim=1), torch.ones(()), atol=1e-5)
-    cfg = device_cfg(block_mean=2, block_share=1.0, crop_share=0.5)
+    cfg = device_cfg({"photos.block_mean": 2, "photos.block_share": 1.0, "photos.crop_share": 0.5})
     photos, maps2, info = sample_batch(cfg, torch.Generator().manual_seed(1))
     assert photos.shape == (6, 3, 32, 32) and maps2.shape == (6, 8, 32, 32)
 
 
 @pytest.mark.skipif(not torch.cuda.is_available(), reason="needs a CUDA GPU")
 def test_on_cuda_the_device_stream_never_waits_and_is_seeded():
-    cfg = dataclasses.replace(prior_preset("v2"), size=64, photo_size=128, batch=16, stream="device", flat_share=0.3,
-                              black_share=0.3, coarse_share=0.3, print_share=0.3, block_mean=2, block_share=0.5)
+    cfg = override(prior_preset("v2"), {"photos.size": 64, "photos.photo_size": 128, "optim.batch": 16,
+                                        "materials.stream": "device", "materials.flat_share": 0.3,
+                                        "materials.black_share": 0.3, "materials.coarse_share": 0.3,
+                                        "materials.print_share": 0.3, "photos.block_mean": 2,
+                                        "photos.block_share": 0.5})
     sample_batch(cfg, torch.Generator().manual_seed(0), device="cuda")  # warm-up (caches, kernels)
     torch.cuda.set_sync_debug_mode("error")  # any read-back from the GPU raises
     try:
@@ -169,3 +172,14 @@ def test_on_cuda_the_device_stream_never_waits_and_is_seeded():
         torch.cuda.set_sync_debug_mode("default")
     b = sample_batch(cfg, torch.Generator().manual_seed(4), device="cuda")
     assert a[0].is_cuda and torch.equal(a[0], b[0]) and torch.equal(a[1], b[1])
+
+
+@pytest.mark.integration
+def test_the_device_stream_batch_and_loss_never_make_a_gpu_wait(meta_training_steps):
+    # The device stream (issue 64): every family, share and camera draw on the device, nothing read back.
+    cfg = override(prior_preset("v2"), {"materials.stream": "device", "materials.flat_share": 0.3,
+                                        "materials.black_share": 0.3, "materials.coarse_share": 0.3,
+                                        "photos.camera": {**prior_preset("v2").photos.camera, "white": (1.0, 4.0)}})
+    infos = meta_training_steps(cfg)
+    assert {i["crop"] for i in infos} == {True, False}
+    assert len({f for i in infos for f in i["families"]}) >= 10

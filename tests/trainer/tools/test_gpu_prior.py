@@ -90,8 +90,8 @@ def test_without_resume_a_chunk_starts_the_shipped_recipe(tmp_path):
 
 
 V4 = ROOT / "trainer" / "tools" / "gpu_v4.sh"
-V4_TINY = ["--device", "cpu", "--threads", "1", "--set", "size=32", "--set", "photo_size=64", "--set", "batch=1",
-           "--set", "eval_every=0", "--set", "log_every=2"]
+V4_TINY = ["--device", "cpu", "--threads", "1", "--set", "photos.size=32", "--set", "photos.photo_size=64", "--set",
+           "optim.batch=1", "--set", "monitor.eval_every=0", "--set", "monitor.log_every=2"]
 
 
 def call_v4(tmp_path: Path, out: str, resume: Optional[Path], *extra: str, throughput: str = "0",
@@ -119,7 +119,7 @@ def test_the_v4_call_times_both_streams_trains_v4_exports_and_the_next_call_resu
     tp = json.loads((out / "gpu-throughput.json").read_text())
     assert set(tp["paths"]) == {"host", "device"} and tp["ratio"] > 0 and tp["device"]
     ckpt = ckpt_io.load_checkpoint(out / "resume.pt")
-    assert ckpt["step"] == 2 and ckpt["recipe"]["name"] == "v4" and ckpt["prior_config"]["stream"] == "device"
+    assert ckpt["step"] == 2 and ckpt["recipe"]["name"] == "v4" and ckpt["prior_config"]["materials"]["stream"] == "device"
     try:
         import onnx  # noqa: F401
         import onnxscript  # noqa: F401
