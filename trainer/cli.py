@@ -34,8 +34,7 @@ CHECKPOINT = "checkpoint.pt"
 SPEED_LINE_SECONDS = 30.0
 LOG = "train_log.jsonl"
 
-PRESET_HEADER = """training presets (cost: seconds per iteration on one thread; "AMX": a shared Xeon core with bf16,
-"AMD": a shared EPYC core without bf16, where everything runs fp32; `git show 0b5a711:./trainer/bench/speed.py`):"""
+PRESET_HEADER = "training presets (their costs on a CPU: docs/decisions/020-fast-schedule.md):"
 
 
 def preset_help() -> str:
@@ -167,19 +166,19 @@ def build_parser() -> argparse.ArgumentParser:
                    help="weight of the slope-correlation term (the pattern of the normals at any scale; v1 and v2: 0); "
                         "with --resume it changes the run's loss from there on")
     p.add_argument("--ema", type=float, metavar="DECAY",
-                   help="keep a moving average of the weights with this decay (e.g. 0.998; 0 = none: v1, v2 so far); "
+                   help="keep a moving average of the weights with this decay (e.g. 0.998; 0 = none); "
                         "the average is the model the checkpoint gives; with --resume it starts at the resumed weights")
     p.add_argument("--flat-share", type=float, metavar="P",
                    help="make the normals of this fraction of the drawn materials flat (polished, lacquered, paper: no "
-                        "relief; 0 = none: v1, v2 before 2026-11-27); with --resume it changes the run's materials from "
+                        "relief; 0 = none); with --resume it changes the run's materials from "
                         "there on")
     p.add_argument("--black-share", type=float, metavar="P",
                    help="darken the base colour of this fraction of the drawn dielectric materials to near black "
-                        "(black plastic, lacquer, stone; 0 = none: every run before 2026-11-27); with --resume it "
+                        "(black plastic, lacquer, stone; 0 = none); with --resume it "
                         "changes the run's materials from there on")
     p.add_argument("--coarse-share", type=float, metavar="P",
                    help="add a coarse relief (a smooth height a few features across: uneven stones, warped tiles) to "
-                        "this fraction of the drawn materials (0 = none: every run before 2026-11-27); with --resume "
+                        "this fraction of the drawn materials (0 = none); with --resume "
                         "it changes the run's materials from there on")
     p.add_argument("--height-activation", choices=("tanh", "linear"),
                    help="how the generator's height leaves its decoder (v2: linear; v1: tanh); with --resume, "

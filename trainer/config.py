@@ -556,52 +556,28 @@ def _presets() -> Dict[str, TrainConfig]:
 TRAIN_PRESETS: Dict[str, TrainConfig] = _presets()
 
 #: Fine-tune settings measured for one stage one, by name: :func:`svbrdf.trainer.checkpoint.clean_checkpoint`
-#: (``refine=NAME``) records the settings in the stage one's checkpoint (``refine``), and every fine-tune from it with
-#: a preset that shows the generator an evenly lit photo (``fast``) takes them where the user left the preset's
-#: value (:func:`svbrdf.trainer.stage.finetune_config`). ``fast`` itself was chosen from v1 (``models/svbrdf_prior_v1``,
-#: which records none).
-#:
-#: ``"v2"``: from the v2 stage one (issue 26's run, checkpoint 14315), ``fast`` made the maps worse than the preview
-#: (12 held-out procedural materials, 150 iterations: re-render 0.0865 -> 0.0906, specular 0.093 -> 0.126, roughness
-#: 0.171 -> 0.229): its dielectric specular prior pulls metals to a dielectric level (one brushed metal's re-render
-#: 0.071 -> 0.215) and the free roughness drifts. Without the prior and with every map pulled to the stage one's at
-#: weight 1 it is better than the preview on every measure (re-render 0.0756, diffuse 0.0846 -> 0.0735, specular
-#: 0.093, roughness 0.169, burn-in 0.153 -> 0.125). On every shared set it keeps the preview's capture relighting
-#: (0.139 -> 0.140) and lowers the re-render (0.0790 -> 0.0737) and the normal angle (9.51 -> 9.44);
-#: docs/decisions/024-refine-recipe-v2.md.
+#: (``refine=NAME``) records them in the stage one's checkpoint (``refine``), and every fine-tune from it with a preset
+#: that shows the generator an evenly lit photo (``fast``) takes them where the user left the preset's value
+#: (:func:`svbrdf.trainer.stage.finetune_config`). ``"v2"``: no dielectric specular prior, every map pulled to the
+#: stage one's. Decision: docs/decisions/024-refine-recipe-v2.md.
 REFINE_RECIPES: Dict[str, Dict[str, Any]] = {
     "v2": {"losses.specular_prior": 0.0, "losses.anchor": 1.0, "losses.anchor_maps": list(MAP_NAMES)},
 }
 
-#: What each preset is, once (``svbrdf-train --help`` prints those of :data:`CLI_PRESETS`). Costs: seconds per
-#: iteration on one thread ("AMX": a shared Xeon core with bf16, "AMD": a shared EPYC core without bf16, where
-#: everything runs fp32; ``git show 0b5a711:./trainer/bench/speed.py``).
+#: What each preset is, one line each (``svbrdf-train --help`` prints those of :data:`CLI_PRESETS`). Their costs per
+#: iteration on a CPU: docs/decisions/020-fast-schedule.md.
 PRESET_DESCRIPTIONS: Dict[str, str] = {
-    "paper": "the published setup (Wen et al. 2022 on top of Zhao et al. 2020): paper-size generator and "
-             "PatchGAN, 256 px tiles, per iteration 5 normal/roughness-decoder + 1 diffuse/specular-decoder + 1 "
-             "discriminator updates, each on a fresh random tile, Adam 2e-5 (0, 0.9), loss 0.1 GAN + L_d + 0.1 "
-             "Fourier + 0.2 perceptual; 10k / 3k / 20k iterations (pretrain / finetune / fit); seed 24. AMX: ~45 "
-             "s/it fp32, ~15 s/it --bf16 (10 / 4 s/it with --tile 128); AMD: 76-139 s/it: a GPU job.",
-    "zhao": "paper without the Fourier and perceptual losses (Zhao et al. 2020's objective): AMX ~31 s/it fp32, "
-            "~12 s/it --bf16.",
-    "fast": "quarter-width networks, 128 px tiles, the \"joint\" 1:1:1 schedule (one tile, one generator pass and "
-            "one backward pass for both decoders, then the discriminator on the same rendering), lr 1e-4, "
-            "multi-scale filter-bank perceptual loss (\"pyramid\", skipped on photos without a clipped highlight), "
-            "bf16 autocast where the CPU has it; 6k / 150 / 6k iterations (150: from the procedural stage one, "
-            "docs/decisions/023-stage-one-v2.md); and the highlight-free flash model: inverse-square fall-off, learned "
-            "vignetting, renderings clipped like the photo, a per-pixel re-render term, the flash-correlation "
-            "stationarity term, a scale-free L_d, learned output offsets and a dielectric specular prior instead "
-            "of the Fourier term (docs/decisions/021-fast-highlight-free.md). AMD: 0.27 s/it (0.43 s/it with the alternating "
-            "schedule). The shipped model was pretrained with the alternating schedule and the paper's losses on "
-            "AMX: 6000 it in 1111 s.",
-    "fast-v1": "fast with the paper's losses (GAN, L_d, Fourier, perceptual) and flash model, as before the "
-               "highlight-free flash model (the comparison point).",
-    "fast-alternating": "fast with the published alternating sub-steps (a fresh tile and generator pass per "
-                        "update): an ablation of fast's schedule.",
+    "paper": "the published setup (Wen et al. 2022): paper-size generator and PatchGAN, 256 px tiles, 5 + 1 + 1 "
+             "alternating updates, 0.1 GAN + L_d + 0.1 Fourier + 0.2 perceptual; a GPU job.",
+    "zhao": "paper without the Fourier and perceptual losses (Zhao et al. 2020's objective).",
+    "fast": "the default: quarter-width networks, 128 px tiles, one joint update, the highlight-free flash model; "
+            "150 iterations from the stage one.",
+    "fast-v1": "fast with the paper's losses and flash model (the comparison point).",
+    "fast-alternating": "fast with the published alternating sub-steps: an ablation of fast's schedule.",
     "fast-no-fourier": "fast-v1 without the Fourier loss: an ablation of the paper's losses.",
     "fast-no-perceptual": "fast-v1 without the perceptual loss: an ablation of the paper's losses.",
     "fast-zhao": "fast-v1 without the Fourier and perceptual losses: an ablation of the paper's losses.",
-    "tiny": "toy networks for tests (32 px tiles, 20 iterations, pyramid perceptual loss).",
+    "tiny": "toy networks for tests (32 px tiles, 20 iterations).",
 }
 #: The benchmark's ablations: resolvable like the others (``svbrdf-bench --presets``, checkpoints that record
 #: them, :func:`resolve`) but not offered by ``svbrdf-train --preset``.

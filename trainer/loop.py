@@ -2,8 +2,8 @@
 
 The per-photo :class:`~svbrdf.trainer.train.Trainer` and the stage one's
 :class:`~svbrdf.trainer.prior.trainer.PriorTrainer` run the same loop (:meth:`TrainingLoop.run`): iterate until
-``iters``; one JSON line per log record; a checkpoint every ``config.checkpoint_every`` iterations and one when the
-run stops, of the state it stops in; stop when the callback returns True or ``stop_requested`` is set
+``iters``; one JSON line per log record; a checkpoint every ``config.monitor.checkpoint_every`` iterations and one
+when the run stops, of the state it stops in; stop when the callback returns True or ``stop_requested`` is set
 (``interrupted``), at a wall-clock limit (``timed_out``, resumable) or by the trainer's own rule (``stopped_early``).
 What is particular to a trainer is a hook:
 
@@ -41,8 +41,8 @@ Callback = Callable[[Any, Dict[str, Any]], Optional[bool]]
 
 class TrainingLoop:
     """The loop of a trainer (see the module docstring); a trainer subclasses it and sets, in its ``__init__``:
-    ``step``, ``iters`` (attribute or property), ``config.checkpoint_every``, ``history``, ``checkpoint_path``,
-    ``log_path``, ``callback`` and a ``save()`` method, then calls :meth:`_init_loop`.
+    ``step``, ``iters`` (attribute or property), ``config`` (with ``monitor.checkpoint_every``), ``history``,
+    ``checkpoint_path``, ``log_path``, ``callback`` and a ``save()`` method, then calls :meth:`_init_loop`.
 
     Attributes:
         interrupted: the last run stopped because the callback or ``stop_requested`` asked.
@@ -110,16 +110,15 @@ class TrainingLoop:
 
     @property
     def checkpoint_every(self) -> int:
-        """Iterations between checkpoints (0: only when the run stops): ``config.checkpoint_every`` unless the
-        trainer's settings keep it elsewhere (:class:`~svbrdf.trainer.train.Trainer`: ``config.monitor``)."""
-        return self.config.checkpoint_every
+        """Iterations between checkpoints (0: only when the run stops): ``config.monitor.checkpoint_every``."""
+        return self.config.monitor.checkpoint_every
 
     def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
         """Train from ``step`` up to ``iters``; returns the history.
 
-        Every ``config.checkpoint_every`` iterations (0: never) and when the run stops, the checkpoint is saved
-        (with a ``checkpoint_path``); a run that stops saves the state it stops in once, and a run that had nothing
-        left to do saves its state as it is. The run stops at ``iters``, when the callback returns True or
+        Every ``config.monitor.checkpoint_every`` iterations (0: never) and when the run stops, the checkpoint is
+        saved (with a ``checkpoint_path``); a run that stops saves the state it stops in once, and a run that had
+        nothing left to do saves its state as it is. The run stops at ``iters``, when the callback returns True or
         ``stop_requested`` is set (``interrupted``), when the trainer's own rule says so (``stopped_early``) or
         past ``max_seconds`` of wall time (``timed_out``; checked after each log record where
         :meth:`_can_stop_in_time`).

@@ -542,9 +542,6 @@ class Trainer(TrainingLoop):
         return {"eval/render_l1": finite_json(float(torch.stack(l1).mean())),
                 "eval/map_change": None if change is None else finite_json(change)}
 
-    @property
-    def checkpoint_every(self) -> int:
-        return self.config.monitor.checkpoint_every
 
     def plateaued(self) -> bool:
         """The ``quality="auto"`` stopping rule on this run's evaluations (:func:`plateau_reached`)."""

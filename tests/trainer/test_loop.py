@@ -14,7 +14,7 @@ class Counting(TrainingLoop):
     def __init__(self, iters=6, checkpoint_every=2, log_path=None, callback=None, stop_at=None, window=1,
                  stop_every=1, clock=None):
         self.step, self.iters, self.history = 0, iters, []
-        self.config = SimpleNamespace(checkpoint_every=checkpoint_every)
+        self.config = SimpleNamespace(monitor=SimpleNamespace(checkpoint_every=checkpoint_every))
         self.checkpoint_path, self.log_path, self.callback = "ckpt", log_path, callback
         self.saves, self.calls, self.stop_at, self.window, self.stop_every = [], [], stop_at, window, stop_every
         self._init_loop()

@@ -328,10 +328,6 @@ class PriorTrainer(TrainingLoop):
         """The iteration the run ends at (``config.optim.iters``)."""
         return self.config.optim.iters
 
-    @property
-    def checkpoint_every(self) -> int:
-        """Iterations between checkpoints (``config.monitor.checkpoint_every``; 0: only when the run stops)."""
-        return self.config.monitor.checkpoint_every
 
     def run(self, max_seconds: Optional[float] = None) -> List[Dict[str, Any]]:
         """Train up to ``config.optim.iters`` (resumes from ``step``); checkpoints, log, evaluations, callback: the loop of
