@@ -75,9 +75,9 @@ def run_cli(env: dict, photo: Path, size: int, out: Path) -> dict:
 
 
 def plot(rows: list, path: Path) -> None:
-    """The benchmark's plot (:func:`svbrdf.trainer.bench.report.plot_pareto`): seconds on the x axis, the photo's
+    """The benchmark's plot (:func:`svbrdf.trainer.bench.plot.plot_pareto`): seconds on the x axis, the photo's
     megapixels and the peak memory (GiB) on the two panels, one line per version."""
-    from svbrdf.trainer.bench.report import plot_pareto
+    from svbrdf.trainer.bench.plot import plot_pareto
 
     series = []
     versions = list(rows[0]["versions"])

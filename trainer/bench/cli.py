@@ -31,6 +31,7 @@ from .cases import RENDERERS, BenchCase, load_cases, mitsuba_available, prepare_
 from .common import default_data, machine_info
 from .methods import METHODS, BenchOptions, Point, torch_available
 from .metrics import evaluate
+from .plot import plot_pareto
 
 DEFAULT_PRESETS = ("paper", "zhao", "fast")
 DEFAULT_ITERS = (0, 100, 300, 1000, 3000)
@@ -292,7 +293,7 @@ def write_outputs(doc: Dict[str, Any], out: Path, json_path: Optional[Path] = No
     for p in paths.values():
         p.parent.mkdir(parents=True, exist_ok=True)
     series, titles = report.pareto_series(doc["records"])
-    legend, note = report.plot_pareto(series, paths["plot"], titles=titles, force=force)
+    legend, note = plot_pareto(series, paths["plot"], titles=titles, force=force)
     report.write_json(paths["json"], doc, force)
     report.write_json(paths["summary"], {"schema": report.SCHEMA, "command": doc["command"], "date": doc["date"],
                                          **doc["summary"]}, force)
