@@ -43,7 +43,7 @@ from __future__ import annotations
 import os
 import time
 import warnings
-from typing import Iterable, Optional, Union
+from typing import Callable, Iterable, Optional, Union
 
 import numpy as np
 
@@ -77,7 +77,7 @@ def estimate(
     maps: Union[None, str, Iterable[str]] = None,
     post: PostProcess = PostProcess(),
     upsampling: Upsampling = Upsampling(),
-    fov_deg: Optional[float] = None,
+    fov_deg: Union[None, float, Callable[[np.ndarray], float]] = None,
 ) -> Maps:
     """SVBRDF maps of one flash photo: all four, or only ``maps`` (running only the decoder they need).
 
@@ -103,7 +103,9 @@ def estimate(
         fov_deg: the photo's field of view across its width, degrees
             (:func:`~svbrdf.runtime.workflow.camera.photo_camera`): the camera of the corrections that model the
             flash (the highlight's shoulder) and of the returned ``render_config``; None: the session's (the
-            model's training camera).
+            model's training camera); or a function of the photo as read (linear (h, w, 3), at most the network's
+            size: the block means of a larger photo) that returns it, called once, so that a camera found from the
+            pixels needs no second read (:func:`~svbrdf.runtime.workflow.camera.image_camera`).
 
     Returns:
         :class:`Maps` at the processed size with the requested maps (the others ``None``): diffuse (H, W, 3)
@@ -193,6 +195,8 @@ def estimate(
         "overlap": overlap,
         "threads": session.threads,
     }
+    if callable(fov_deg):
+        fov_deg = fov_deg(image)
     config = session.render_config if fov_deg is None else session.render_config.replace(fov_deg=float(fov_deg))
     out = apply_post(Maps.unpack(packed, meta, maps=names, render_config=config).clipped(), image,
                      post)

@@ -9,9 +9,10 @@ from typing import Optional
 
 import numpy as np
 
-from ..io.images import ImageWarning, read_image, resize_long_side
+from ..core.filters import block_mean
+from ..io.images import ImageWarning, read_image
 
-__all__ = ["CAMERA_ESTIMATE_SIZE", "image_camera", "photo_camera"]
+__all__ = ["CAMERA_ESTIMATE_SIZE", "declared_camera", "image_camera", "photo_camera", "warn_out_of_frame"]
 
 #: The photo's long side (pixels) at which :func:`photo_camera` estimates the field of view from the fall-off.
 CAMERA_ESTIMATE_SIZE = 256
@@ -38,6 +39,21 @@ def photo_camera(photo: Path, fov: Optional[float], image: Optional[np.ndarray] 
     Raises:
         ImageError: the photo cannot be read (step 3 reads it; one line naming the file).
     """
+    camera = declared_camera(photo, fov)
+    if camera is not None:
+        return camera
+    if image is None:
+        with warnings.catch_warnings():  # the photo itself is read (and its problems said) by the caller
+            warnings.simplefilter("ignore", ImageWarning)
+            image = read_image(photo, max_size=CAMERA_ESTIMATE_SIZE)
+    camera = image_camera(image)
+    warn_out_of_frame(photo, camera)
+    return camera
+
+
+def declared_camera(photo: Path, fov: Optional[float]) -> Optional[dict]:
+    """Steps 1 and 2 of :func:`photo_camera`, which need no pixels: ``fov`` (``"option"``), else the file's EXIF
+    record (``"exif"``); None when neither says (an absurd EXIF record is a warning and None)."""
     if fov is not None:
         return {"fov_deg": float(fov), "fov_source": "option", "how": "--fov"}
     from ..io.exif import exif_camera
@@ -45,16 +61,16 @@ def photo_camera(photo: Path, fov: Optional[float], image: Optional[np.ndarray] 
     exif = exif_camera(photo)
     if exif is not None:
         return {"fov_deg": round(exif.fov_deg, 3), "fov_source": "exif", "how": exif.how}
-    if image is None:
-        with warnings.catch_warnings():  # the photo itself is read (and its problems said) by the caller
-            warnings.simplefilter("ignore", ImageWarning)
-            image = read_image(photo, max_size=CAMERA_ESTIMATE_SIZE)
-    camera = image_camera(image)
+    return None
+
+
+def warn_out_of_frame(photo: Path, camera: dict) -> None:
+    """One :class:`ImageWarning` naming ``photo`` and the camera assumed when ``camera`` (from :func:`image_camera`)
+    says the flash highlight is out of frame; nothing otherwise."""
     if camera.get("highlight") == "out of frame":
         warnings.warn(ImageWarning(f"{photo}: the flash highlight is out of frame; the maps assume a camera of "
                                    f"{camera['fov_deg']:.1f} deg ({camera['fov_source']}) with the flash above the "
-                                   f"photo's centre"), stacklevel=2)
-    return camera
+                                   f"photo's centre"), stacklevel=3)
 
 
 def image_camera(image: np.ndarray) -> dict:
@@ -62,8 +78,8 @@ def image_camera(image: np.ndarray) -> dict:
     and, where the fit says where the flash was (``FovEstimate.out_of_frame``), ``"highlight"`` (``"out of
     frame"`` or ``"absent"``: no fall-off at all).
 
-    1. The flash's fall-off (``"estimated"``, :func:`svbrdf.runtime.core.falloff.estimate_fov` on ``image`` at
-       :data:`CAMERA_ESTIMATE_SIZE` px) where the estimate is reliable;
+    1. The flash's fall-off (``"estimated"``, :func:`svbrdf.runtime.core.falloff.estimate_fov` on ``image`` in
+       block means to about :data:`CAMERA_ESTIMATE_SIZE` px, long side) where the estimate is reliable;
     2. else a phone's main camera across a photo of this shape (``"default"``, :func:`svbrdf.runtime.io.exif.phone_fov`:
        67.3 deg for a 4:3 photo, 53.0 deg for a square one; ``how`` says why the estimate was not used).
        Why: docs/decisions/055-fov-estimate.md.
@@ -75,8 +91,9 @@ def image_camera(image: np.ndarray) -> dict:
     from ..io.exif import PHONE_F35_MM, phone_fov
 
     height, width = image.shape[:2]
-    if max(height, width) > 2 * CAMERA_ESTIMATE_SIZE:
-        image = resize_long_side(image, CAMERA_ESTIMATE_SIZE)
+    k = round(max(height, width) / CAMERA_ESTIMATE_SIZE)
+    if k >= 2:
+        image = block_mean(image, k, partial=True)
     try:
         found, why = estimate_fov(image), ""
     except ValueError as exc:  # a photo too small for the grid

@@ -19,7 +19,7 @@ from ..inference.pipeline import estimate
 from ..inference.reading import warn_if_greyscale
 from ..inference.session import PreviewSession
 from ..io.images import ImageWarning, read_image
-from .camera import photo_camera
+from .camera import declared_camera, image_camera, photo_camera, warn_out_of_frame
 from .options import PhotoOptions
 
 __all__ = ["process_photo"]
@@ -86,8 +86,11 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         if refine is None:
             raise ValueError("options.refine needs the refine function (svbrdf.runtime.inference.refine.load_refine)")
         image = read_image(photo, max_size=options.max_size)  # read once: the camera's estimate takes it too
-    camera = photo_camera(photo, options.fov, image=image)
-    config = config.replace(fov_deg=camera["fov_deg"])
+    camera = declared_camera(photo, options.fov)  # --fov or EXIF; else the pixels tell, read once
+    if camera is None and options.refine:
+        camera = photo_camera(photo, None, image=image)
+    if camera is not None:
+        config = config.replace(fov_deg=camera["fov_deg"])
     if options.refine:
         warn_if_greyscale(image, str(photo))
         maps = _refine(refine, image, session, config, options, name or photo.name)
@@ -106,8 +109,19 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         maps.meta.update(source=str(photo), model={"path": str(session.path), "sha256": session.info.sha256},
                          maps=list(options.maps))
     else:
+        found = {}
+
+        def fov_of(pixels):  # the camera from the photo as estimate() reads it: no second read
+            found.update(image_camera(pixels))
+            return found["fov_deg"]
+
         maps = estimate(photo, session, max_size=options.max_size, tile=options.tile, maps=options.maps,
-                        post=options.post, upsampling=options.upsampling, fov_deg=config.fov_deg)
+                        post=options.post, upsampling=options.upsampling,
+                        fov_deg=config.fov_deg if camera is not None else fov_of)
+        if camera is None:
+            camera = found
+            warn_out_of_frame(photo, camera)
+            config = config.replace(fov_deg=camera["fov_deg"])
         tiles = maps.meta["tiles"]
         detail = f"model {maps.meta['timings']['infer']:.2f} s" + (f", {tiles} tiles" if tiles > 1 else "")
     maps.render_config = config

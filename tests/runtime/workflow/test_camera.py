@@ -50,15 +50,28 @@ def test_an_absurd_exif_focal_length_is_a_warning_and_then_the_estimate(tmp_path
     assert cam["fov_source"] == "estimated" and abs(cam["fov_deg"] - 70.0) < 0.1 * 70.0, cam
 
 
-def test_process_photo_renders_with_the_estimated_camera(session, tmp_path, flash_plane):
+def test_process_photo_renders_with_the_estimated_camera_reading_the_photo_once(session, tmp_path, flash_plane,
+                                                                               monkeypatch):
     pytest.importorskip("onnxruntime")
+    import math
+
+    from svbrdf.runtime.workflow import camera as camera_module
     from svbrdf.runtime.workflow.options import PhotoOptions
     from svbrdf.runtime.workflow.photo import process_photo
 
     plane = flash_plane(tmp_path / "plane.png", 70.0)
+    expected = photo_camera(plane, None)
+    # the preview's own read of the photo serves the camera: no second read
+    monkeypatch.setattr(camera_module, "read_image", lambda *a, **k: pytest.fail("the photo was read twice"))
     maps, relit, _ = process_photo(plane, PhotoOptions(threads=1), session)
     assert maps.meta["camera"]["fov_source"] == "estimated"
+    assert maps.meta["camera"]["fov_deg"] == pytest.approx(expected["fov_deg"], rel=0.02)
     assert maps.render_config.fov_deg == maps.meta["camera"]["fov_deg"]
+    # the flash beside the photo: the warning names the photo and the camera assumed, as photo_camera's does
+    off = flash_plane(tmp_path / "off.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
+    with pytest.warns(ImageWarning, match="off.png: the flash highlight is out of frame"):
+        maps, _, _ = process_photo(off, PhotoOptions(threads=1), session)
+    assert maps.meta["camera"]["highlight"] == "out of frame"
 
 
 @pytest.mark.parametrize("size, fov", [((64, 64), 53.06), ((64, 48), 67.30), ((48, 64), 53.06), ((64, 36), 67.30),
