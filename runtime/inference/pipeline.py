@@ -28,10 +28,10 @@ Pipeline of :func:`estimate`:
 4. clip every requested map to its range and renormalise the (blended) normals (:meth:`Maps.clipped`);
 5. give the base colour the photo's colour balance (:func:`~svbrdf.runtime.post.photo_colour.photo_colour`, :attr:`PostProcess.colour_from_photo`): the
    generator's instance normalisation hides a photo's overall colour from it, and the learned stage one predicts a
-   nearly grey base colour for every material (CHANGELOG.md, study prior, "Colour");
+   nearly grey base colour for every material (docs/decisions/008-photo-colour.md);
 6. remove the smooth radial trend around the photo's flash highlight from the base colour, specular and roughness
    (:func:`svbrdf.runtime.post.flash_trend.remove_flash_trend`, :attr:`PostProcess.flash_trend`; first the highlight fill, :attr:`PostProcess.highlight_fill`): what the network left of the
-   highlight and the fall-off (CHANGELOG.md, study accuracy, "Now"); the base colour's trend as one
+   highlight and the fall-off (docs/decisions/004-flash-trend-removal.md); the base colour's trend as one
    brightness gain for its three channels (its hue kept), then its coarse colours made the photo's
    (:func:`svbrdf.runtime.post.photo_colour.local_colour`);
 7. make the specular one level, its median (:func:`svbrdf.runtime.post.flash_trend.uniform_specular`,

@@ -14,19 +14,16 @@ from .images import image_info
 __all__ = ["BYTES_PER_PIXEL", "REUSE_PIXELS", "available_memory", "check_memory", "downsized_pixels",
            "processed_pixels", "reuse_memory", "small_pages"]
 
-#: Peak bytes of a preview per pixel of the processed photo (after ``max_size``), for :func:`check_memory`:
-#: measured 116 B/px at 4096 x 4096 (1.95 GB peak RSS) and 106 B/px at 8192 x 8192 (7.1 GB), with the interpreter
-#: and the model (docs/lab/speed/README.md); 140 leaves room for other photos' shapes.
+#: Peak bytes of a preview per pixel of the processed photo (after ``max_size``), for :func:`check_memory`, with room
+#: for other photos' shapes above the measured 106-116 B/px (docs/decisions/071-process-memory.md).
 BYTES_PER_PIXEL = 140
 
 
 def small_pages() -> bool:
     """Stop numpy asking the kernel for transparent huge pages on its large arrays (``madvise(MADV_HUGEPAGE)``, its
-    default on Linux; the environment variable ``NUMPY_MADVISE_HUGEPAGE=0`` does the same at numpy's import). Where
-    the kernel compacts memory on such a request (``/sys/kernel/mm/transparent_hugepage/defrag`` = ``madvise``, as on
-    the project's machines), a 4096 px preview spent about 1 s more in the kernel: 9.15 and 8.45 s with them, 8.15
-    and 7.45 s without (taking turns, 2-core AMD EPYC); no difference at 1024 px. A process-wide numpy setting: the
-    CLIs and the batch workers call it; an application embedding the library decides for itself.
+    default on Linux; the environment variable ``NUMPY_MADVISE_HUGEPAGE=0`` does the same at numpy's import): where
+    the kernel compacts memory on such a request, large previews spend seconds in it. A process-wide numpy setting.
+    Decision: docs/decisions/071-process-memory.md.
 
     Returns:
         whether numpy would have asked before the call (False where numpy has no such setting).
@@ -54,12 +51,9 @@ def reuse_memory(pixels: int) -> bool:
     """Set glibc's allocator for a photo of ``pixels`` processed pixels (:func:`processed_pixels`). Up to
     :data:`REUSE_PIXELS`, large arrays come from the heap and freed memory stays in the process for the next
     array (``mallopt``: ``M_MMAP_MAX`` 0, ``M_TRIM_THRESHOLD`` 2 GiB) instead of being mapped afresh each time
-    and faulted in page by page: measured with ``svbrdf-preview --threads 2`` on the 2-core AMD EPYC, taking turns,
-    1024 px 0.90 -> 0.83 s (median of 3), 4096 px 6.56 / 6.08 -> 4.75 / 4.97 s, for a peak of 1122 -> 1436 MiB at
-    4096 px. Above it glibc maps each large array (at 8192 px the heap would add 1 GiB to the peak, 3608 -> 4611 MiB,
-    for 24.8 -> 22.3 s): its own settings when this never kept the heap, else :data:`_GLIBC_BACK` and the heap trimmed.
-    A process-wide setting, like :func:`small_pages`: the CLIs and the batch workers call it per photo; an
-    application embedding the library decides for itself.
+    and faulted in page by page; above it glibc maps each large array: its own settings when this never kept the
+    heap, else :data:`_GLIBC_BACK` and the heap trimmed. A process-wide setting, like :func:`small_pages`.
+    Decision: docs/decisions/071-process-memory.md.
 
     Returns:
         whether the heap is kept (False also where the C library has no ``mallopt``).

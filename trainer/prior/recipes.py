@@ -6,9 +6,9 @@ on between chunks (each by a ``svbrdf-train prior --resume`` flag); no preset re
 applies each change when the run reaches its iteration, as those resumes did (``--resume`` continues it). A rebuild
 is seeded but not bit-identical: the shipped run changed devices (H100, H200, CPU), threads and code along the way.
 
-Where each change of :data:`RECIPES` comes from (CHANGELOG.md, study prior-v2: the chunk READMEs' commands
-and the consoles' ``resuming ... at iteration N`` / ``note: ...`` lines; the checkpoints' ``prior_config`` and
-``history``):
+Where each change of :data:`RECIPES` comes from (``git show 5d98779:CHANGELOG.md``, study prior-v2: the chunk
+READMEs' commands and the consoles' ``resuming ... at iteration N`` / ``note: ...`` lines; the checkpoints'
+``prior_config`` and ``history``):
 
 ========= ====================================== ==========================================================
 iteration setting                                source
@@ -178,7 +178,7 @@ V4_EVIDENCE: Tuple[Tuple[str, str], ...] = (
                                                                 "not measured: a larger network within the preview's "
                                                                 "1 s budget, a larger batch for the card"),
     ("losses.slope 1, optim.ema 0.995, materials.flat_share 0.1, materials.black_share 0.05 from iteration 0",
-     "measured in v2 (switched on along its run, CHANGELOG.md study prior-v2); not measured from the start"),
+     "measured in v2 (switched on along its run, docs/decisions/023-stage-one-v2.md); not measured from the start"),
     ("materials.reuse 1", "not measured: v2's 5 made up for the host stream's cost, which the device stream removes"),
     ("photos.fov_deg (45, 75), v2's", "measured (CPU proxy, docs/decisions/061-cpu-proxy-fov.md): (20, 75) made the photos "
                                "darker (the exposure does not follow the camera's distance) and the diffuse and "
