@@ -105,6 +105,11 @@ def summary(rows: list) -> dict:
             "model_fov_within15": within(np.array([MODEL_FOV / r["truth"] for r in rows]))}
 
 
+def _synthetic_row(part: str, label: str, s: dict) -> str:
+    return (f"| {part} | {label} | {s['n']} | {s['within15_all']:.2f} | {s['median_ratio']:.2f} | {s['reliable']:.2f} | "
+            f"{s['within15_reliable']:.2f} | {s['within15_as_used']:.2f} | {s['model_fov_within15']:.2f} |")
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--data", type=Path, default=HERE.parents[2] / "shared" / "data")
@@ -142,15 +147,11 @@ def main(argv=None) -> int:
                 srows = synthetic_rows(args.data, args.size, vig, split)
                 s = summary(srows)
                 out[f"synthetic_{split}_{'vignetting' if vig else 'none'}"] = s
-                print(f"| {split} | {'0-0.3' if vig else 'off'} | {s['n']} | {s['within15_all']:.2f} | "
-                      f"{s['median_ratio']:.2f} | {s['reliable']:.2f} | {s['within15_reliable']:.2f} | "
-                      f"{s['within15_as_used']:.2f} | {s['model_fov_within15']:.2f} |")
+                print(_synthetic_row(split, "0-0.3" if vig else "off", s))
                 for fov in FOVS:
                     sf = summary([r for r in srows if r["truth"] == fov])
                     out[f"synthetic_{split}_{'vignetting' if vig else 'none'}_{int(fov)}"] = sf
-                    print(f"|  | {int(fov)}° | {sf['n']} | {sf['within15_all']:.2f} | {sf['median_ratio']:.2f} | "
-                          f"{sf['reliable']:.2f} | {sf['within15_reliable']:.2f} | {sf['within15_as_used']:.2f} | "
-                          f"{sf['model_fov_within15']:.2f} |")
+                    print(_synthetic_row("", f"{int(fov)}°", sf))
     if not args.quick:
         print("\n## real photos without truth (plausibility): the reliable estimates\n")
         print("| folder | photos | reliable | estimates (deg) | out of frame / absent |")
