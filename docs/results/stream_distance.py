@@ -6,9 +6,7 @@ Simple statistics of each photo (linear, [0, 1]): brightness (median luminance),
 luminance of the border eighth over that of the centre half square: 0 = even, negative = darker edges), clipped
 share (max channel >= 0.99) and saturation (mean (max - min) / max of the sRGB values, pixels above 0.02). Compared:
 ``n`` photos of v4's stream with v2's stream settings (arm A: fields of view 45-75 deg, no prints, no block means),
-of A with fields of view 20-75 deg and the exposure following the camera's distance (arm C,
-``photos.exposure_follows_distance``), of the v4 recipe as it stands (``--v4``) and the real photos (no ground truth)
-of one part of the shared data at 256 px. Robust to the few
+of v4's (arm B) and the real photos (no ground truth) of one part of the shared data at 256 px. Robust to the few
 odd real photos: ``|d|`` is the difference of the medians over the real photos' spread (1.4826 x their median
 absolute deviation), ``W1`` the 1-D Wasserstein distance over the same spread.
 """
@@ -31,7 +29,6 @@ from svbrdf.trainer.prior.recipes import RECIPES
 STATS = ("brightness", "fall_off", "clipped", "saturation")
 ARM_A = {"photos.fov_deg": (45.0, 75.0), "materials.print_share": 0.0, "photos.block_mean": 1,
          "photos.block_share": 1.0}
-ARM_C = {**ARM_A, "photos.fov_deg": (20.0, 75.0), "photos.exposure_follows_distance": True}
 
 
 def stats(photo: np.ndarray) -> np.ndarray:
@@ -72,16 +69,12 @@ def main() -> None:
     ap.add_argument("--batch", type=int, default=32)
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--split", default="tune", choices=("tune", "check"))
-    ap.add_argument("--v4", action="store_true", help="also the v4 recipe as it stands")
     ap.add_argument("--data", type=Path, default=Path(__file__).resolve().parents[3] / "shared" / "data")
     a = ap.parse_args()
     torch.set_num_threads(1)
     real = real_stats(a.data, a.split)
     arms = {"A (v2 stream)": stream_stats({**ARM_A, "optim.batch": a.batch}, a.n, a.size, a.photo_size, a.seed),
-            "C (A, 20-75 deg, exposure follows)": stream_stats({**ARM_C, "optim.batch": a.batch}, a.n, a.size,
-                                                               a.photo_size, a.seed)}
-    if a.v4:
-        arms["v4 recipe"] = stream_stats({"optim.batch": a.batch}, a.n, a.size, a.photo_size, a.seed)
+            "B (v4 stream)": stream_stats({"optim.batch": a.batch}, a.n, a.size, a.photo_size, a.seed)}
     med = np.median(real, 0)
     sd = 1.4826 * np.median(np.abs(real - med), 0)
     print(f"stream: {a.n} photos an arm at {a.size} px (crops of {a.photo_size} px); real: {len(real)} photos "

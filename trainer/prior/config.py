@@ -74,11 +74,6 @@ class Photos:
             ``block_mean`` blocks (normals renormalised); 1, 2 or 4; 1 = no averaging. Device stream only.
         block_share: fraction of the batches shown as block means when ``block_mean`` > 1, in [0, 1] (the others
             as they are).
-        exposure_follows_distance: the batched streams (``materials.batched``, host and device) scale the flash's
-            fall-off to each photo's own camera distance (``1 / tan(fov / 2)``), as the photo-by-photo stream always
-            does, so that the brightness at the flash does not depend on the field of view (what a camera's auto
-            exposure does, roughly). False: to the fine-tune preset's camera distance (v2's stream: a photo at 20
-            degrees about 3.8 EV darker than at 66, at 75 about 0.5 EV brighter; docs/decisions/061-cpu-proxy-fov.md).
     """
 
     size: int = 128
@@ -90,7 +85,6 @@ class Photos:
     camera: Dict[str, Tuple[float, float]] = field(default_factory=lambda: dict(REALISTIC))
     block_mean: int = 1
     block_share: float = 1.0
-    exposure_follows_distance: bool = False
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "fov_deg", tuple(float(f) for f in self.fov_deg))
@@ -215,12 +209,11 @@ GROUPS: Dict[str, type] = {"optim": Optimisation, "photos": Photos, "materials":
 #: Flat names of the settings as checkpoints' ``prior_config``, recipes' records and overrides named them before the
 #: groups (``PriorConfig.to_dict()`` was one flat dict) -> their dotted names now. Read by
 #: :meth:`PriorConfig.from_dict`, :func:`override` and :func:`setting_name`. ``height_activation`` is a recipe's
-#: name for the generator's. A setting added since (``exposure_follows_distance``) has one too, so that every
-#: setting of a group has exactly one.
+#: name for the generator's.
 FLAT_NAMES: Dict[str, str] = {
     **{n: f"optim.{n}" for n in ("batch", "iters", "lr", "lr_min", "betas", "seed", "bf16", "ema")},
     **{n: f"photos.{n}" for n in ("size", "photo_size", "crop_share", "fov_deg", "light_offset", "physical_share",
-                                  "camera", "block_mean", "block_share", "exposure_follows_distance")},
+                                  "camera", "block_mean", "block_share")},
     **{n: f"materials.{n}" for n in ("families", "flat_share", "black_share", "coarse_share", "print_share",
                                      "stream", "batched")},
     "material_reuse": "materials.reuse",
@@ -309,8 +302,6 @@ class PriorConfig:
              "photos.camera ranges must be (lo, hi), lo <= hi")
         need(p.camera["white"][0] >= 1.0, f"the camera's white range must be >= 1, got {p.camera['white']}")
         need(p.block_mean in (1, 2, 4), f"photos.block_mean must be 1, 2 or 4, got {p.block_mean}")
-        need(isinstance(p.exposure_follows_distance, bool),
-             f"photos.exposure_follows_distance must be true or false, got {p.exposure_follows_distance!r}")
         for name in ("render", "render_lights", "render_views", "grad", "amount", "slope"):
             need(getattr(ls, name) >= 0, f"losses.{name} must be >= 0, got {getattr(ls, name)}")
         need(bool(ls.amount_maps) and set(ls.amount_maps) <= set(SLICES),

@@ -34,9 +34,8 @@ clipped fraction).
 
 Known differences from the host stream, none in distribution: scratches are rasterised in windows of the largest
 segment's size (the host's boxes fit each segment; the masks are the same); the flash falls off with the base
-configuration's camera distance as in :func:`~svbrdf.trainer.prior.photos.simulate_photos_batched` (with
-``photos.exposure_follows_distance``, at each photo's own, as there); both renderer settings are rendered and one is
-chosen per photo.
+configuration's camera distance as in :func:`~svbrdf.trainer.prior.photos.simulate_photos_batched`; both renderer
+settings are rendered and one is chosen per photo.
 """
 
 from __future__ import annotations
@@ -754,8 +753,6 @@ def simulate_photos_device(maps: torch.Tensor, config, seed: int, crop: Optional
         plain = render_maps(maps, v, l, base, d2)
         phys = render_maps(maps, v, l, physical_config(base), d2)
         radiance = _where(physical, phys, plain)
-        if config.photos.exposure_follows_distance:  # the fall-off at each photo's own distance
-            radiance = radiance * ((dist / base.camera_distance) ** 2)[:, None, None, None]
         photos = expose_batch(radiance, generator=d.g, radius2_map=r2,
                               white=param.pop("white", None), check_white=False, **param)
     draws = {"fov_deg": fov, "light": light, "physical": physical, **param}

@@ -120,9 +120,8 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
     run on the device, with nothing read back. Returns what :func:`simulate_photos` returns.
 
     The flash falls off with the fine-tune preset's camera distance (the renderer's normalisation of the ``base``
-    configuration), while each photo's camera and flash sit at its own: a photo's brightness depends on its field of
-    view. With ``config.photos.exposure_follows_distance`` each photo's radiance is scaled by ``(d / d_base) ** 2``,
-    which is the fall-off at its own distance ``d``, as :func:`simulate_photos` renders it.
+    configuration) while each photo's camera and flash sit at its own, so a photo's brightness depends on its field
+    of view, unlike :func:`simulate_photos`'s (docs/decisions/061-cpu-proxy-fov.md).
     """
     b, _, h, w = maps.shape
     dev = maps.device
@@ -161,10 +160,6 @@ def simulate_photos_batched(maps: torch.Tensor, config: PriorConfig, rng: torch.
                 rc = physical_config(base) if flag else base
                 sel = to_device(torch.tensor(idx), dev)
                 radiance[sel] = render_maps(maps[sel], v[sel], l[sel], rc, d2[sel])
-        if config.photos.exposure_follows_distance:
-            gain = np.asarray([(base.replace(fov_deg=d["fov_deg"]).camera_distance / base.camera_distance) ** 2
-                               for d in draws], dtype=np.float32)
-            radiance = radiance * to_device(gain, dev)[:, None, None, None]
         noise = torch.Generator(device=dev).manual_seed(seed)
         param = {k: torch.tensor([c[k] for c in cam_draws]) for k in CAMERA_KEYS}
         photos = expose_batch(radiance, generator=noise, radius2_map=r2, **param)

@@ -180,9 +180,9 @@ V4_EVIDENCE: Tuple[Tuple[str, str], ...] = (
     ("losses.slope 1, optim.ema 0.995, materials.flat_share 0.1, materials.black_share 0.05 from iteration 0",
      "measured in v2 (switched on along its run, docs/decisions/023-stage-one-v2.md); not measured from the start"),
     ("materials.reuse 1", "not measured: v2's 5 made up for the host stream's cost, which the device stream removes"),
-    ("photos.fov_deg (45, 75), v2's", "measured (CPU proxy, docs/decisions/061-cpu-proxy-fov.md): (20, 75) made the photos "
-                               "darker (the exposure does not follow the camera's distance) and the diffuse and "
-                               "grazing errors worse; kept at v2's until the exposure follows the distance"),
+    ("photos.fov_deg (45, 75), v2's", "measured (CPU proxy, docs/decisions/061-cpu-proxy-fov.md): (20, 75) made the "
+                                      "photos darker and the diffuse and grazing errors worse; with the fall-off at "
+                                      "each photo's distance (arm C, two seeds) grazing and re-render still worse"),
     ("materials.print_share 0.2", "not measured: specular varying within a material independently of its classes "
                         "(device_stream.add_prints); the share is a guess"),
     ("photos.block_mean 2 on 25 % of the batches", "not measured: the preview shows a 1024 px photo to the network as "
@@ -201,8 +201,8 @@ RECIPES: Dict[str, Recipe] = {
                                                  (21000, {"optim.iters": 26000, "materials.coarse_share": 0.3})),
                  "the v3 candidate: v2 continued to 21000, then to 26000 with a coarse relief on 30 % of the materials"),
     "v4": Recipe("v4", _v4_start, (), "the v4 candidate (issue 64, not trained yet): v2's network on the device "
-                 "stream, prints on 20 %, block means on 25 % of the batches (fields of view 20-75 deg: not "
-                 "until the exposure follows the camera's distance, docs/decisions/061-cpu-proxy-fov.md)",
+                 "stream, prints on 20 %, block means on 25 % of the batches (v2's fields of view 45-75 deg: "
+                 "docs/decisions/061-cpu-proxy-fov.md)",
                  V4_EVIDENCE),
 }
 

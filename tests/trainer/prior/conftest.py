@@ -1,8 +1,7 @@
 """What the stage-one tests (svbrdf.trainer.prior) share: one CPU thread, small configs, the host-read probe.
 
 Fixtures: ``one_thread`` (each test file uses it for all its tests), ``tiny`` and ``tiny_v2`` (make small
-:class:`PriorConfig` s: ``tiny({"optim.lr": 2e-3})``), ``grey_centres`` (a grey material's brightness at two fields
-of view), ``host_reads`` (:class:`HostReads`) and
+:class:`PriorConfig` s: ``tiny({"optim.lr": 2e-3})``), ``host_reads`` (:class:`HostReads`) and
 ``meta_training_steps`` (training steps on the meta device, asserting that none makes a GPU wait).
 """
 
@@ -14,7 +13,6 @@ import pytest
 import torch
 from torch.utils._python_dispatch import TorchDispatchMode
 
-from svbrdf.runtime.core.maps import SLICES
 from svbrdf.trainer.models import Generator, GeneratorConfig
 from svbrdf.trainer.prior import PriorConfig, prior_loss, prior_preset, sample_batch
 from svbrdf.trainer.prior.config import override
@@ -48,26 +46,6 @@ def tiny() -> Callable[..., PriorConfig]:
 def tiny_v2() -> Callable[..., PriorConfig]:
     """``tiny_v2(settings)``: the v2 preset at test size (:data:`TINY_V2`) with ``settings`` on top."""
     return lambda settings=(): override(prior_preset("v2"), {**TINY_V2, **dict(settings)})
-
-
-@pytest.fixture
-def grey_centres() -> Callable[..., list]:
-    """``grey_centres(simulate, cfg, seed)``: :func:`_grey_centres`."""
-    return _grey_centres
-
-
-def _grey_centres(simulate: Callable, cfg: PriorConfig, seed: int) -> list:
-    """The centre brightness of a flat diffuse grey material photographed at 20 and at 75 degrees by ``simulate``
-    (``simulate(maps, cfg, seed)`` -> photos), the camera's exposure fixed and its noise and vignetting off, the
-    flash on the lens (``photos.exposure_follows_distance``: test_photos.py, test_device_stream.py)."""
-    maps = torch.zeros(1, 8, 32, 32)
-    maps[:, SLICES["diffuse"]] = 0.3
-    maps[:, SLICES["roughness"]] = 0.5
-    maps[:, SLICES["normal"]] = torch.tensor([0.0, 0.0, 1.0]).view(1, 3, 1, 1)
-    fixed = {"photos.camera": {"ev": (0, 0), "vignetting": (0, 0), "shot": (0, 0), "read": (0, 0)},
-             "photos.light_offset": 0.0}
-    return [float(simulate(maps, override(cfg, {**fixed, "photos.fov_deg": [fov, fov]}), seed)[0, :, 14:18, 14:18]
-                  .mean()) for fov in (20.0, 75.0)]
 
 
 @pytest.fixture

@@ -45,7 +45,7 @@ def test_every_setting_has_one_dotted_name_and_at_most_one_flat_one():
     flat = cfg.flat_dict()
     dotted = {k for k in flat if "." in k}
     assert dotted == {f"{g}.{f.name}" for g, group in GROUPS.items() for f in dataclasses.fields(group)}
-    assert len(dotted) == 41 and set(flat) - dotted == {"generator", "finetune_preset"}
+    assert len(dotted) == 40 and set(flat) - dotted == {"generator", "finetune_preset"}
     # the flat names of earlier records: one per setting of a group, and the recipes' height_activation
     assert set(FLAT_NAMES.values()) == dotted | {"generator.height_activation"}
     assert len(FLAT_NAMES) == len(set(FLAT_NAMES.values()))
@@ -126,7 +126,6 @@ def test_an_unknown_name_gives_a_clear_error(settings, match):
     ({"optim.lr": 0.0}, "optim.lr > 0"), ({"optim.ema": 1.0}, "optim.ema must be in"),
     ({"optim.batch": 0}, "optim.batch and optim.iters"), ({"photos.crop_share": 1.5}, "photos.crop_share"),
     ({"photos.block_mean": 3}, "photos.block_mean must be 1, 2 or 4"),
-    ({"photos.exposure_follows_distance": "yes"}, "photos.exposure_follows_distance must be true or false"),
     ({"photos.camera": {"ev": (1.0, 0.0)}}, "photos.camera ranges need exactly"),
     ({"materials.reuse": 0}, "materials.reuse must be >= 1"), ({"materials.flat_share": 1.0}, "materials.flat_share"),
     ({"materials.stream": "device"}, "needs materials.batched"),

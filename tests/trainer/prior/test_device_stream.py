@@ -75,21 +75,6 @@ def test_the_stream_setting_is_validated():
         override(prior_preset("v1"), {"materials.stream": "device"})
 
 
-def test_with_exposure_following_the_distance_a_device_photos_brightness_does_not_depend_on_its_field_of_view(
-        grey_centres):
-    """``photos.exposure_follows_distance`` in the device stream: the fall-off from each photo's own camera distance,
-    as in the batched host stream (test_photos.py); off, a 20 degree photo is about 19 times darker than a 75 one."""
-    from svbrdf.trainer.prior.device_stream import simulate_photos_device
-
-    def device(maps, cfg, seed):
-        return simulate_photos_device(maps, cfg, seed)[0]
-
-    narrow, wide = grey_centres(device, device_cfg({"photos.exposure_follows_distance": True}), 3)
-    assert 0.1 < wide < 0.9 and abs(narrow / wide - 1.0) < 0.03, (narrow, wide)
-    narrow, wide = grey_centres(device, device_cfg({}), 3)
-    assert narrow < 0.1 * wide, (narrow, wide)
-
-
 def test_every_batched_family_builds_finite_unit_normal_maps():
     for fam in FAMILIES:
         maps, names = sample_materials_device(2, 48, 11, families=[fam])
@@ -193,7 +178,6 @@ def test_on_cuda_the_device_stream_never_waits_and_is_seeded():
 def test_the_device_stream_batch_and_loss_never_make_a_gpu_wait(meta_training_steps):
     # The device stream (issue 64): every family, share and camera draw on the device, nothing read back.
     cfg = override(prior_preset("v2"), {"materials.stream": "device", "materials.flat_share": 0.3,
-                                        "photos.exposure_follows_distance": True,
                                         "materials.black_share": 0.3, "materials.coarse_share": 0.3,
                                         "photos.camera": {**prior_preset("v2").photos.camera, "white": (1.0, 4.0)}})
     infos = meta_training_steps(cfg)

@@ -142,28 +142,6 @@ def test_a_roll_off_range_is_drawn_per_photo_alike_in_both_streams_and_none_leav
         tiny_v2({"photos.camera": {**quiet, "white": (0.5, 2.0)}})
 
 
-def test_with_exposure_following_the_distance_a_batched_photos_brightness_does_not_depend_on_its_field_of_view(
-        tiny_v2, grey_centres):
-    """``photos.exposure_follows_distance``: the batched stream's flash falls off from each photo's own camera
-    distance, as the photo-by-photo stream's does (the renderer normalises at the distance of the configuration it is
-    given); off, v2's stream: a 20 degree photo is (d20 / d75) ** 2, about 19 times, darker than a 75 degree one."""
-    from svbrdf.trainer.prior import simulate_photos_batched
-
-    def batched(maps, cfg, seed):
-        return simulate_photos_batched(maps, cfg, torch.Generator().manual_seed(seed))[0]
-
-    def one_by_one(maps, cfg, seed):
-        return simulate_photos(maps, cfg, torch.Generator().manual_seed(seed))[0]
-
-    follows = tiny_v2({"photos.exposure_follows_distance": True})
-    narrow, wide = grey_centres(batched, follows, 3)
-    assert 0.1 < wide < 0.9 and abs(narrow / wide - 1.0) < 0.03, (narrow, wide)
-    ref_narrow, ref_wide = grey_centres(one_by_one, follows, 3)
-    assert abs(narrow / ref_narrow - 1.0) < 0.03 and abs(wide / ref_wide - 1.0) < 0.03  # as photo by photo
-    narrow, wide = grey_centres(batched, tiny_v2(), 3)  # off: the fine-tune preset's distance (v2's stream)
-    assert narrow < 0.1 * wide, (narrow, wide)
-
-
 def test_flat_share_makes_the_chosen_materials_flat_and_none_leaves_the_stream_as_it_was(tiny_v2):
     """``materials.flat_share`` (materials without relief): the chosen materials' normals are (0, 0, 1), everything else of
     theirs and the other materials as drawn; at 0 nothing is drawn for it; the validation batch never has them."""
@@ -299,8 +277,7 @@ def test_the_v2_batch_and_loss_never_make_a_gpu_wait(meta_training_steps):
     # The GPU chunks counted 73 host synchronisations per batch (git show bc3896e:./docs/benchmarks/prior-v2/README.md):
     # each one stops the host until the GPU has run everything queued, so the batch cannot be built while the network
     # trains. Checked on the CPU by taking training steps on the meta device.
-    infos = meta_training_steps(override(prior_preset("v2"), {"materials.flat_share": 0.5,  # flat too
-                                                              "photos.exposure_follows_distance": True}))
+    infos = meta_training_steps(override(prior_preset("v2"), {"materials.flat_share": 0.5}))  # flat too
     assert {i["crop"] for i in infos} == {True, False}  # crops of larger photos and whole photos
 
 
