@@ -99,7 +99,9 @@ def build_parser() -> argparse.ArgumentParser:
     g.add_argument("--train-encoder", action="store_true", default=None,
                    help="train the encoder too (default: Zhao's frozen random encoder)")
     g.add_argument("--seed", type=int, help="random seed (default 24)")
-    g.add_argument("--fov", type=float, metavar="DEG", help="camera field of view across the photo width (default 66)")
+    g.add_argument("--fov", type=float, metavar="DEG", help="camera field of view across the photo width (default: "
+                                                             "the photo's, as svbrdf-preview takes it: EXIF, the "
+                                                             "flash's fall-off or a phone's main camera)")
     g.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="any training setting by its dotted name, e.g. --set losses.fourier=0.5 or --set "
                         "post.even_lighting=0 (values read as JSON, else text; after the flags above); repeatable")
@@ -495,8 +497,16 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
             log("note: training settings given with --resume are ignored (they come from the checkpoint)")
     else:
         preset = args.preset or "paper"
+        overrides, camera_line = _overrides(args, TRAIN_PRESETS[preset]), None
+        if overrides.get("render.fov_deg") is None:  # the photo's own camera, as svbrdf-preview takes it
+            from svbrdf.runtime.workflow.camera import photo_camera
+
+            camera = photo_camera(photo_path, None, image=photo[0].permute(1, 2, 0).numpy())
+            overrides["render.fov_deg"] = camera["fov_deg"]
+            camera_line = f"camera: {camera['fov_deg']:.1f} deg across the photo ({camera['fov_source']}: " \
+                          f"{camera['how']})"
         try:
-            config = resolve(preset, **_overrides(args, TRAIN_PRESETS[preset]))
+            config = resolve(preset, **overrides)
         except ValueError as e:
             parser.error(str(e))
         # Read before anything is removed: a bad --init leaves the folder as it was.
@@ -518,6 +528,8 @@ def _run(args: argparse.Namespace, parser: argparse.ArgumentParser) -> int:
                 except OSError:
                     pass
             raise
+        if camera_line:  # said once the run is set up (a refused photo or checkpoint is the one line)
+            log(camera_line)
     cfg = trainer.config
     log(f"{args.stage} {photo_path.name} ({info['width']}x{info['height']}) preset {cfg.preset}, "
         f"{trainer.iters} iterations, tile {trainer.tile}, device {trainer.device}"

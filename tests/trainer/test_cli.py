@@ -47,6 +47,16 @@ def test_fit_writes_checkpoint_log_and_maps(tmp_path, photo, capsys):
     assert sidecar["meta"]["stage"] == "fit" and sidecar["meta"]["step"] == 3
     burn = sidecar["meta"]["burn_in"]["burn_in"]  # the label-free burn-in, in the sidecar and the closing line
     assert burn >= 0 and f"burn-in {burn:.2f}" in err
+    # the photo's own camera, as svbrdf-preview takes it (no EXIF, no fall-off: a phone's across a 4:3 photo)
+    assert "camera: 67.3 deg across the photo (default" in err
+    assert sidecar["brdf"]["render_config"]["fov_deg"] == pytest.approx(67.3, abs=0.01)
+
+
+def test_fov_overrides_the_photos_camera(tmp_path, photo, capsys):
+    out = tmp_path / "out"
+    assert cli.main(["fit", str(photo), *TINY, "--iters", "1", "--out", str(out), "--fov", "30"]) == 0
+    assert "camera:" not in capsys.readouterr().err
+    assert json.loads((out / f"{photo.stem}.json").read_text())["brdf"]["render_config"]["fov_deg"] == 30.0
 
 
 def test_progress_is_plain_lines_off_a_terminal(tmp_path, photo, capsys):

@@ -24,12 +24,12 @@ from typing import Any, Callable, Dict, List, Optional, Sequence
 
 from svbrdf.runtime.quality.burn_in import burn_in_scores
 from svbrdf.runtime.errors import SvbrdfError
-from svbrdf.runtime.core.render import ZHAO
+from svbrdf.runtime.core.render import ZHAO, RenderConfig
 
 from . import report
 from .cases import RENDERERS, BenchCase, load_cases, mitsuba_available, prepare_case
 from .common import default_data, machine_info
-from .methods import METHODS, BenchOptions, Point, torch_available
+from .methods import METHODS, BenchOptions, Point, case_render_config, torch_available
 from .metrics import evaluate
 from .plot import plot_pareto
 
@@ -202,10 +202,11 @@ def run_benchmark(
                 dataclasses.replace(opts, iters=[i for i in opts.iters if i <= caps[name]] or [0])
             for case in bench_cases:
                 run_recs: List[Dict[str, Any]] = []
+                camera = case_render_config(case, opts.config)  # a real photo's own camera (its re-render)
 
-                def on_point(p: Point, case: BenchCase = case) -> None:
+                def on_point(p: Point, case: BenchCase = case, camera: RenderConfig = camera) -> None:
                     metrics = evaluate(p.maps, gt=case.gt, photo=case.photo if case.gt is None else None,
-                                       config=opts.config, centre=case.centre, capture=case.capture)
+                                       config=camera, centre=case.centre, capture=case.capture)
                     rec = {"case": case.name, "source": case.source, "kind": case.kind, "method": name,
                            "preset": preset, "iterations": p.iterations, "seconds": p.train_seconds + p.eval_seconds,
                            "train_seconds": p.train_seconds, "eval_seconds": p.eval_seconds,

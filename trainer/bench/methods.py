@@ -326,8 +326,9 @@ class Training(Method):
         if not iters or iters[0] < 0:
             raise SvbrdfError(f"iteration counts must be >= 0, got {opts.iters}")
         targets, last = set(iters), iters[-1]
-        # The preset keeps its own flash model (fall-off, ...); only the benchmark's field of view is imposed.
-        cfg = resolve(preset, fov_deg=opts.config.fov_deg, quality="fixed", checkpoint_every=0, maps_every=0,
+        # The preset keeps its own flash model (fall-off, ...); only the case's field of view is imposed.
+        cfg = resolve(preset, fov_deg=case_render_config(case, opts.config).fov_deg, quality="fixed",
+                      checkpoint_every=0, maps_every=0,
                       bf16=True if opts.bf16 else None, **opts.train_overrides)
         photo = T.photo_to_tensor(case.photo)
         info = T.tensor_photo_info(photo, case.name)
