@@ -483,11 +483,6 @@ def setting_name(key: str) -> str:
     return LAYOUT.name(key)
 
 
-def _put(out: Dict[str, Any], name: str, value: Any) -> None:
-    """Set dotted ``name`` in nested ``out``; a mapping given for a group or sub-config is merged field by field."""
-    LAYOUT.put(out, name, value)
-
-
 def nested_settings(d: Mapping[str, Any]) -> Dict[str, Any]:
     """Settings by any of their names (nested groups as :meth:`TrainConfig.to_dict` gives them, dotted names,
     the flat names of :data:`FLAT_NAMES`) as one nested dict, later entries over earlier ones. Raises ValueError
@@ -604,7 +599,7 @@ def resolve(preset: str = "paper", **overrides: Any) -> TrainConfig:
     for key, value in overrides.items():
         if value is None:
             continue
-        _put(d, setting_name(key), value)
+        LAYOUT.put(d, setting_name(key), value)
     return TrainConfig.from_dict(d)
 
 
@@ -631,6 +626,5 @@ def parse_settings(items: Iterable[str]) -> Dict[str, Any]:
 
 __all__ = ["TrainConfig", "Optimisation", "Losses", "PhotoModel", "Monitoring", "Guard", "Prediction", "GROUPS",
            "FLAT_NAMES", "COMPONENTS", "LAYOUT", "SettingsLayout", "NO_POST", "POST_FIELDS", "setting_name",
-           "nested_settings", "flat_settings",
-           "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS",
+           "nested_settings", "flat_settings", "parse_settings", "TRAIN_PRESETS", "REFINE_RECIPES", "PRESET_DESCRIPTIONS", "BENCH_PRESETS", "CLI_PRESETS",
            "resolve", "STAGES", "FOURIER_MODES", "PERCEPTUAL_BACKENDS", "QUALITY_MODES", "SCHEDULES"]
