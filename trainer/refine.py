@@ -6,11 +6,12 @@
 * **the fit** (:mod:`svbrdf.trainer.fit`, shared with ``--capture``): one view, camera and flash above the photo's
   centre at the height of ``render_config.fov_deg`` (inverse-square fall-off, closed-form exposure, clipped pixels
   out), on the photo's block means at most :data:`FIT_SIDE` px long;
-* **never worse**: a fixed :data:`HOLDOUT_SHARE` of the photo's :data:`HOLDOUT_BLOCK`-px blocks is held out of the
-  fit; the result is the preview unless the fit's re-render error on them is below the preview's times
-  ``1 - MARGIN`` (both exposed over the fitted pixels) and its burn-in is at most the preview's plus
-  :data:`BURN_GUARD`. When the fit wins, the maps are its two shifts applied to the preview at the photo's size
-  (no refit on all pixels).
+* **never worse**, by cross-validation on the photo itself: its :data:`HOLDOUT_BLOCK`-px blocks are dealt into
+  :data:`FOLDS` folds (a fixed draw, :func:`holdout_folds`); each fold is held out of one fit and judged on. The
+  result is the preview unless the fit's re-render error on the held-out fold is below the preview's times
+  ``1 - MARGIN`` on **every** fold (both exposed over that fit's pixels). Then the two shifts are fitted once more
+  on all the photo's pixels (from the folds' mean, pulled toward the preview as before), and kept if their burn-in
+  is at most the preview's plus :data:`BURN_GUARD`; they are applied to the preview at the photo's size.
 
 Decision: docs/decisions/050-refine.md
 """
@@ -31,39 +32,40 @@ from svbrdf.runtime.quality.burn_in import photo_burn_in
 from svbrdf.trainer.fit import CLIP, adam_fit, logit, make_view, to_tensor, view_rmse
 
 QUALITIES = ("fixed", "auto")
-#: Adam steps of the fit (``--iters``), its learning rate (logit units) and the weight of the pull toward the
-#: preview (mean squared shift).
-ITERS = 100
+#: Adam steps of each fit (``--iters``; :data:`FOLDS` held-out fits, then one on all pixels), their learning rate
+#: (logit units) and the weight of the pull toward the preview (mean squared shift).
+ITERS = 25
 LR = 0.05
 PRIOR_WEIGHT = 0.05
 #: The fit runs on block means of the photo at most this long (pixels).
 FIT_SIDE = 256
-#: The held-out test: blocks of this side (pixels of the fit), this share of them held out (a fixed draw).
+#: The held-out test: blocks of this side (pixels of the fit), dealt into this many folds (a fixed draw).
 HOLDOUT_BLOCK = 16
-HOLDOUT_SHARE = 0.25
-#: The fit is kept when its held-out error is below the preview's times (1 - MARGIN) ...
+FOLDS = 4
+#: The fit is kept when its held-out error is below the preview's times (1 - MARGIN) on every fold ...
 MARGIN = 0.01
 #: ... and its burn-in (:func:`svbrdf.runtime.quality.burn_in.photo_burn_in`) at most the preview's plus this.
 BURN_GUARD = 0.0
-#: ``quality="auto"``: stop when the fitted error has not improved by 1e-4 (relative) for this many steps.
+#: ``quality="auto"``: each fit stops when its error has not improved by 1e-4 (relative) for this many steps.
 PATIENCE = 15
 
-#: ``callback(step, iters, error)``: after each step; ``error`` the sRGB RMSE on the fitted pixels.
+#: ``callback(step, total, error)``: after each step of every fit (``step`` counted over all of them, ``total`` =
+#: ``(FOLDS + 1) * iters``); ``error`` the sRGB RMSE on that fit's pixels.
 Callback = Callable[[int, int, float], None]
 
-__all__ = ["refine", "holdout_mask", "shifted", "QUALITIES", "ITERS", "LR", "PRIOR_WEIGHT", "FIT_SIDE",
-           "HOLDOUT_BLOCK", "HOLDOUT_SHARE", "MARGIN", "BURN_GUARD", "PATIENCE"]
+__all__ = ["refine", "holdout_folds", "shifted", "QUALITIES", "ITERS", "LR", "PRIOR_WEIGHT", "FIT_SIDE",
+           "HOLDOUT_BLOCK", "FOLDS", "MARGIN", "BURN_GUARD", "PATIENCE"]
 
 
-def holdout_mask(height: int, width: int, block: int = HOLDOUT_BLOCK, share: float = HOLDOUT_SHARE,
-                 seed: int = 0) -> np.ndarray:
-    """(H, W) bool, True on the held-out pixels: ``share`` of the ``block``-px blocks (at least one), a fixed draw
-    by ``seed``."""
+def holdout_folds(height: int, width: int, block: int = HOLDOUT_BLOCK, folds: int = FOLDS,
+                  seed: int = 0) -> np.ndarray:
+    """(H, W) int fold of every pixel, 0 to ``folds - 1``: the ``block``-px blocks dealt into ``folds`` folds whose
+    block counts differ by at most one (a fixed draw by ``seed``; with fewer blocks than folds, some are empty)."""
     by, bx = -(-height // block), -(-width // block)
     n = by * bx
-    held = np.zeros(n, bool)
-    held[np.random.default_rng(seed).permutation(n)[:max(1, int(round(share * n)))]] = True
-    return held.reshape(by, bx).repeat(block, 0).repeat(block, 1)[:height, :width]
+    fold = np.empty(n, np.int64)
+    fold[np.random.default_rng(seed).permutation(n)] = np.arange(n) % folds
+    return fold.reshape(by, bx).repeat(block, 0).repeat(block, 1)[:height, :width]
 
 
 def shifted(packed: torch.Tensor, shifts) -> torch.Tensor:
@@ -83,18 +85,21 @@ def refine(photo: np.ndarray, preview: Maps, render_config: RenderConfig, *, qua
         photo: (H, W, 3) linear RGB float photo.
         preview: the preview's four maps of ``photo`` (H, W) (:func:`svbrdf.runtime.inference.pipeline.estimate`).
         render_config: the photo's renderer settings: its field of view gives the camera's height; fall-off is on.
-        quality: ``"fixed"``: ``iters`` steps; ``"auto"``: at most ``iters``, stopping when the fitted error has
-            stopped improving (:data:`PATIENCE`).
-        iters: Adam steps (default :data:`ITERS`).
+        quality: ``"fixed"``: ``iters`` steps a fit; ``"auto"``: at most ``iters``, each fit stopping when its
+            error has stopped improving (:data:`PATIENCE`).
+        iters: Adam steps of each of the ``FOLDS + 1`` fits (default :data:`ITERS`).
         threads: torch CPU threads (default: torch's).
         callback: :data:`Callback`.
 
     Returns:
         The refined :class:`Maps` (H, W, the preview's meta), or ``preview`` itself; either way with
         ``meta["refine"]`` = ``{"kept": "refined" | "preview", "reason" (why the preview was kept: "held-out
-        error" or "burn-in"; None), "heldout_rmse_preview", "heldout_rmse_refined" (sRGB RMSE on the held-out
-        blocks), "margin", "burn_guard", "burn_in_preview", "burn_in_refined", "iterations",
-        "stopped_early", "fit_rmse", "seconds", "fit_size", "heldout_share", "shifts"}`` and ``meta["burn_in"]``
+        error" or "burn-in"; None), "heldout_rmse_preview", "heldout_rmse_refined" (sRGB RMSE over every fold's
+        held-out blocks, each judged by the fit that did not see it), "fold_ratios" (refined / preview per fold),
+        "folds_won", "folds" (the folds judged: those with unclipped pixels), "margin", "burn_guard",
+        "burn_in_preview", "burn_in_refined" (None without the final fit), "iterations" (steps of all fits),
+        "stopped_early", "fit_rmse" (the final fit's; None without it), "seconds", "fit_size", "shifts" (the final
+        fit's, logit units; None without it)}`` and ``meta["burn_in"]``
         (:func:`svbrdf.runtime.quality.burn_in.photo_burn_in` of the maps returned).
 
     Raises:
@@ -123,31 +128,57 @@ def refine(photo: np.ndarray, preview: Maps, render_config: RenderConfig, *, qua
     small = to_tensor(full.pack() if k == 1 else block_mean(full.pack(), k, partial=True))
     small = torch.cat([small[:, :5], small[:, 5:8] / small[:, 5:8].norm(dim=1, keepdim=True)], 1)
     view = make_view(small_photo, render_config)
-    held = to_tensor(holdout_mask(*small_photo.shape[:2])[..., None].astype(np.float32))
-    fitted = 1.0 - held
-    shifts = [torch.zeros(()), torch.zeros(())]
-    steps, loss = adam_fit(shifts, lambda: view_rmse(shifted(small, shifts), view, fitted), iters=iters, lr=LR,
-                           prior_weight=PRIOR_WEIGHT, patience=PATIENCE if quality == "auto" else None,
-                           callback=(lambda step, err: callback(step, iters, err)) if callback else None)
-    with torch.no_grad():
-        err_preview = float(view_rmse(small, view, held, exposure_mask=fitted))
-        err_refined = float(view_rmse(shifted(small, shifts), view, held, exposure_mask=fitted))
-        out = Maps.unpack(shifted(to_tensor(full.pack()), shifts)[0].permute(1, 2, 0).numpy(),
-                          meta=dict(preview.meta))
-    out.meta["burn_in"] = photo_burn_in(out, photo)
+    folds = to_tensor(holdout_folds(*small_photo.shape[:2])[..., None].astype(np.float32))
+    total, done, early = (FOLDS + 1) * iters, 0, False
+
+    def fit(shifts, mask, start=None):
+        nonlocal done, early
+        offset = done
+        steps, loss = adam_fit(shifts, lambda: view_rmse(shifted(small, shifts), view, mask), iters=iters, lr=LR,
+                               prior_weight=PRIOR_WEIGHT, start=start,
+                               patience=PATIENCE if quality == "auto" else None,
+                               callback=(lambda step, err: callback(offset + step, total, err)) if callback else None)
+        done, early = done + steps, early or steps < iters
+        return loss
+
+    # Cross-validation: each fold held out of one fit and judged on; squared errors pooled over the folds.
+    ratios, sums, fold_shifts = [], np.zeros(3), []
+    for f in range(FOLDS):
+        held = (folds == f).float()
+        n = float((view.ok * held).sum())
+        if not n:  # nothing unclipped to judge on
+            continue
+        shifts = [torch.zeros(()), torch.zeros(())]
+        fit(shifts, 1.0 - held)
+        with torch.no_grad():
+            err_p = float(view_rmse(small, view, held, exposure_mask=1.0 - held))
+            err_r = float(view_rmse(shifted(small, shifts), view, held, exposure_mask=1.0 - held))
+        ratios.append(err_r / max(err_p, 1e-12))
+        sums += (n * err_p ** 2, n * err_r ** 2, n)
+        fold_shifts.append([float(t.detach()) for t in shifts])
+    err_preview, err_refined = (float(np.sqrt(x / max(sums[2], 1.0))) for x in sums[:2])
+    won = sum(r < 1.0 - MARGIN for r in ratios)
     before = preview.meta.get("burn_in") or photo_burn_in(preview, photo)
-    ds, dr = (float(t.detach()) for t in shifts)
-    record = {"kept": "refined", "reason": None, "heldout_rmse_preview": err_preview,
-              "heldout_rmse_refined": err_refined, "margin": MARGIN, "burn_guard": BURN_GUARD,
-              "burn_in_preview": float(before["burn_in"]), "burn_in_refined": float(out.meta["burn_in"]["burn_in"]),
-              "iterations": steps,
-              "stopped_early": steps < iters, "fit_rmse": loss, "fit_size": list(small_photo.shape[:2]),
-              "heldout_share": HOLDOUT_SHARE,
-              "shifts": {"specular_logit": round(ds, 4), "roughness_logit": round(dr, 4)}}
-    if not err_refined < err_preview * (1.0 - MARGIN):
-        record["kept"], record["reason"], out = "preview", "held-out error", preview
-    elif record["burn_in_refined"] > record["burn_in_preview"] + BURN_GUARD:
-        record["kept"], record["reason"], out = "preview", "burn-in", preview
+    record = {"kept": "preview", "reason": "held-out error", "heldout_rmse_preview": err_preview,
+              "heldout_rmse_refined": err_refined, "fold_ratios": [round(r, 4) for r in ratios],
+              "folds_won": won, "folds": len(ratios), "margin": MARGIN, "burn_guard": BURN_GUARD,
+              "burn_in_preview": float(before["burn_in"]), "burn_in_refined": None, "iterations": None,
+              "stopped_early": None, "fit_rmse": None, "fit_size": list(small_photo.shape[:2]), "shifts": None}
+    out = preview
+    if ratios and won == len(ratios):  # every fold says the fit helps: the shifts from all pixels
+        shifts = [torch.tensor(float(np.mean(v))) for v in zip(*fold_shifts)]
+        record["fit_rmse"] = fit(shifts, None, start=[torch.zeros(()), torch.zeros(())])
+        with torch.no_grad():
+            out = Maps.unpack(shifted(to_tensor(full.pack()), shifts)[0].permute(1, 2, 0).numpy(),
+                              meta=dict(preview.meta))
+        out.meta["burn_in"] = photo_burn_in(out, photo)
+        ds, dr = (float(t.detach()) for t in shifts)
+        record.update(kept="refined", reason=None, burn_in_refined=float(out.meta["burn_in"]["burn_in"]),
+                      shifts={"specular_logit": round(ds, 4), "roughness_logit": round(dr, 4)})
+        if record["burn_in_refined"] > record["burn_in_preview"] + BURN_GUARD:
+            record["kept"], record["reason"], out = "preview", "burn-in", preview
+    record["iterations"], record["stopped_early"] = done, early
+    out.meta.setdefault("burn_in", before)
     record["seconds"] = time.perf_counter() - t0
     out.meta["refine"] = record
     return out

@@ -115,13 +115,16 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
     p.add_argument("--refine", action="store_true",
                    help="correct the preview on each photo with torch (about 2 s a photo on one core): its specular "
                         "and roughness maps shifted, one level each, to fit the photo under its flash and camera "
-                        "(--fov); base colour and normals stay the preview's. The result is the preview whenever the "
-                        "fit does not re-render held-out blocks of the photo at least 1%% better, or raises the "
-                        "burn-in (the terminal line and the sidecar's refine record say which)")
+                        "(--fov); base colour and normals stay the preview's. The result is the preview unless the "
+                        "fit re-renders held-out blocks of the photo at least 1%% better in each of 4 "
+                        "cross-validation folds without raising the burn-in (the terminal line and the sidecar's "
+                        "refine record say which)")
     how = p.add_mutually_exclusive_group()
-    how.add_argument("--iters", metavar="N", type=_positive, help="--refine fitting steps (default 100)")
+    how.add_argument("--iters", metavar="N", type=_positive,
+                     help="--refine: Adam steps of each of its 5 fits (4 cross-validation folds and the final one; "
+                          "default 25)")
     how.add_argument("--quality", choices=("auto",),
-                     help="--refine until the fit's error on the photo stops improving (at most 100 steps); the "
+                     help="--refine: each fit until its error on the photo stops improving (at most 25 steps); the "
                           "held-out check still decides between the fit and the preview")
     p.add_argument("-q", "--quiet", action="store_true", help="print errors only")
     p.add_argument("-v", "--verbose", action="store_true", help="print model details, and tracebacks on errors")

@@ -1,5 +1,5 @@
 """svbrdf.trainer.refine: the refine behind ``svbrdf-preview --refine``: one specular and one roughness level fitted
-to the photo, and the held-out test that keeps the preview when the fit does not win."""
+to the photo, and the cross-validated held-out test that keeps the preview unless the fit wins on every fold."""
 
 import numpy as np
 import pytest
@@ -7,7 +7,7 @@ import pytest
 from svbrdf.runtime.core.maps import Maps
 from svbrdf.runtime.core.render import ZHAO, render
 from svbrdf.trainer import refine as refine_module
-from svbrdf.trainer.refine import MARGIN, holdout_mask, refine
+from svbrdf.trainer.refine import FOLDS, MARGIN, holdout_folds, refine
 
 S = 64
 CONFIG = ZHAO.replace(fov_deg=50.0)
@@ -46,10 +46,13 @@ def test_the_refine_recovers_the_gloss_of_a_wrong_preview(monkeypatch):
     # The base colour and the normals are the preview's: no highlight baked in, nothing flattened.
     np.testing.assert_array_equal(out.diffuse, preview.diffuse)
     np.testing.assert_array_equal(out.normal, preview.normal)
-    assert [s[0] for s in steps] == list(range(1, refine_module.ITERS + 1)) and steps[0][1] == refine_module.ITERS
+    # FOLDS held-out fits, then one on all pixels: the steps counted over all of them.
+    total = (FOLDS + 1) * refine_module.ITERS
+    assert [s[0] for s in steps] == list(range(1, total + 1)) and {s[1] for s in steps} == {total}
     assert set(rec) >= {"kept", "heldout_rmse_preview", "heldout_rmse_refined", "iterations", "seconds",
-                        "burn_in_preview", "burn_in_refined", "shifts"}
-    assert rec["iterations"] == refine_module.ITERS and rec["seconds"] > 0 and "burn_in" in out.meta
+                        "burn_in_preview", "burn_in_refined", "shifts", "fold_ratios"}
+    assert rec["folds_won"] == rec["folds"] == FOLDS and max(rec["fold_ratios"]) < 1 - MARGIN
+    assert rec["iterations"] == total and not rec["stopped_early"] and rec["seconds"] > 0 and "burn_in" in out.meta
 
 
 def test_a_photo_the_fit_cannot_explain_keeps_the_preview():
@@ -59,7 +62,19 @@ def test_a_photo_the_fit_cannot_explain_keeps_the_preview():
     out = refine(photo, preview, CONFIG, iters=40, threads=1)
     rec = out.meta["refine"]
     assert out is preview and rec["kept"] == "preview" and rec["reason"] == "held-out error"
-    assert not rec["heldout_rmse_refined"] < rec["heldout_rmse_preview"] * (1 - MARGIN)
+    assert rec["folds_won"] < rec["folds"] and rec["shifts"] is None and rec["iterations"] == FOLDS * 40
+    assert "burn_in" in out.meta and rec["burn_in_preview"] == out.meta["burn_in"]["burn_in"]
+
+
+def test_a_fit_that_loses_on_one_fold_keeps_the_preview():
+    """Cross-validation, not a pooled figure: the photo is the truth's except on one fold, where it is the preview's
+    own render; the fit loses on that fold, so the preview is kept (without it every fold wins: the first test)."""
+    truth, preview = _maps(0.3, 0.3), _maps(0.05, 0.6)
+    folds = holdout_folds(S, S)
+    photo = np.where((folds == 3)[..., None], _photo(preview), _photo(truth))
+    rec = refine(photo, preview, CONFIG, threads=1).meta["refine"]
+    assert rec["kept"] == "preview" and rec["reason"] == "held-out error" and rec["folds_won"] < FOLDS
+    assert rec["fold_ratios"][3] > 1.1 and min(rec["fold_ratios"][:3]) < 1 - MARGIN
 
 
 def test_a_refine_that_raises_the_burn_in_keeps_the_preview(monkeypatch):
@@ -84,11 +99,24 @@ def test_quality_auto_stops_when_the_fit_stops_improving():
     assert out.meta["refine"]["stopped_early"] and out.meta["refine"]["iterations"] < 500
 
 
-def test_holdout_mask_is_a_fixed_share_of_blocks():
-    m = holdout_mask(64, 48, block=16)
-    assert m.shape == (64, 48) and m.sum() == 3 * 16 * 16  # 12 blocks, a quarter held out
-    np.testing.assert_array_equal(m, holdout_mask(64, 48, block=16))
-    assert holdout_mask(8, 8, block=16).all()  # at least one block
+def test_holdout_folds_deal_the_blocks_evenly_by_a_fixed_draw():
+    f = holdout_folds(64, 40, block=16)  # 4 x 3 blocks, the last column 8 px wide
+    assert f.shape == (64, 40) and sorted(np.unique(f)) == list(range(FOLDS))
+    blocks = f[::16, ::16]
+    assert sorted(np.bincount(blocks.ravel())) == [3, 3, 3, 3]
+    assert (f == blocks.repeat(16, 0).repeat(16, 1)[:64, :40]).all()  # whole blocks
+    np.testing.assert_array_equal(f, holdout_folds(64, 40, block=16))
+    assert not (f == holdout_folds(64, 40, block=16, seed=1)).all()
+    assert (holdout_folds(8, 8, block=16) == 0).all()  # one block: fold 0
+
+
+def test_the_cli_help_states_the_refines_constants():
+    from svbrdf.runtime.cli.preview import build_parser  # the runtime cannot import them: torch
+
+    text = " ".join(build_parser().format_help().split()).replace("cross- validation", "cross-validation")
+    assert f"at least {MARGIN:.0%} better in each of {FOLDS} cross-validation folds" in text
+    assert f"each of its {FOLDS + 1} fits ({FOLDS} cross-validation folds and the final one; " \
+           f"default {refine_module.ITERS})" in text and f"(at most {refine_module.ITERS} steps)" in text
 
 
 def test_refine_argument_errors():

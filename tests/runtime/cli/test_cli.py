@@ -261,15 +261,18 @@ def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
     assert code == 0, err
     meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
     rec = meta["refine"]
-    assert rec["iterations"] == 1 and rec["kept"] in ("refined", "preview")
+    from svbrdf.trainer.refine import FOLDS  # --iters 1: one step a fit, FOLDS held-out fits and the final one
+
+    assert rec["kept"] in ("refined", "preview") and rec["iterations"] == FOLDS + (rec["shifts"] is not None)
     assert {"heldout_rmse_preview", "heldout_rmse_refined", "seconds"} <= set(rec)
     # The terminal line says which maps were kept and both held-out figures.
     figures = f"{rec['heldout_rmse_refined']:.3f} vs the preview's {rec['heldout_rmse_preview']:.3f}"
-    assert (("refined (1 it): held-out error " if rec["kept"] == "refined" else "refine kept the preview: held-out "
-             "error ") + figures) in out
+    assert ((f"refined ({FOLDS + 1} it): held-out error " if rec["kept"] == "refined" else
+             "refine kept the preview: held-out error ") + figures) in out
     # stderr is not a terminal here: one plain progress line with the step, ETA and the fit's error
     lines = err.strip().splitlines()
-    assert any(line.startswith("refine wood.png: 1/1 [") and "rmse " in line for line in lines) and "\r" not in err
+    assert any(line.startswith(f"refine wood.png: 1/{FOLDS + 1} [") and "rmse " in line for line in lines)
+    assert "\r" not in err
     code, out, err = _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "out", "--refine", "--iters", "1",
                           "--threads", "1", "--quiet", "--force")
     assert code == 0 and out == "" and err == ""
@@ -376,7 +379,10 @@ def test_refine_with_maps_writes_only_those(photo, tiny_model, tmp_path, capsys)
     assert code == 0, err
     assert sorted(p.name for p in (tmp_path / "out").iterdir()) == ["wood.json", "wood_roughness.png"]
     meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
-    assert meta["maps"] == ["roughness"] and meta["refine"]["iterations"] == 1
+    from svbrdf.trainer.refine import FOLDS
+
+    rec = meta["refine"]
+    assert meta["maps"] == ["roughness"] and rec["iterations"] == FOLDS + (rec["shifts"] is not None)
 
 
 # ------------------------------------------------------------------------------------------ height and AO
