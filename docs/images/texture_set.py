@@ -26,7 +26,8 @@ LABEL = 26  # px of the label bar above each panel
 GAP = 6
 
 
-def _panel(img: np.ndarray, label: str) -> np.ndarray:
+def panel(img: np.ndarray, label: str) -> np.ndarray:
+    """``img`` (H, W, 1 or 3+) with a label bar above it, (LABEL + H, W, 3) float."""
     img = np.repeat(img, 3, axis=-1) if img.shape[-1] == 1 else img[..., :3]
     h, w = img.shape[:2]
     bar = oiio.ImageBuf(oiio.ImageSpec(w, LABEL, 3, oiio.FLOAT))
@@ -53,18 +54,29 @@ def main(argv=None) -> int:
                   (raw("normal"), "normal (OpenGL)"), (raw("roughness"), "roughness"),
                   (raw("height"), "height (white = high)"), (raw("ao"), f"AO (strength {ao_strength:g})"),
                   (relit[:, w:2 * w], "relit, light upper left"), (relit[:, 2 * w:], "relit, light lower right")]
-        tiles = [_panel(img, label) for img, label in panels]
-        gap = np.full((tiles[0].shape[0], GAP, 3), 0.12, np.float32)
-        row = np.concatenate([t for tile in tiles for t in (tile, gap)][:-1], axis=1)
-        if args.out.exists() and not args.force:
-            raise SystemExit(f"{args.out}: exists (--force to overwrite)")
-        buf = oiio.ImageBuf(oiio.ImageSpec(row.shape[1], row.shape[0], 3, oiio.UINT8))
-        buf.set_pixels(oiio.ROI(), np.clip(row, 0, 1))  # the files' codes, sRGB
-        buf.specmod().attribute("Compression", "jpeg:90")
-        if not buf.write(str(args.out)):
-            raise SystemExit(f"{args.out}: {buf.geterror()}")
+        row = join([panel(img, label) for img, label in panels], axis=1)
+        write_jpeg(row, args.out, args.force)
     print(f"wrote {args.out}")
     return 0
+
+
+def join(tiles, axis: int) -> np.ndarray:
+    """Tiles side by side (``axis`` 1) or stacked (0), :data:`GAP` px of the bars' grey between them."""
+    shape = list(tiles[0].shape)
+    shape[axis] = GAP
+    gap = np.full(shape, 0.12, np.float32)
+    return np.concatenate([t for tile in tiles for t in (tile, gap)][:-1], axis=axis)
+
+
+def write_jpeg(image: np.ndarray, out: Path, force: bool) -> None:
+    """``image`` (sRGB codes in [0, 1]) as a quality-90 JPEG; an existing ``out`` only with ``force``."""
+    if out.exists() and not force:
+        raise SystemExit(f"{out}: exists (--force to overwrite)")
+    buf = oiio.ImageBuf(oiio.ImageSpec(image.shape[1], image.shape[0], 3, oiio.UINT8))
+    buf.set_pixels(oiio.ROI(), np.clip(image, 0, 1))
+    buf.specmod().attribute("Compression", "jpeg:90")
+    if not buf.write(str(out)):
+        raise SystemExit(f"{out}: {buf.geterror()}")
 
 
 if __name__ == "__main__":
