@@ -322,7 +322,7 @@ def test_refine_quality_auto_and_the_kept_preview_on_the_terminal(photo, tiny_mo
     rec = meta["refine"]
     assert rec["kept"] == "preview" and rec["reason"] == "held-out error" and rec["iterations"] >= 1
     assert f"refine kept the preview: held-out error {rec['heldout_rmse_refined']:.3f} vs the preview's " \
-           f"{rec['heldout_rmse_preview']:.3f}" in out
+           f"{rec['heldout_rmse_preview']:.3f}, the fit better on 0 of {rec['folds']} folds" in out
     # The kept maps are the preview's: the same files as without --refine.
     assert _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "b", "--threads", "1")[0] == 0
     assert (tmp_path / "a" / "wood_roughness.png").read_bytes() == (tmp_path / "b" / "wood_roughness.png").read_bytes()
