@@ -9,7 +9,8 @@
 * **never worse**, by cross-validation on the photo itself: its :data:`HOLDOUT_BLOCK`-px blocks are dealt into
   :data:`FOLDS` folds (a fixed draw, :func:`holdout_folds`); each fold is held out of one fit and judged on. The
   result is the preview unless the fit's re-render error on the held-out fold is below the preview's times
-  ``1 - MARGIN`` on **every** fold (both exposed over that fit's pixels). Then the two shifts are fitted once more
+  ``1 - MARGIN`` on **every** fold (both exposed over that fit's pixels; the folds are judged in turn and the first
+  one the fit does not win ends the test, so a kept preview costs fewer fits). Then the two shifts are fitted once more
   on all the photo's pixels (from the folds' mean, pulled toward the preview as before), and kept if their burn-in
   is at most the preview's plus :data:`BURN_GUARD`; they are applied to the preview at the photo's size.
 
@@ -94,9 +95,10 @@ def refine(photo: np.ndarray, preview: Maps, render_config: RenderConfig, *, qua
     Returns:
         The refined :class:`Maps` (H, W, the preview's meta), or ``preview`` itself; either way with
         ``meta["refine"]`` = ``{"kept": "refined" | "preview", "reason" (why the preview was kept: "held-out
-        error" or "burn-in"; None), "heldout_rmse_preview", "heldout_rmse_refined" (sRGB RMSE over every fold's
-        held-out blocks, each judged by the fit that did not see it), "fold_ratios" (refined / preview per fold),
-        "folds_won", "folds" (the folds judged: those with unclipped pixels), "margin", "burn_guard",
+        error" or "burn-in"; None), "heldout_rmse_preview", "heldout_rmse_refined" (sRGB RMSE over the judged
+        folds' held-out blocks, each judged by the fit that did not see it), "fold_ratios" (refined / preview per
+        fold judged, in order: the first fold the fit does not win is the last judged), "folds_won", "folds" (how
+        many were judged; folds without unclipped pixels are not), "margin", "burn_guard",
         "burn_in_preview", "burn_in_refined" (None without the final fit), "iterations" (steps of all fits),
         "stopped_early", "fit_rmse" (the final fit's; None without it), "seconds", "fit_size", "shifts" (the final
         fit's, logit units; None without it)}`` and ``meta["burn_in"]``
@@ -141,7 +143,8 @@ def refine(photo: np.ndarray, preview: Maps, render_config: RenderConfig, *, qua
         done, early = done + steps, early or steps < iters
         return loss
 
-    # Cross-validation: each fold held out of one fit and judged on; squared errors pooled over the folds.
+    # Cross-validation: each fold held out of one fit and judged on, in turn, until one the fit does not win;
+    # squared errors pooled over the folds judged.
     ratios, sums, fold_shifts = [], np.zeros(3), []
     for f in range(FOLDS):
         held = (folds == f).float()
@@ -156,6 +159,8 @@ def refine(photo: np.ndarray, preview: Maps, render_config: RenderConfig, *, qua
         ratios.append(err_r / max(err_p, 1e-12))
         sums += (n * err_p ** 2, n * err_r ** 2, n)
         fold_shifts.append([float(t.detach()) for t in shifts])
+        if not ratios[-1] < 1.0 - MARGIN:  # the preview is kept whatever the other folds say: not fitted
+            break
     err_preview, err_refined = (float(np.sqrt(x / max(sums[2], 1.0))) for x in sums[:2])
     won = sum(r < 1.0 - MARGIN for r in ratios)
     before = preview.meta.get("burn_in") or photo_burn_in(preview, photo)

@@ -121,8 +121,8 @@ def add_texture_options(p: argparse.ArgumentParser, prog: str = PROG) -> None:
                         "refine record say which)")
     how = p.add_mutually_exclusive_group()
     how.add_argument("--iters", metavar="N", type=_positive,
-                     help="--refine: Adam steps of each of its 5 fits (4 cross-validation folds and the final one; "
-                          "default 25)")
+                     help="--refine: Adam steps of each of its fits (at most 4 cross-validation folds, judged in turn "
+                          "until one is lost, and the final one; default 25)")
     how.add_argument("--quality", choices=("auto",),
                      help="--refine: each fit until its error on the photo stops improving (at most 25 steps); the "
                           "held-out check still decides between the fit and the preview")

@@ -102,7 +102,7 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
             detail = f"refine kept the preview: held-out error {record['heldout_rmse_refined']:.3f} vs the " \
                      f"preview's {record['heldout_rmse_preview']:.3f}"
             if record["reason"] == "held-out error":
-                detail += f", the fit better on {record['folds_won']} of {record['folds']} folds"
+                detail += f", the fit not better on held-out fold {record['folds']}"
             if record["reason"] == "burn-in":
                 detail += f", but its burn-in {record['burn_in_refined']:.4f} is above the preview's " \
                           f"{record['burn_in_preview']:.4f}"

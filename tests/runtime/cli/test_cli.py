@@ -261,9 +261,11 @@ def test_refine_with_torch(photo, tiny_model, tmp_path, capsys):
     assert code == 0, err
     meta = json.loads((tmp_path / "out" / "wood.json").read_text())["meta"]
     rec = meta["refine"]
-    from svbrdf.trainer.refine import FOLDS  # --iters 1: one step a fit, FOLDS held-out fits and the final one
+    from svbrdf.trainer.refine import FOLDS  # --iters 1: one step a fit
 
-    assert rec["kept"] in ("refined", "preview") and rec["iterations"] == FOLDS + (rec["shifts"] is not None)
+    # one step a fit: each fold judged (until one the fit does not win), then the final fit if every fold won
+    assert rec["kept"] in ("refined", "preview") and rec["iterations"] == rec["folds"] + (rec["shifts"] is not None)
+    assert rec["folds"] == FOLDS or rec["shifts"] is None
     assert {"heldout_rmse_preview", "heldout_rmse_refined", "seconds"} <= set(rec)
     # The terminal line says which maps were kept and both held-out figures.
     figures = f"{rec['heldout_rmse_refined']:.3f} vs the preview's {rec['heldout_rmse_preview']:.3f}"
@@ -322,7 +324,8 @@ def test_refine_quality_auto_and_the_kept_preview_on_the_terminal(photo, tiny_mo
     rec = meta["refine"]
     assert rec["kept"] == "preview" and rec["reason"] == "held-out error" and rec["iterations"] >= 1
     assert f"refine kept the preview: held-out error {rec['heldout_rmse_refined']:.3f} vs the preview's " \
-           f"{rec['heldout_rmse_preview']:.3f}, the fit better on 0 of {rec['folds']} folds" in out
+           f"{rec['heldout_rmse_preview']:.3f}, the fit not better on held-out fold 1" in out
+    assert rec["folds"] == 1 and rec["folds_won"] == 0  # the first fold lost: the others were not fitted
     # The kept maps are the preview's: the same files as without --refine.
     assert _run(capsys, photo, "--model", tiny_model, "-o", tmp_path / "b", "--threads", "1")[0] == 0
     assert (tmp_path / "a" / "wood_roughness.png").read_bytes() == (tmp_path / "b" / "wood_roughness.png").read_bytes()
@@ -382,7 +385,8 @@ def test_refine_with_maps_writes_only_those(photo, tiny_model, tmp_path, capsys)
     from svbrdf.trainer.refine import FOLDS
 
     rec = meta["refine"]
-    assert meta["maps"] == ["roughness"] and rec["iterations"] == FOLDS + (rec["shifts"] is not None)
+    assert meta["maps"] == ["roughness"]
+    assert rec["iterations"] == rec["folds"] + (rec["shifts"] is not None) <= FOLDS + 1
 
 
 # ------------------------------------------------------------------------------------------ height and AO
