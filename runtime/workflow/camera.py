@@ -81,7 +81,7 @@ def image_camera(image: np.ndarray) -> dict:
     1. The flash's fall-off (``"estimated"``, :func:`svbrdf.runtime.core.falloff.estimate_fov` on ``image`` in
        block means to about :data:`CAMERA_ESTIMATE_SIZE` px, long side) where the estimate is reliable;
     2. else a phone's main camera across a photo of this shape (``"default"``, :func:`svbrdf.runtime.io.exif.phone_fov`:
-       67.3 deg for a 4:3 photo, 53.0 deg for a square one; ``how`` says why the estimate was not used).
+       67.3 deg for a 4:3 photo, 53.1 deg for a square one; ``how`` says why the estimate was not used).
        Why: docs/decisions/055-fov-estimate.md.
 
     Args:

@@ -19,7 +19,7 @@ from ..inference.pipeline import estimate
 from ..inference.reading import warn_if_greyscale
 from ..inference.session import PreviewSession
 from ..io.images import ImageWarning, read_image
-from .camera import declared_camera, image_camera, photo_camera, warn_out_of_frame
+from .camera import declared_camera, image_camera, warn_out_of_frame
 from .options import PhotoOptions
 
 __all__ = ["process_photo"]
@@ -88,7 +88,8 @@ def process_photo(photo: Path, options: PhotoOptions, session: PreviewSession, c
         image = read_image(photo, max_size=options.max_size)  # read once: the camera's estimate takes it too
     camera = declared_camera(photo, options.fov)  # --fov or EXIF; else the pixels tell, read once
     if camera is None and options.refine:
-        camera = photo_camera(photo, None, image=image)
+        camera = image_camera(image)
+        warn_out_of_frame(photo, camera)
     if camera is not None:
         config = config.replace(fov_deg=camera["fov_deg"])
     if options.refine:

@@ -644,10 +644,10 @@ def draw_materials_device(config, rng: torch.Generator, batch: Optional[int] = N
     dev = torch.device(device if device is not None else "cpu")
     seed = int(torch.randint(0, SEED_MAX, (), generator=rng))
     host = torch.Generator().manual_seed(seed + 1)
-    crop = bool(torch.rand((), generator=host) < config.photos.crop_share)
     ph = config.photos
+    crop = bool(torch.rand((), generator=host) < ph.crop_share)
     block = ph.block_mean if ph.block_mean > 1 and bool(torch.rand((), generator=host) < ph.block_share) else 1
-    side = (config.photos.photo_size if crop else config.photos.size) * block
+    side = (ph.photo_size if crop else ph.size) * block
     maps, families = sample_materials_device(n, side, seed, config.materials.families, dev)
     d = Draws(seed + 2, dev)
     with torch.no_grad():

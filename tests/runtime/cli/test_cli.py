@@ -491,11 +491,14 @@ def test_the_sidecar_records_an_estimated_camera(tiny_model, tmp_path, capsys, f
     assert code == 0 and json.loads((tmp_path / "f" / "plane.json").read_text())["camera"]["fov_source"] == "option"
 
 
-def test_a_flash_out_of_frame_is_one_warning_and_the_maps(tiny_model, tmp_path, capsys, flash_plane):
+@pytest.mark.parametrize("refine", [(), ("--refine", "--iters", "1")], ids=["preview", "refine"])
+def test_a_flash_out_of_frame_is_one_warning_and_the_maps(refine, tiny_model, tmp_path, capsys, flash_plane):
     import math
 
+    if refine:
+        pytest.importorskip("torch")
     photo = flash_plane(tmp_path / "side.png", 45.0, light=[2.5, 0.0, 1.0 / math.tan(math.radians(22.5))])
-    code, out, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "o")
+    code, out, err = _run(capsys, photo, "--model", tiny_model, "--threads", "1", "-o", tmp_path / "o", *refine)
     assert code == 0, err
     warnings = [line for line in err.splitlines() if "warning" in line]
     assert len(warnings) == 1 and "Traceback" not in err
